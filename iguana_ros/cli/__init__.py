@@ -1,0 +1,40 @@
+"""The `iguana` command: one sub-command per module listed in SUBCOMMANDS."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from iguana_ros.errors import IguanaError
+
+SUBCOMMANDS = (
+    # (name, module exposing `register(subparsers)`); modules are imported only when listed here.
+    ('topics', 'iguana_ros.cli.topics'),
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Parser for every sub-command."""
+    parser = argparse.ArgumentParser(
+        prog='iguana', description='Soft-body iguana character control for ROS 2 (Kwon et al. 2018).')
+    subparsers = parser.add_subparsers(dest='command', metavar='COMMAND', required=True)
+    for _name, module in SUBCOMMANDS:
+        importlib.import_module(module).register(subparsers)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `iguana` console script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except IguanaError as exc:
+        print(f'iguana {args.command}: error: {exc}', file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f'iguana {args.command}: interrupted', file=sys.stderr)
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""Locating the package's configuration folder `msg_configs/` (source tree, pip or colcon install)."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+CONFIG_ENV = 'IGUANA_CONFIG_DIR'
+"""Environment variable that overrides where msg_configs/ is read from."""
+
+
+def config_dir() -> Path:
+    """Return the msg_configs/ folder: $IGUANA_CONFIG_DIR, the source tree, or share/iguana_ros."""
+    override = os.environ.get(CONFIG_ENV)
+    if override:
+        return Path(override)
+    source = Path(__file__).resolve().parent.parent / 'msg_configs'
+    if source.is_dir():
+        return source
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        return Path(get_package_share_directory('iguana_ros')) / 'msg_configs'
+    except Exception as exc:  # ament index missing or package not registered
+        raise FileNotFoundError(
+            f'cannot find msg_configs/: not in the source tree ({source}) and not installed '
+            f'under share/iguana_ros ({exc}); set {CONFIG_ENV}') from exc
+
+
+def config_path(*parts: str) -> Path:
+    """Return a path inside msg_configs/, e.g. config_path('scenes', 'hills.yaml')."""
+    return config_dir().joinpath(*parts)

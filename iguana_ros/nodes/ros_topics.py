@@ -1,0 +1,35 @@
+"""Turns the ROS-free topic table into rclpy QoS profiles and message classes."""
+from __future__ import annotations
+
+import importlib
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from iguana_ros.topics import QosSpec, TopicSpec, topic
+
+_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE, 'best_effort': ReliabilityPolicy.BEST_EFFORT}
+_DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
+               'transient_local': DurabilityPolicy.TRANSIENT_LOCAL}
+_HISTORY = {'keep_last': HistoryPolicy.KEEP_LAST, 'keep_all': HistoryPolicy.KEEP_ALL}
+
+
+def qos_profile(spec: QosSpec) -> QoSProfile:
+    """rclpy QoSProfile for a QosSpec."""
+    return QoSProfile(reliability=_RELIABILITY[spec.reliability],
+                      durability=_DURABILITY[spec.durability],
+                      history=_HISTORY[spec.history], depth=spec.depth)
+
+
+def message_class(type_name: str) -> type:
+    """Import a message class from 'package/msg/Type'; ValueError with the name if it is unknown."""
+    try:
+        package, kind, name = type_name.split('/')
+        return getattr(importlib.import_module(f'{package}.{kind}'), name)
+    except (ValueError, ImportError, AttributeError) as exc:
+        raise ValueError(f'unknown message type {type_name!r}: {exc}') from exc
+
+
+def resolve(key: str) -> tuple[str, type, QoSProfile]:
+    """(topic name, message class, QoS profile) of topic `key` from msg_configs/topics.yaml."""
+    spec: TopicSpec = topic(key)
+    return spec.name, message_class(spec.type), qos_profile(spec.qos)

@@ -1,0 +1,100 @@
+"""The topic table of msg_configs/topics.yaml as plain data (ROS-free); the only source of topic names."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import yaml
+
+from iguana_ros.config import config_path
+
+RELIABILITY = ('reliable', 'best_effort')
+DURABILITY = ('volatile', 'transient_local')
+HISTORY = ('keep_last', 'keep_all')
+
+
+@dataclass(frozen=True)
+class QosSpec:
+    """QoS of one topic in plain words (reliability, durability, history, depth)."""
+
+    reliability: str = 'reliable'
+    durability: str = 'volatile'
+    history: str = 'keep_last'
+    depth: int = 10
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    """One row of the topic table: key, ROS name, message type, QoS, rate and who talks on it."""
+
+    key: str
+    name: str
+    type: str
+    qos: QosSpec
+    rate_hz: float | None = None
+    publishers: tuple = field(default_factory=tuple)
+    subscribers: tuple = field(default_factory=tuple)
+    description: str = ''
+
+
+class TopicConfigError(ValueError):
+    """msg_configs/topics.yaml is malformed; the message names the file and the field."""
+
+
+def _parse_qos(key: str, raw: dict, source: Path) -> QosSpec:
+    """Validate and build the QoS of topic `key`."""
+    if not isinstance(raw, dict):
+        raise TopicConfigError(f'{source}: topics.{key}.qos must be a mapping')
+    qos = QosSpec(**{k: raw[k] for k in raw if k in QosSpec.__dataclass_fields__})
+    unknown = set(raw) - set(QosSpec.__dataclass_fields__)
+    if unknown:
+        raise TopicConfigError(f'{source}: topics.{key}.qos has unknown fields {sorted(unknown)}')
+    for fname, allowed in (('reliability', RELIABILITY), ('durability', DURABILITY),
+                           ('history', HISTORY)):
+        if getattr(qos, fname) not in allowed:
+            raise TopicConfigError(
+                f'{source}: topics.{key}.qos.{fname} is {getattr(qos, fname)!r}, expected one of {allowed}')
+    if not isinstance(qos.depth, int) or qos.depth < 1:
+        raise TopicConfigError(f'{source}: topics.{key}.qos.depth must be a positive integer')
+    return qos
+
+
+def _parse_topic(key: str, raw: dict, source: Path) -> TopicSpec:
+    """Validate and build one topic row."""
+    for required in ('name', 'type', 'qos'):
+        if required not in raw:
+            raise TopicConfigError(f'{source}: topics.{key} lacks the field {required!r}')
+    if raw['type'].count('/') != 2 or '/msg/' not in raw['type']:
+        raise TopicConfigError(
+            f'{source}: topics.{key}.type is {raw["type"]!r}, expected package/msg/Type')
+    return TopicSpec(
+        key=key, name=raw['name'], type=raw['type'], qos=_parse_qos(key, raw['qos'], source),
+        rate_hz=raw.get('rate_hz'), publishers=tuple(raw.get('publishers') or ()),
+        subscribers=tuple(raw.get('subscribers') or ()), description=raw.get('description', ''))
+
+
+def load_topics(path: Path | None = None) -> dict[str, TopicSpec]:
+    """Read the topic table (default msg_configs/topics.yaml) into {key: TopicSpec}."""
+    source = Path(path) if path is not None else config_path('topics.yaml')
+    try:
+        data = yaml.safe_load(source.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise TopicConfigError(f'{source}: cannot read topic table: {exc}') from exc
+    if not isinstance(data, dict) or not isinstance(data.get('topics'), dict):
+        raise TopicConfigError(f'{source}: expected a top-level mapping "topics:"')
+    return {key: _parse_topic(key, raw, source) for key, raw in data['topics'].items()}
+
+
+@lru_cache(maxsize=1)
+def default_topics() -> dict[str, TopicSpec]:
+    """The package's topic table, read once per process."""
+    return load_topics()
+
+
+def topic(key: str) -> TopicSpec:
+    """The TopicSpec for `key` (e.g. 'goal_pose'); KeyError lists the known keys."""
+    table = default_topics()
+    if key not in table:
+        raise KeyError(f'unknown topic key {key!r}; known: {sorted(table)}')
+    return table[key]

@@ -1,0 +1,47 @@
+"""The topic table in msg_configs/ parses, and bad tables give errors naming file and field."""
+import pytest
+
+from iguana_ros.topics import TopicConfigError, default_topics, load_topics, topic
+
+DESIGN_KEYS = {'goal_pose', 'motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana_state',
+               'mesh_marker', 'scene_markers', 'push', 'clock'}
+
+
+def test_table_has_every_design_topic():
+    assert set(default_topics()) == DESIGN_KEYS
+
+
+def test_latched_topics_are_transient_local():
+    assert topic('scene_markers').qos.durability == 'transient_local'
+    assert topic('motion_clip').qos.durability == 'transient_local'
+    assert topic('clock').name == '/clock'
+
+
+def test_unknown_key_lists_known_keys():
+    with pytest.raises(KeyError, match='goal_pose'):
+        topic('nope')
+
+
+@pytest.mark.parametrize('body, field', [
+    ('topics: {a: {name: a, type: std_msgs/msg/String}}', "'qos'"),
+    ('topics: {a: {name: a, type: String, qos: {}}}', 'topics.a.type'),
+    ('topics: {a: {name: a, type: std_msgs/msg/String, qos: {reliability: maybe}}}',
+     'topics.a.qos.reliability'),
+    ('topics: {a: {name: a, type: std_msgs/msg/String, qos: {depth: 0}}}', 'topics.a.qos.depth'),
+    ('[1, 2', 'cannot read'),
+])
+def test_bad_table_names_file_and_field(tmp_path, body, field):
+    path = tmp_path / 'topics.yaml'
+    path.write_text(body)
+    with pytest.raises(TopicConfigError, match=field) as info:
+        load_topics(path)
+    assert str(path) in str(info.value)
+
+
+def test_ros_profiles_resolve():
+    ros_topics = pytest.importorskip('iguana_ros.nodes.ros_topics')
+    from rclpy.qos import DurabilityPolicy
+    for key in DESIGN_KEYS:
+        name, cls, qos = ros_topics.resolve(key)
+        assert name and cls.__name__ == topic(key).type.split('/')[-1]
+    assert ros_topics.resolve('scene_markers')[2].durability == DurabilityPolicy.TRANSIENT_LOCAL
