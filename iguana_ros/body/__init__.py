@@ -1,0 +1,1 @@
+"""The iguana body: skeleton, markers, tetrahedral soft-body model, springs, skin weights."""
