@@ -1,0 +1,330 @@
+"""Vectorised conversions between numpy arrays and the ROS messages of the topic table.
+
+Quaternions are xyzw everywhere (ROS and scipy order). Times are float seconds on the numpy side.
+Message construction is bounded by the Python message classes (one object per point); for the
+large per-frame mesh marker, `triangle_list_marker_cdr` builds the serialized CDR bytes directly
+with numpy (publish them with `publisher.publish(bytes)`), and `triangle_list_from_cdr` reads them.
+"""
+from __future__ import annotations
+
+import array
+import struct
+from collections.abc import Sequence
+
+import numpy as np
+from builtin_interfaces.msg import Duration, Time
+from geometry_msgs.msg import (Point, Pose, PoseArray, PoseStamped, Quaternion, Transform,
+                               Twist, Vector3)
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import JointState
+from std_msgs.msg import ColorRGBA, Header
+from trajectory_msgs.msg import MultiDOFJointTrajectory, MultiDOFJointTrajectoryPoint
+from visualization_msgs.msg import Marker, MarkerArray
+
+from iguana_ros.constants import BASE_FRAME, WORLD_FRAME
+from iguana_ros.errors import InputError
+
+_NS_PER_S = 1_000_000_000
+_CDR_LE_HEADER = b'\x00\x01\x00\x00'
+
+
+# ----------------------------------------------------------------------------- validation, time
+
+def validate_array(name: str, values, shape: Sequence[int | None]) -> np.ndarray:
+    """`values` as a float64 array of `shape` (None = any size), all finite; else InputError naming `name`."""
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f'{name} must be numeric, got {type(values).__name__}: {exc}') from exc
+    expected = '(' + ', '.join('n' if s is None else str(s) for s in shape) + ')'
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        raise InputError(f'{name} has shape {arr.shape}, expected {expected}')
+    if not np.isfinite(arr).all():
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        raise InputError(f'{name} has {bad} non-finite value(s) (NaN or Inf); expected finite numbers')
+    return arr
+
+
+def time_to_msg(seconds: float) -> Time:
+    """builtin_interfaces/Time for a time in seconds (>= 0)."""
+    ns = int(round(float(seconds) * _NS_PER_S))
+    if ns < 0:
+        raise InputError(f'time {seconds} s is negative; builtin_interfaces/Time needs >= 0')
+    return Time(sec=ns // _NS_PER_S, nanosec=ns % _NS_PER_S)
+
+
+def time_from_msg(stamp: Time | Duration) -> float:
+    """Seconds of a builtin_interfaces/Time or Duration."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def _header(stamp: float | Time, frame_id: str) -> Header:
+    """std_msgs/Header from seconds or a Time."""
+    return Header(stamp=stamp if isinstance(stamp, Time) else time_to_msg(stamp), frame_id=frame_id)
+
+
+def yaw_to_quaternion(yaw: float) -> np.ndarray:
+    """Quaternion `(4,)` xyzw of a rotation by `yaw` rad about +z."""
+    return np.array([0.0, 0.0, np.sin(0.5 * yaw), np.cos(0.5 * yaw)])
+
+
+# ----------------------------------------------------------------------------- poses
+
+def poses_to_msgs(positions, quaternions) -> list[Pose]:
+    """List of Pose from positions `(n, 3)` and quaternions `(n, 4)` xyzw."""
+    pos = validate_array('positions', positions, (None, 3))
+    quat = validate_array('quaternions', quaternions, (pos.shape[0], 4))
+    return [Pose(position=Point(x=px, y=py, z=pz), orientation=Quaternion(x=qx, y=qy, z=qz, w=qw))
+            for (px, py, pz), (qx, qy, qz, qw) in zip(pos.tolist(), quat.tolist())]
+
+
+def poses_from_msgs(poses: Sequence[Pose]) -> tuple[np.ndarray, np.ndarray]:
+    """Positions `(n, 3)` and quaternions `(n, 4)` xyzw of a sequence of Pose."""
+    pos = np.array([(p.position.x, p.position.y, p.position.z) for p in poses],
+                   dtype=np.float64).reshape(-1, 3)
+    quat = np.array([(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
+                     for p in poses], dtype=np.float64).reshape(-1, 4)
+    return pos, quat
+
+
+def pose_array_msg(positions, quaternions, stamp: float | Time = 0.0,
+                   frame_id: str = WORLD_FRAME) -> PoseArray:
+    """geometry_msgs/PoseArray from positions `(n, 3)` and quaternions `(n, 4)`."""
+    return PoseArray(header=_header(stamp, frame_id), poses=poses_to_msgs(positions, quaternions))
+
+
+def pose_array_to_numpy(msg: PoseArray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions `(n, 3)` and quaternions `(n, 4)` of a PoseArray."""
+    return poses_from_msgs(msg.poses)
+
+
+def pose_stamped_msg(position, quaternion, stamp: float | Time = 0.0,
+                     frame_id: str = WORLD_FRAME) -> PoseStamped:
+    """geometry_msgs/PoseStamped from a position `(3,)` and quaternion `(4,)` xyzw."""
+    pos = validate_array('position', position, (3,))
+    quat = validate_array('quaternion', quaternion, (4,))
+    return PoseStamped(header=_header(stamp, frame_id), pose=poses_to_msgs(pos[None], quat[None])[0])
+
+
+def pose_stamped_to_numpy(msg: PoseStamped) -> tuple[np.ndarray, np.ndarray]:
+    """Position `(3,)` and quaternion `(4,)` of a PoseStamped."""
+    pos, quat = poses_from_msgs([msg.pose])
+    return pos[0], quat[0]
+
+
+# ----------------------------------------------------------------------------- stamped float arrays
+
+def joint_state_msg(values, stamp: float | Time = 0.0, names: Sequence[str] | None = None,
+                    frame_id: str = '') -> JointState:
+    """sensor_msgs/JointState whose `position` holds `values` `(n,)`; `name` optional (n strings)."""
+    arr = validate_array('values', values, (None,))
+    if names is not None and len(names) != arr.shape[0]:
+        raise InputError(f'names has {len(names)} entries, expected {arr.shape[0]} (one per value)')
+    msg = JointState(header=_header(stamp, frame_id))
+    msg.position = array.array('d', arr.tobytes())
+    if names is not None:
+        msg.name = [str(n) for n in names]
+    return msg
+
+
+def joint_state_positions(msg: JointState) -> np.ndarray:
+    """JointState.position as a float64 array `(n,)`."""
+    return np.array(msg.position, dtype=np.float64)
+
+
+# ----------------------------------------------------------------------------- odometry
+
+def odometry_msg(position, quaternion, linear_velocity, angular_velocity,
+                 stamp: float | Time = 0.0, frame_id: str = WORLD_FRAME,
+                 child_frame_id: str = BASE_FRAME) -> Odometry:
+    """nav_msgs/Odometry from position `(3,)`, quaternion `(4,)`, linear and angular velocity `(3,)`."""
+    lin = validate_array('linear_velocity', linear_velocity, (3,))
+    ang = validate_array('angular_velocity', angular_velocity, (3,))
+    msg = Odometry(header=_header(stamp, frame_id), child_frame_id=child_frame_id)
+    msg.pose.pose = pose_stamped_msg(position, quaternion).pose
+    msg.twist.twist = Twist(linear=Vector3(x=lin[0], y=lin[1], z=lin[2]),
+                            angular=Vector3(x=ang[0], y=ang[1], z=ang[2]))
+    return msg
+
+
+def odometry_to_numpy(msg: Odometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Position `(3,)`, quaternion `(4,)`, linear `(3,)` and angular `(3,)` velocity of an Odometry."""
+    pos, quat = poses_from_msgs([msg.pose.pose])
+    lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
+    return pos[0], quat[0], np.array([lin.x, lin.y, lin.z]), np.array([ang.x, ang.y, ang.z])
+
+
+# ----------------------------------------------------------------------------- trajectories
+
+def multi_dof_trajectory_msg(times, joint_names: Sequence[str], translations, rotations,
+                             stamp: float | Time = 0.0,
+                             frame_id: str = WORLD_FRAME) -> MultiDOFJointTrajectory:
+    """MultiDOFJointTrajectory from times `(n_frames,)` s, names, translations `(n_frames, n_joints, 3)`
+    and rotations `(n_frames, n_joints, 4)` xyzw."""
+    t = validate_array('times', times, (None,))
+    n_joints = len(joint_names)
+    trans = validate_array('translations', translations, (t.shape[0], n_joints, 3))
+    rot = validate_array('rotations', rotations, (t.shape[0], n_joints, 4))
+    points = [MultiDOFJointTrajectoryPoint(
+        transforms=[Transform(translation=Vector3(x=tx, y=ty, z=tz),
+                              rotation=Quaternion(x=qx, y=qy, z=qz, w=qw))
+                    for (tx, ty, tz), (qx, qy, qz, qw) in zip(frame_t, frame_r)],
+        time_from_start=Duration(sec=int(ns // _NS_PER_S), nanosec=int(ns % _NS_PER_S)))
+        for frame_t, frame_r, ns in zip(trans.tolist(), rot.tolist(),
+                                        np.round(t * _NS_PER_S).astype(np.int64).tolist())]
+    return MultiDOFJointTrajectory(header=_header(stamp, frame_id),
+                                   joint_names=[str(n) for n in joint_names], points=points)
+
+
+def multi_dof_trajectory_to_numpy(msg: MultiDOFJointTrajectory
+                                  ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """Times `(n_frames,)`, joint names, translations `(n_frames, n_joints, 3)`, rotations `(..., 4)`."""
+    n_joints = len(msg.joint_names)
+    times = np.array([time_from_msg(p.time_from_start) for p in msg.points], dtype=np.float64)
+    trans = np.array([[(tf.translation.x, tf.translation.y, tf.translation.z) for tf in p.transforms]
+                      for p in msg.points], dtype=np.float64).reshape(-1, n_joints, 3)
+    rot = np.array([[(tf.rotation.x, tf.rotation.y, tf.rotation.z, tf.rotation.w)
+                     for tf in p.transforms] for p in msg.points],
+                   dtype=np.float64).reshape(-1, n_joints, 4)
+    return times, list(msg.joint_names), trans, rot
+
+
+# ----------------------------------------------------------------------------- triangle-list markers
+
+def _triangle_soup(vertices, triangles, colors) -> tuple[np.ndarray, np.ndarray]:
+    """Per-corner points `(3*n_t, 3)` and RGBA `(3*n_t, 4)` from an indexed mesh."""
+    verts = validate_array('vertices', vertices, (None, 3))
+    rgba = validate_array('colors', colors, (verts.shape[0], 4))
+    tris = np.asarray(triangles)
+    if tris.ndim != 2 or tris.shape[1] != 3 or not np.issubdtype(tris.dtype, np.integer):
+        raise InputError(f'triangles has shape {tris.shape} and dtype {tris.dtype}, '
+                         f'expected integer (n_t, 3)')
+    if tris.size and (tris.min() < 0 or tris.max() >= verts.shape[0]):
+        raise InputError(f'triangles index vertices outside 0..{verts.shape[0] - 1}')
+    corners = tris.reshape(-1)
+    return verts[corners], rgba[corners]
+
+
+def triangle_list_marker(vertices, triangles, colors, stamp: float | Time = 0.0,
+                         frame_id: str = WORLD_FRAME, ns: str = 'iguana',
+                         marker_id: int = 0) -> Marker:
+    """TRIANGLE_LIST Marker from vertices `(n_v, 3)`, triangles `(n_t, 3)` and RGBA `(n_v, 4)` in [0, 1].
+
+    points/colors get 3*n_t entries; color.a = 1, scale = 1, identity pose so RViz2 and Foxglove draw it.
+    """
+    points, rgba = _triangle_soup(vertices, triangles, colors)
+    msg = Marker(header=_header(stamp, frame_id), ns=ns, id=int(marker_id),
+                 type=Marker.TRIANGLE_LIST, action=Marker.ADD)
+    msg.pose.orientation.w = 1.0
+    msg.scale = Vector3(x=1.0, y=1.0, z=1.0)
+    msg.color = ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0)
+    msg.points = [Point(x=x, y=y, z=z) for x, y, z in points.tolist()]
+    msg.colors = [ColorRGBA(r=r, g=g, b=b, a=a)
+                  for r, g, b, a in rgba.astype(np.float32).tolist()]
+    return msg
+
+
+def triangle_list_from_marker(msg: Marker) -> tuple[np.ndarray, np.ndarray]:
+    """Points `(3*n_t, 3)` and per-point RGBA `(3*n_t, 4)` of a TRIANGLE_LIST Marker."""
+    points = np.array([(p.x, p.y, p.z) for p in msg.points], dtype=np.float64).reshape(-1, 3)
+    colors = np.array([(c.r, c.g, c.b, c.a) for c in msg.colors], dtype=np.float64).reshape(-1, 4)
+    return points, colors
+
+
+class _CdrWriter:
+    """Little-endian CDR (XCDR1) byte builder; alignment is relative to the payload start."""
+
+    def __init__(self) -> None:
+        self.parts: list[bytes] = [_CDR_LE_HEADER]
+        self.size = 0
+
+    def _put(self, data: bytes, align: int) -> None:
+        pad = (-self.size) % align
+        if pad:
+            self.parts.append(b'\x00' * pad)
+        self.parts.append(data)
+        self.size += pad + len(data)
+
+    def pack(self, fmt: str, *values, align: int = 4) -> None:
+        self._put(struct.pack('<' + fmt, *values), align)
+
+    def string(self, text: str) -> None:
+        raw = text.encode() + b'\x00'
+        self.pack('I', len(raw))
+        self._put(raw, 1)
+
+    def array(self, values: np.ndarray, align: int) -> None:
+        """A sequence: uint32 count of rows then the raw row-major data."""
+        self.pack('I', values.shape[0])
+        if values.size:
+            self._put(np.ascontiguousarray(values).tobytes(), align)
+
+    def bytes(self) -> bytes:
+        return b''.join(self.parts)
+
+
+def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 0.0,
+                             frame_id: str = WORLD_FRAME, ns: str = 'iguana',
+                             marker_id: int = 0) -> bytes:
+    """Serialized CDR bytes of exactly the Marker `triangle_list_marker` builds (fast path to publish)."""
+    points, rgba = _triangle_soup(vertices, triangles, colors)
+    t = stamp if isinstance(stamp, Time) else time_to_msg(stamp)
+    w = _CdrWriter()
+    w.pack('iI', t.sec, t.nanosec)                            # header.stamp
+    w.string(frame_id)
+    w.string(ns)
+    w.pack('iii', int(marker_id), Marker.TRIANGLE_LIST, Marker.ADD)
+    w.pack('7d', 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, align=8)  # pose
+    w.pack('3d', 1.0, 1.0, 1.0, align=8)                      # scale
+    w.pack('4f', 1.0, 1.0, 1.0, 1.0)                          # color
+    w.pack('iI?', 0, 0, False)                                # lifetime, frame_locked
+    w.array(points.astype('<f8'), 8)
+    w.array(rgba.astype('<f4'), 4)
+    w.string('')                                              # texture_resource
+    w.pack('iI', 0, 0)                                        # texture.header.stamp
+    for _ in range(2):                                        # texture frame_id, format
+        w.string('')
+    w.pack('I', 0)                                            # texture.data
+    w.pack('I', 0)                                            # uv_coordinates
+    for _ in range(3):                                        # text, mesh_resource, mesh_file.filename
+        w.string('')
+    w.pack('I', 0)                                            # mesh_file.data
+    w.pack('?', False)                                        # mesh_use_embedded_materials
+    return w.bytes()
+
+
+def _cdr_string_end(data: bytes, pos: int) -> int:
+    """Offset after the CDR string starting at aligned offset `pos` (payload-relative)."""
+    (length,) = struct.unpack_from('<I', data, 4 + pos)
+    return pos + 4 + length
+
+
+def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """Points `(3*n_t, 3)` and RGBA `(3*n_t, 4)` read with numpy from serialized Marker bytes."""
+    if len(data) < 8 or data[:4] != _CDR_LE_HEADER:
+        raise InputError('marker bytes are not little-endian CDR (expected header 00 01 00 00)')
+    try:
+        pos = _cdr_string_end(data, 8)                       # after stamp, frame_id
+        pos = _cdr_string_end(data, pos + (-pos) % 4)        # ns
+        pos += (-pos) % 4 + 12                               # id, type, action
+        pos += (-pos) % 8 + 7 * 8 + 3 * 8                    # pose, scale
+        pos += 16 + 8 + 1                                    # color, lifetime, frame_locked
+        pos += (-pos) % 4
+        (n_points,) = struct.unpack_from('<I', data, 4 + pos)
+        pos += 4 + (-(pos + 4)) % 8 if n_points else 4
+        points = np.frombuffer(data, '<f8', n_points * 3, 4 + pos).reshape(-1, 3)
+        pos += n_points * 24
+        pos += (-pos) % 4
+        (n_colors,) = struct.unpack_from('<I', data, 4 + pos)
+        colors = np.frombuffer(data, '<f4', n_colors * 4, 8 + pos).reshape(-1, 4)
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'marker bytes are truncated or not a visualization_msgs/Marker: {exc}') from exc
+    return points.astype(np.float64), colors.astype(np.float64)
+
+
+def marker_array_msg(markers: Sequence[Marker], delete_all_first: bool = False) -> MarkerArray:
+    """MarkerArray of `markers`, optionally preceded by a DELETEALL marker that clears old ones."""
+    items = list(markers)
+    if delete_all_first:
+        items.insert(0, Marker(action=Marker.DELETEALL))
+    return MarkerArray(markers=items)
