@@ -1,0 +1,223 @@
+"""Height-field terrain: a regular grid of heights, bilinear in between, clamped outside.
+
+`heights[i, j]` is the terrain height (m) at world `x = origin[0] + i * spacing`, `y = origin[1] + j * spacing`.
+Outside the grid the height is that of the nearest edge (the grid is clamped, so the gradient across the edge
+is zero). The numba kernels `bilinear_height` / `bilinear_height_gradient` take `kernel_args()` and are meant to be
+called inside other compiled kernels (ground contact); the methods are their vectorised wrappers.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from iguana_ros.errors import InputError
+
+DEFAULT_EXTENT = 50.0
+"""Half-size (m) of the square grid built by the analytic constructors (`flat`, `tilted_plane`)."""
+
+
+@numba.njit(cache=True)
+def _cell(u: float, n: int):
+    """Clamped cell index and fraction along one axis; `inside` is False when `u` was clamped."""
+    inside = True
+    if u < 0.0:
+        u = 0.0
+        inside = False
+    elif u > n - 1:
+        u = float(n - 1)
+        inside = False
+    i = min(int(u), n - 2)
+    return i, u - i, inside
+
+
+@numba.njit(cache=True)
+def bilinear_height_gradient(heights, ox, oy, spacing, x, y):
+    """Height (m) and gradient (dh/dx, dh/dy) of the clamped bilinear grid at one world point."""
+    nx, ny = heights.shape
+    i, t, in_x = _cell((x - ox) / spacing, nx)
+    j, s, in_y = _cell((y - oy) / spacing, ny)
+    h00 = heights[i, j]
+    h10 = heights[i + 1, j]
+    h01 = heights[i, j + 1]
+    h11 = heights[i + 1, j + 1]
+    h = (1 - t) * (1 - s) * h00 + t * (1 - s) * h10 + (1 - t) * s * h01 + t * s * h11
+    gx = ((1 - s) * (h10 - h00) + s * (h11 - h01)) / spacing if in_x else 0.0
+    gy = ((1 - t) * (h01 - h00) + t * (h11 - h10)) / spacing if in_y else 0.0
+    return h, gx, gy
+
+
+@numba.njit(cache=True)
+def bilinear_height(heights, ox, oy, spacing, x, y):
+    """Height (m) of the clamped bilinear grid at one world point."""
+    return bilinear_height_gradient(heights, ox, oy, spacing, x, y)[0]
+
+
+@numba.njit(cache=True)
+def _height_gradient_many(heights, ox, oy, spacing, xy, out):
+    """Fill `out (n, 3)` with height, dh/dx, dh/dy at the points `xy (n, 2)`."""
+    for k in range(xy.shape[0]):
+        h, gx, gy = bilinear_height_gradient(heights, ox, oy, spacing, xy[k, 0], xy[k, 1])
+        out[k, 0] = h
+        out[k, 1] = gx
+        out[k, 2] = gy
+
+
+@dataclass(frozen=True)
+class HeightField:
+    """Terrain heights `(nx, ny)` in m on a square grid of `spacing` m whose node [0, 0] is at `origin` (x, y)."""
+
+    heights: np.ndarray
+    origin: tuple = (0.0, 0.0)
+    spacing: float = 1.0
+
+    def __post_init__(self) -> None:
+        heights = np.ascontiguousarray(self.heights, dtype=np.float64)
+        if heights.ndim != 2 or min(heights.shape) < 2:
+            raise InputError(f'height field: heights must be a 2-D grid of at least 2x2, got shape {heights.shape}')
+        if not np.all(np.isfinite(heights)):
+            raise InputError('height field: heights contain NaN or Inf')
+        if not (np.isfinite(self.spacing) and self.spacing > 0):
+            raise InputError(f'height field: spacing must be a positive number of metres, got {self.spacing!r}')
+        heights.setflags(write=False)
+        object.__setattr__(self, 'heights', heights)
+        object.__setattr__(self, 'origin', (float(self.origin[0]), float(self.origin[1])))
+        object.__setattr__(self, 'spacing', float(self.spacing))
+
+    # ------------------------------------------------------------------ queries
+    def kernel_args(self) -> tuple:
+        """`(heights, origin_x, origin_y, spacing)` for the compiled `bilinear_height*` kernels."""
+        return self.heights, self.origin[0], self.origin[1], self.spacing
+
+    def height_and_gradient(self, xy: np.ndarray) -> tuple:
+        """Heights `(...)` and gradients `(..., 2)` (dh/dx, dh/dy) at world points `xy (..., 2)`."""
+        xy = np.asarray(xy, dtype=np.float64)
+        if xy.shape[-1:] != (2,):
+            raise InputError(f'height field: query points must have shape (..., 2), got {xy.shape}')
+        flat = np.ascontiguousarray(xy.reshape(-1, 2))
+        out = np.empty((flat.shape[0], 3))
+        _height_gradient_many(*self.kernel_args(), flat, out)
+        out = out.reshape(xy.shape[:-1] + (3,))
+        return out[..., 0], out[..., 1:]
+
+    def height(self, xy: np.ndarray) -> np.ndarray:
+        """Terrain height (m) `(...)` at world points `xy (..., 2)`."""
+        return self.height_and_gradient(xy)[0]
+
+    def gradient(self, xy: np.ndarray) -> np.ndarray:
+        """Height gradient (dh/dx, dh/dy) `(..., 2)` at world points `xy (..., 2)`."""
+        return self.height_and_gradient(xy)[1]
+
+    def normal(self, xy: np.ndarray) -> np.ndarray:
+        """Unit upward surface normal `(..., 3)` at world points `xy (..., 2)`."""
+        grad = self.gradient(xy)
+        n = np.concatenate([-grad, np.ones(grad.shape[:-1] + (1,))], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+    @property
+    def extent(self) -> tuple:
+        """`(x_min, x_max, y_min, y_max)` of the grid in m."""
+        nx, ny = self.heights.shape
+        ox, oy = self.origin
+        return ox, ox + (nx - 1) * self.spacing, oy, oy + (ny - 1) * self.spacing
+
+    @property
+    def is_flat(self) -> bool:
+        """True when every height is the same (a horizontal plane)."""
+        return bool(np.ptp(self.heights) == 0.0)
+
+    # ------------------------------------------------------------ constructors
+    @classmethod
+    def flat(cls, height: float = 0.0, extent: float = DEFAULT_EXTENT) -> 'HeightField':
+        """Horizontal plane at `height` m covering `[-extent, extent]²`."""
+        return cls(np.full((2, 2), float(height)), origin=(-extent, -extent), spacing=2.0 * extent)
+
+    @classmethod
+    def tilted_plane(cls, slope_deg: float, direction: tuple = (1.0, 0.0),
+                     extent: float = DEFAULT_EXTENT) -> 'HeightField':
+        """Plane through the origin rising at `slope_deg` degrees along the xy `direction` (exact, bilinear)."""
+        if not -89.0 <= slope_deg <= 89.0:
+            raise InputError(f'tilted_plane: slope_deg must be within [-89, 89] degrees, got {slope_deg}')
+        d = np.asarray(direction, dtype=float)
+        if d.shape != (2,) or np.linalg.norm(d) == 0:
+            raise InputError(f'tilted_plane: direction must be a non-zero (x, y) pair, got {direction!r}')
+        d = d / np.linalg.norm(d)
+        corners = np.array([-extent, extent])
+        gx, gy = np.meshgrid(corners, corners, indexing='ij')
+        heights = np.tan(np.radians(slope_deg)) * (d[0] * gx + d[1] * gy)
+        return cls(heights, origin=(-extent, -extent), spacing=2.0 * extent)
+
+    @classmethod
+    def hills(cls, amplitude: float = 0.05, wavelength: float = 0.6, seed: int = 0,
+              extent: float = 5.0) -> 'HeightField':
+        """Smooth random hills (sum of 8 plane waves near `wavelength` m), peak |height| = `amplitude` m."""
+        if amplitude < 0 or wavelength <= 0 or extent <= 0:
+            raise InputError('hills: amplitude must be >= 0 and wavelength, extent > 0 (metres)')
+        rng = np.random.default_rng(seed)
+        spacing = wavelength / 16.0
+        n = int(np.ceil(2.0 * extent / spacing)) + 1
+        axis = -extent + spacing * np.arange(n)
+        gx, gy = np.meshgrid(axis, axis, indexing='ij')
+        heights = np.zeros((n, n))
+        for _ in range(8):  # 8 components, once per construction (not a per-step loop)
+            angle = rng.uniform(0, 2 * np.pi)
+            k = 2 * np.pi / (wavelength * rng.uniform(0.7, 1.4))
+            heights += np.sin(k * (np.cos(angle) * gx + np.sin(angle) * gy) + rng.uniform(0, 2 * np.pi))
+        peak = np.max(np.abs(heights))
+        heights *= amplitude / peak if peak > 0 else 0.0
+        return cls(heights, origin=(-extent, -extent), spacing=spacing)
+
+    @classmethod
+    def from_file(cls, path, scale: float = 1.0, spacing: float = 0.05, origin=None) -> 'HeightField':
+        """Load heights from `.npy` (values × `scale` m) or a grey PNG (value / dtype max × `scale` m), centred.
+
+        A `.npy` array is indexed `[i (x), j (y)]`; a PNG is an image seen from above, x to the right and y up
+        (its top row is the largest y). `origin` defaults to centring the grid on (0, 0).
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f'height field: file {path} does not exist')
+        suffix = path.suffix.lower()
+        if suffix == '.npy':
+            heights = _load_npy(path) * float(scale)
+        elif suffix == '.png':
+            heights = _load_png(path) * float(scale)
+        else:
+            raise InputError(f'height field: {path} must be a .npy array or a .png image, got {suffix!r}')
+        if origin is None:
+            origin = (-(heights.shape[0] - 1) * spacing / 2.0, -(heights.shape[1] - 1) * spacing / 2.0)
+        try:
+            return cls(heights, origin=origin, spacing=spacing)
+        except InputError as exc:
+            raise InputError(f'{path}: {exc}') from None
+
+
+def _load_npy(path: Path) -> np.ndarray:
+    """A 2-D float array from a .npy file, or InputError naming the file."""
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as exc:
+        raise InputError(f'height field: {path} is not a readable .npy array ({exc})') from None
+    if data.ndim != 2 or not np.issubdtype(data.dtype, np.number):
+        raise InputError(f'height field: {path} must hold a 2-D numeric array, got {data.dtype} {data.shape}')
+    return data.astype(np.float64)
+
+
+def _load_png(path: Path) -> np.ndarray:
+    """Heights in [0, 1] `(nx, ny)` from a grey 8- or 16-bit PNG, or InputError naming the file."""
+    import imageio.v3 as iio
+
+    try:
+        img = iio.imread(path)
+    except Exception as exc:  # imageio raises many types for corrupt files
+        raise InputError(f'height field: {path} is not a readable PNG ({exc})') from None
+    if img.ndim == 3:
+        if not np.all(img[..., :3] == img[..., :1]):
+            raise InputError(f'height field: {path} must be a grey-scale PNG (16-bit preferred)')
+        img = img[..., 0]
+    if img.dtype not in (np.uint8, np.uint16):
+        raise InputError(f'height field: {path} must be an 8- or 16-bit PNG, got {img.dtype}')
+    values = img.astype(np.float64) / np.iinfo(img.dtype).max
+    return values[::-1, :].T.copy()
