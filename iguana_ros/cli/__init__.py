@@ -10,6 +10,8 @@ from iguana_ros.errors import IguanaError
 SUBCOMMANDS = (
     # (name, module exposing `register(subparsers)`); modules are imported only when listed here.
     ('topics', 'iguana_ros.cli.topics'),
+    ('bag', 'iguana_ros.cli.bag'),
+    ('goal', 'iguana_ros.cli.goal'),
 )
 
 

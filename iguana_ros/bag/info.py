@@ -1,0 +1,57 @@
+"""`iguana bag info`: duration, topics, types and counts of a bag, laid out like `ros2 bag info` (ROS-free)."""
+from __future__ import annotations
+
+from datetime import datetime
+from pathlib import Path
+
+from iguana_ros.bag.storage import BagSummary, summarize
+
+
+def _size(n_bytes: int) -> str:
+    """Human-readable size, e.g. '1.2 MiB'."""
+    size = float(n_bytes)
+    for unit in ('B', 'KiB', 'MiB', 'GiB'):
+        if size < 1024 or unit == 'GiB':
+            return f'{size:.0f} {unit}' if unit == 'B' else f'{size:.1f} {unit}'
+        size /= 1024
+    return f'{n_bytes} B'
+
+
+def _time(ns: int) -> str:
+    """Local date and time with ms, plus epoch seconds, as ros2 bag info prints them."""
+    stamp = datetime.fromtimestamp(ns / 1e9)
+    return f'{stamp:%b %d %Y %H:%M:%S}.{stamp.microsecond // 1000:03d} ({ns // 1_000_000_000}.{ns % 1_000_000_000:09d})'
+
+
+def truncation_line(summary: BagSummary) -> str:
+    """The one-line damage report of a bag without a summary section."""
+    return (f'truncated: {summary.path} has no complete summary ({summary.problem}); '
+            f'recovered {summary.message_count} messages')
+
+
+def format_summary(summary: BagSummary) -> str:
+    """Multi-line text of a BagSummary."""
+    duration = max(summary.end_ns - summary.start_ns, 0) * 1e-9
+    lines = [f'Files:             {summary.path.name}',
+             f'Bag size:          {_size(summary.size)}',
+             'Storage id:        mcap',
+             f'Library:           {summary.library}',
+             f'Duration:          {duration:.9f}s']
+    if summary.message_count:
+        lines += [f'Start:             {_time(summary.start_ns)}',
+                  f'End:               {_time(summary.end_ns)}']
+    lines.append(f'Messages:          {summary.message_count}')
+    rows = [f'Topic: {t.name} | Type: {t.type} | Count: {t.message_count} | '
+            f'Serialization Format: cdr' for t in summary.topics] or ['(none)']
+    lines.append(f'Topic information: {rows[0]}')
+    lines += [' ' * 19 + row for row in rows[1:]]
+    return '\n'.join(lines)
+
+
+def bag_info(path: str | Path) -> tuple[str, BagSummary]:
+    """(printable text, summary) of the bag at `path` (directory or .mcap); InputError if unreadable."""
+    summary = summarize(path)
+    text = format_summary(summary)
+    if summary.truncated:
+        text = truncation_line(summary) + '\n' + text
+    return text, summary

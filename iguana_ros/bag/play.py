@@ -1,0 +1,154 @@
+"""`iguana bag play`: republish a bag's serialized messages with the recorded timing and QoS."""
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from pathlib import Path
+
+import rclpy
+from builtin_interfaces.msg import Time
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.qos import ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+
+from iguana_ros.bag.qos import offer_profile
+from iguana_ros.bag.record import absolute_name
+from iguana_ros.bag.storage import BagReader, BagSummary, parse_qos_profiles, summarize
+from iguana_ros.errors import InputError
+from iguana_ros.nodes.ros_topics import message_class, resolve
+from iguana_ros.topics import default_topics
+
+CLOCK_PERIOD_S = 0.025
+"""Wall-clock period of /clock messages with --clock (40 Hz, rosbag2's default)."""
+ACK_TIMEOUT_S = 2.0
+"""How long the player waits at the end for reliable subscribers to acknowledge everything."""
+
+
+def _err(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def select_topics(summary: BagSummary, wanted: list[str] | None) -> list:
+    """The bag's topics filtered by `wanted` names; InputError listing the bag's topics for unknown ones."""
+    if not wanted:
+        return list(summary.topics)
+    names = [absolute_name(t) for t in wanted]
+    have = {t.name for t in summary.topics}
+    missing = [n for n in names if n not in have]
+    if missing:
+        raise InputError(f'topic(s) {missing} not in bag {summary.path}; it has {sorted(have)}')
+    return [t for t in summary.topics if t.name in names]
+
+
+def _create_publishers(node: Node, topics: list) -> dict[str, object]:
+    """One publisher per playable topic with its recorded QoS; unknown types are reported and skipped."""
+    table_depth = {absolute_name(s.name): s.qos.depth for s in default_topics().values()}
+    publishers = {}
+    for topic in topics:
+        try:
+            cls = message_class(topic.type)
+        except ValueError as exc:
+            _err(f'iguana bag play: error: cannot play {topic.name}: {exc}; playing the others')
+            continue
+        qos = offer_profile(parse_qos_profiles(topic.offered_qos_profiles),
+                            default_depth=table_depth.get(topic.name, 10))
+        publishers[topic.name] = node.create_publisher(cls, topic.name, qos)
+    return publishers
+
+
+def _wait_for_subscribers(publishers: dict, timeout_s: float, stop: list[bool]) -> None:
+    """Wait until every publisher has a matched subscription, or `timeout_s` passes."""
+    deadline = time.monotonic() + timeout_s
+    while not stop[0] and time.monotonic() < deadline:
+        if all(p.get_subscription_count() > 0 for p in publishers.values()):
+            return
+        time.sleep(0.02)
+
+
+def _stamp(ns: int) -> Time:
+    """builtin_interfaces/Time of ns since the epoch."""
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+class _Pacer:
+    """Maps bag time to wall time (scaled by `rate`) and publishes /clock while waiting."""
+
+    def __init__(self, rate: float, clock_pub) -> None:
+        self.rate, self.clock_pub = rate, clock_pub
+        self.bag0: int | None = None
+        self.wall0 = 0.0
+        self.next_clock = 0.0
+
+    def wait_until(self, log_time: int, stop: list[bool]) -> None:
+        """Sleep until the wall time of bag time `log_time` (first call starts the clock)."""
+        if self.bag0 is None:
+            self.bag0, self.wall0 = log_time, time.monotonic()
+        target = self.wall0 + (log_time - self.bag0) * 1e-9 / self.rate
+        while not stop[0]:
+            now = time.monotonic()
+            if self.clock_pub is not None and now >= self.next_clock:
+                bag_now = self.bag0 + int((now - self.wall0) * self.rate * 1e9)
+                self.clock_pub.publish(Clock(clock=_stamp(min(bag_now, log_time))))
+                self.next_clock = now + CLOCK_PERIOD_S
+            if now >= target:
+                return
+            time.sleep(min(target - now, CLOCK_PERIOD_S))
+
+
+def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[bool]) -> int:
+    """Stream the bag once through the publishers; returns the number of messages published."""
+    reader = BagReader(path)
+    pacer = _Pacer(rate, clock_pub)
+    count = 0
+    for msg in reader.messages():
+        if stop[0]:
+            break
+        pub = publishers.get(msg.topic)
+        if pub is None:
+            continue
+        pacer.wait_until(msg.log_time, stop)
+        if stop[0]:
+            break
+        pub.publish(msg.data)
+        count += 1
+    return count
+
+
+def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[str] | None = None,
+         clock: bool = False, wait_for_subscribers_s: float = 0.5) -> int:
+    """Republish bag `path` (directory or .mcap) until its end (or forever with `loop`); returns count."""
+    if not rate > 0 or rate == float('inf'):
+        raise InputError(f'--rate must be a positive finite number, got {rate}')
+    summary = summarize(path)
+    if summary.truncated:
+        _err(f'iguana bag play: warning: {summary.path} is truncated ({summary.problem}); '
+             f'playing the {summary.message_count} recovered messages')
+    selected = select_topics(summary, topics)
+    stop = [False]
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda _s, _f: stop.__setitem__(0, True))
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('iguana_bag_player', context=context)
+        publishers = _create_publishers(node, selected)
+        clock_pub = None
+        if clock:
+            name, cls, qos = resolve('clock')
+            clock_pub = node.create_publisher(cls, name, qos)
+        print(f'playing {summary.path}: {summary.message_count} messages on '
+              f'{len(publishers)} topics at rate {rate:g}', flush=True)
+        _wait_for_subscribers(publishers, wait_for_subscribers_s, stop)
+        total = _play_once(summary.path, publishers, rate, clock_pub, stop)
+        while loop and not stop[0]:
+            total += _play_once(summary.path, publishers, rate, clock_pub, stop)
+        for pub in publishers.values():
+            if pub.qos_profile.reliability == ReliabilityPolicy.RELIABLE:
+                pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S))
+        print(f'published {total} messages', flush=True)
+        return total
+    finally:
+        rclpy.try_shutdown(context=context)

@@ -1,0 +1,125 @@
+"""`iguana bag record`: subscribe with raw (serialized) messages and write a rosbag2-compatible MCAP bag."""
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from iguana_ros.bag.qos import profile_to_dict, request_profile
+from iguana_ros.bag.schema import message_definition
+from iguana_ros.bag.storage import CHUNK_AGE_S, BagWriter, qos_profiles_yaml
+from iguana_ros.errors import IguanaError
+from iguana_ros.nodes.ros_topics import message_class
+from iguana_ros.topics import default_topics
+
+DISCOVERY_PERIOD_S = 0.5
+"""How often the graph is polled for publishers of wanted topics that are not recorded yet."""
+
+
+def absolute_name(name: str) -> str:
+    """Topic name with a leading slash (the recorder's node lives in the root namespace)."""
+    return name if name.startswith('/') else '/' + name
+
+
+def default_topic_names() -> list[str]:
+    """Absolute names of every topic of msg_configs/topics.yaml."""
+    return [absolute_name(spec.name) for spec in default_topics().values()]
+
+
+class Recorder:
+    """Discovers wanted topics, subscribes raw with QoS adapted to the publishers, writes every message."""
+
+    def __init__(self, node: Node, writer: BagWriter, topics: list[str] | None,
+                 log: Callable[[str], None] = print,
+                 error: Callable[[str], None] = lambda m: print(m, file=sys.stderr, flush=True)) -> None:
+        self.node, self.writer = node, writer
+        self.wanted = None if topics is None else [absolute_name(t) for t in topics]
+        self.log, self.error = log, error
+        self.subscriptions: dict[str, int] = {}
+        self.failed: set[str] = set()
+        self.received = 0
+
+    def poll_discovery(self) -> None:
+        """Subscribe to every wanted topic that now has a publisher (and was not subscribed yet)."""
+        types = dict(self.node.get_topic_names_and_types())
+        names = self.wanted if self.wanted is not None else sorted(types)
+        for name in names:
+            if name in self.subscriptions or name in self.failed or name not in types:
+                continue
+            endpoints = self.node.get_publishers_info_by_topic(name)
+            if endpoints:
+                self._subscribe(name, types[name][0], endpoints)
+
+    def _subscribe(self, name: str, type_name: str, endpoints: list) -> None:
+        """Create the raw subscription and the MCAP channel of one topic; report and skip bad types."""
+        try:
+            cls = message_class(type_name)
+            schema = message_definition(type_name)
+        except (ValueError, IguanaError) as exc:
+            self.failed.add(name)
+            self.error(f'iguana bag record: error: cannot record {name}: {exc}; recording the others')
+            return
+        offered = [e.qos_profile for e in endpoints]
+        qos_yaml = qos_profiles_yaml([profile_to_dict(p) for p in offered])
+        type_hash = str(getattr(endpoints[0], 'topic_type_hash', '') or '')
+        channel = self.writer.add_topic(name, type_name, schema, qos_yaml, type_hash)
+        qos = request_profile(offered)
+        self.node.create_subscription(
+            cls, name, lambda data, info, ch=channel: self._on_message(ch, data, info), qos, raw=True)
+        self.subscriptions[name] = channel
+        self.log(f'subscribed {name} [{type_name}] {qos.reliability.name.lower()}/'
+                 f'{qos.durability.name.lower()}')
+
+    def _on_message(self, channel: int, data: bytes, info: dict) -> None:
+        """Store one serialized message: log time = receive time, publish time = source time."""
+        received = int(info.get('received_timestamp') or 0) or time.time_ns()
+        published = int(info.get('source_timestamp') or 0) or received
+        self.writer.write(channel, bytes(data), received, published)
+        self.received += 1
+
+
+def _install_stop_handlers(stop: list[bool]) -> None:
+    """SIGINT and SIGTERM set stop[0] so the main loop finalises the bag."""
+    def handler(_signum, _frame):
+        stop[0] = True
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+
+
+def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CHUNK_AGE_S,
+           duration_s: float | None = None) -> int:
+    """Record `topics` (None = every discovered topic) into bag directory `output` until SIGINT/SIGTERM.
+
+    Returns the number of messages written. The bag is finalised (summary, footer, metadata.yaml)
+    on every exit path except SIGKILL, after which every completed chunk remains readable.
+    """
+    writer = BagWriter(output, chunk_age_s=chunk_age_s)
+    stop = [False]
+    _install_stop_handlers(stop)
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('iguana_bag_recorder', context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))
+        node.create_timer(DISCOVERY_PERIOD_S, recorder.poll_discovery)
+        node.create_timer(min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)
+        print(f'recording to {writer.path}', flush=True)
+        recorder.poll_discovery()
+        deadline = None if duration_s is None else time.monotonic() + duration_s
+        while not stop[0] and (deadline is None or time.monotonic() < deadline):
+            executor.spin_once(timeout_sec=0.1)
+        return recorder.received
+    finally:
+        writer.close()
+        print(f'wrote {sum(t.message_count for t in writer.topics)} messages on '
+              f'{len(writer.topics)} topics to {writer.path}', flush=True)
+        rclpy.try_shutdown(context=context)

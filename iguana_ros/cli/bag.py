@@ -1,0 +1,58 @@
+"""`iguana bag record|play|info`: rosbag2-compatible MCAP recording, replay and inspection."""
+from __future__ import annotations
+
+import argparse
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `bag` sub-command with its record, play and info actions."""
+    parser = subparsers.add_parser('bag', help='record, replay and inspect rosbag2-compatible MCAP bags')
+    actions = parser.add_subparsers(dest='bag_action', metavar='ACTION', required=True)
+
+    rec = actions.add_parser('record', help='record topics to DIR/DIR.mcap (+ metadata.yaml); Ctrl-C stops')
+    rec.add_argument('topics', nargs='*', metavar='TOPIC',
+                     help='topic names (default: every topic of msg_configs/topics.yaml)')
+    rec.add_argument('-o', '--output', required=True, metavar='DIR', help='new bag directory')
+    rec.add_argument('-a', '--all', action='store_true', help='record every discovered topic')
+    rec.add_argument('--chunk-age', type=float, default=None, metavar='S',
+                     help='close a chunk at least every S seconds (default 1)')
+    rec.add_argument('--duration', type=float, default=None, metavar='S',
+                     help='stop after S seconds (default: until Ctrl-C / SIGTERM)')
+    rec.set_defaults(func=run)
+
+    play = actions.add_parser('play', help='republish a bag with its recorded timing and QoS')
+    play.add_argument('bag', metavar='BAG', help='bag directory or .mcap file')
+    play.add_argument('--rate', type=float, default=1.0, help='playback speed factor (default 1)')
+    play.add_argument('--loop', action='store_true', help='start again at the end, until Ctrl-C')
+    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
+    play.add_argument('--clock', action='store_true', help='publish /clock from the bag time (40 Hz)')
+    play.add_argument('--wait-for-subscribers', type=float, default=0.5, metavar='S',
+                      help='wait up to S s for every topic to have a subscriber first (default 0.5)')
+    play.set_defaults(func=run)
+
+    info = actions.add_parser('info', help='print duration, topics, types and counts of a bag')
+    info.add_argument('bag', metavar='BAG', help='bag directory or .mcap file')
+    info.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Dispatch to record, play or info."""
+    if args.bag_action == 'info':
+        from iguana_ros.bag.info import bag_info
+        print(bag_info(args.bag)[0])
+        return 0
+    if args.bag_action == 'play':
+        from iguana_ros.bag.play import play
+        play(args.bag, rate=args.rate, loop=args.loop, topics=args.topics, clock=args.clock,
+             wait_for_subscribers_s=args.wait_for_subscribers)
+        return 0
+    from iguana_ros.bag.record import default_topic_names, record
+    from iguana_ros.bag.storage import CHUNK_AGE_S
+    from iguana_ros.errors import InputError
+    if args.all and args.topics:
+        raise InputError('give either TOPIC names or --all, not both')
+    if args.chunk_age is not None and not 0 < args.chunk_age < float('inf'):
+        raise InputError(f'--chunk-age must be a positive number of seconds, got {args.chunk_age}')
+    topics = None if args.all else (args.topics or default_topic_names())
+    record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration)
+    return 0
