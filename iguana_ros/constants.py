@@ -38,3 +38,46 @@ WORLD_FRAME = 'world'
 
 BASE_FRAME = 'iguana/base_link'
 """child_frame_id of the iguana's root (pelvis) in odometry."""
+
+# --- soft-body simulator (iguana_ros.physics) -------------------------------------------------------------------
+CONTACT_STIFFNESS = 1.0e5
+"""Ground penalty stiffness per kg of node mass, 1/s² (N/m per kg): a node resting alone sinks g/1e5 ≈ 0.1 mm."""
+
+CONTACT_DAMPING_RATIO = 1.0
+"""Damping ratio of each node's ground spring-damper (1 = critical; normal force never pulls)."""
+
+FRICTION_STIFFNESS = 1.0e5
+"""Stiffness per kg (1/s²) of the tangential stick-anchor spring that realises static Coulomb friction."""
+
+RAYLEIGH_ALPHA = 0.2
+"""Mass-proportional Rayleigh damping α of C = αM + βK, 1/s."""
+
+RAYLEIGH_BETA = 2.0e-3
+"""Stiffness-proportional Rayleigh damping β of C = αM + βK, s."""
+
+MAX_NODE_SPEED = 100.0
+"""Speed (m/s) above which a node's motion is declared diverged (far above any iguana or push response)."""
+
+MAX_PENETRATION = 0.1
+"""Depth (m) below the terrain at which a node is declared diverged (resting nodes sink ~0.1–1 mm)."""
+
+# --- Synthetic lizard gait (iguana_ros.motion.gait); sources in README "Motion data" ---
+SNOUT_VENT_LENGTH = BODY_LENGTH * (1.0 - TAIL_FRACTION)
+"""Snout-vent length of the adult iguana model, m (0.29 m)."""
+
+TROT_STRIDE_FREQUENCY = 1.5
+"""Stride frequency of the slow trot, Hz: 20 frames per stride at 30 Hz (assumed; Fieler & Jayne 1998
+measured 3.9 Hz at 0.5 m/s in a 0.1 m-SVL lizard, lower for a 3x longer animal)."""
+
+TROT_DUTY_FACTOR = 0.65
+"""Fraction of a stride a foot is on the ground (Fieler & Jayne 1998: 0.63 at their slowest speed)."""
+
+TROT_STRIDE_LENGTH = 0.65 * SNOUT_VENT_LENGTH
+"""Stride length of the slow trot, m (0.65 SVL, 0.19 m; assumption within 0.6-0.8 SVL of slow lizard gaits)."""
+
+PELVIC_YAW_AMPLITUDE = 0.21
+"""Pelvic rotation in the horizontal plane, rad, amplitude (±12°; Fieler & Jayne 1998 report 36° peak to
+peak in Dipsosaurus, we assume 24° for a slow trot)."""
+
+MARKER_NOISE_STD = 0.001
+"""Standard deviation of synthetic marker noise per axis, m (assumed optical-capture quality)."""

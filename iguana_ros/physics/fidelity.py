@@ -1,0 +1,66 @@
+"""Named fidelity presets: the knobs that trade simulation speed for accuracy."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+from iguana_ros.constants import SIM_DT
+from iguana_ros.errors import InputError
+
+SOLVERS = ('cg', 'direct')
+RESOLUTIONS = ('coarse', 'medium', 'fine')
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """Integration settings: time step (s), linear solver, CG tolerance/iterations, Jacobian refresh interval.
+
+    `resolution` is the mesh resolution a scene or benchmark builds the model at (the simulator itself
+    simulates whatever model it is given).
+    """
+
+    dt: float = SIM_DT
+    solver: str = 'cg'
+    cg_tol: float = 1e-4
+    cg_max_iter: int = 100
+    jacobian_every: int = 1
+    polar_iters: int = 8
+    resolution: str = 'medium'
+
+    def validated(self) -> 'Fidelity':
+        """Self, or InputError naming the bad field and what it expects."""
+        checks = [
+            (0 < self.dt <= 0.05, 'dt', 'a time step in (0, 0.05] s'),
+            (self.solver in SOLVERS, 'solver', f'one of {SOLVERS}'),
+            (0 < self.cg_tol < 1, 'cg_tol', 'a relative tolerance in (0, 1)'),
+            (int(self.cg_max_iter) >= 1, 'cg_max_iter', 'an integer >= 1'),
+            (int(self.jacobian_every) >= 1, 'jacobian_every', 'an integer >= 1 (steps between refreshes)'),
+            (int(self.polar_iters) >= 1, 'polar_iters', 'an integer >= 1'),
+            (self.resolution in RESOLUTIONS, 'resolution', f'one of {RESOLUTIONS}'),
+        ]
+        for ok, name, expected in checks:
+            if not ok:
+                raise InputError(f'fidelity: {name} must be {expected}, got {getattr(self, name)!r}')
+        return self
+
+
+PRESETS = {
+    'fast': Fidelity(dt=1.0 / 600.0, cg_tol=1e-3, cg_max_iter=30, jacobian_every=4, polar_iters=4),
+    'balanced': Fidelity(dt=SIM_DT, cg_tol=1e-4, cg_max_iter=60, jacobian_every=2, polar_iters=8),
+    'accurate': Fidelity(dt=1.0 / 2400.0, cg_tol=1e-7, cg_max_iter=300, jacobian_every=1, polar_iters=20),
+}
+"""Named presets; their measured speed and error are in the README ("Simulator")."""
+
+
+def get_fidelity(preset='balanced', **overrides) -> Fidelity:
+    """A validated `Fidelity` from a preset name (or a `Fidelity`) with field overrides (None = keep)."""
+    if isinstance(preset, Fidelity):
+        base = preset
+    elif preset in PRESETS:
+        base = PRESETS[preset]
+    else:
+        raise InputError(f'fidelity: unknown preset {preset!r}; choose one of {sorted(PRESETS)}')
+    names = {f.name for f in fields(Fidelity)}
+    unknown = set(overrides) - names
+    if unknown:
+        raise InputError(f'fidelity: unknown setting(s) {sorted(unknown)}; known: {sorted(names)}')
+    return replace(base, **{k: v for k, v in overrides.items() if v is not None}).validated()

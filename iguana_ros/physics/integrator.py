@@ -1,0 +1,144 @@
+"""Linearised backward Euler (Baraff & Witkin 1998) for `M p̈ = f_x + f_s + f_e + f_d`, compiled with numba.
+
+Per step of length h, with K = −∂f/∂x (springs + FEM = K_int, contact = K_c), Rayleigh damping C = αM + βK_int
+and contact damping C_c:
+
+    A Δv = b,   A = M(1 + hα) + h C_c + (hβ + h²) K_int + h² K_c,   b = h (f − αMv) − [(hβ + h²) K_int + h² K_c] v
+
+with `f` every force except the Rayleigh terms; then v ← v + Δv, x ← x + h v. A (and the CG preconditioner)
+is rebuilt every `jacobian_every` steps; forces are always evaluated at the current state.
+`run_steps_cg` advances many steps in one compiled call; `prepare_step` / `finish_step` split a step around an
+external (direct) linear solve.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from iguana_ros.physics.assembly import block_matvec, invert_3x3
+from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
+from iguana_ros.physics.solver import block_jacobi_pcg
+
+# indices of the float parameter vector `fp`
+FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG_TOL, FP_CG_ATOL, \
+    FP_MAX_SPEED, FP_MAX_DEPTH, FP_CG_FAIL = range(15)
+N_FP = 15
+# indices of the integer parameter vector `ip`
+IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND = range(4)
+N_IP = 4
+# indices of the counter vector `counters`
+C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS = range(4)
+N_COUNTERS = 4
+
+STATUS_OK = 0
+STATUS_NAN = 1
+STATUS_SPEED = 2
+STATUS_PENETRATION = 3
+STATUS_SOLVER = 4
+
+
+@numba.njit(cache=True)
+def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info):
+    """Forces, (maybe) the system matrix, and the right-hand side of one step; returns (status, refreshed)."""
+    (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
+     row_ptr, cols, diag, tet_blocks, spring_blocks) = model
+    (x, v, dv, quats, anchors, contact, blocks, dextra, pinv, forces, rhs, work, diag_k, diag_c) = state
+    h = fp[FP_DT]
+    alpha = fp[FP_ALPHA]
+    refresh = counters[C_STEP] % ip[IP_JACOBIAN_EVERY] == 0
+    n = x.shape[0]
+    for i in range(n):
+        m = mass[i]
+        forces[i, 0] = m * (fp[FP_GX] - alpha * v[i, 0]) + external[i, 0]
+        forces[i, 1] = m * (fp[FP_GY] - alpha * v[i, 1]) + external[i, 1]
+        forces[i, 2] = m * (fp[FP_GZ] - alpha * v[i, 2]) + external[i, 2]
+    scale = h * fp[FP_BETA] + h * h if refresh else 0.0
+    if refresh:
+        blocks[:] = 0.0
+    corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, ip[IP_POLAR_ITERS], forces, blocks,
+                             tet_blocks, scale)
+    spring_forces(x, springs, spring_k, desired_lengths, forces, blocks, spring_blocks, scale)
+    if ip[IP_HAS_GROUND]:
+        n_contact, deepest, depth = contact_forces(
+            x, v, mass, friction, heights, terrain[0], terrain[1], terrain[2], fp[FP_KN], fp[FP_CN],
+            fp[FP_KT], fp[FP_CT], anchors, contact, forces, diag_k, diag_c)
+        counters[C_CONTACTS] = n_contact
+        if depth > fp[FP_MAX_DEPTH]:
+            info[0] = deepest
+            info[1] = depth
+            return STATUS_PENETRATION, refresh
+    if refresh:
+        _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, h, alpha, ip[IP_HAS_GROUND] != 0)
+        counters[C_REFRESHES] += 1
+    ap = work[3]
+    block_matvec(row_ptr, cols, blocks, v, ap)          # ap = A v; (A − dextra) v is the stiffness part
+    for i in range(n):
+        d = dextra[i]
+        for k in range(3):
+            dv_k = d[k, 0] * v[i, 0] + d[k, 1] * v[i, 1] + d[k, 2] * v[i, 2]
+            rhs[i, k] = h * forces[i, k] - (ap[i, k] - dv_k)
+    return STATUS_OK, refresh
+
+
+@numba.njit(cache=True)
+def _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, h, alpha, has_ground):
+    """Add the diagonal terms M(1 + hα) + h C_c + h² K_c and invert the diagonal blocks for the preconditioner."""
+    h2 = h * h
+    for i in range(mass.shape[0]):
+        blk = blocks[diag[i]]
+        d = dextra[i]
+        for p in range(3):
+            for q in range(3):
+                d[p, q] = h * diag_c[i, p, q] if has_ground else 0.0
+                blk[p, q] += d[p, q] + (h2 * diag_k[i, p, q] if has_ground else 0.0)
+            d[p, p] += mass[i] * (1.0 + h * alpha)
+            blk[p, p] += mass[i] * (1.0 + h * alpha)
+        invert_3x3(blk, pinv[i])
+
+
+@numba.njit(cache=True)
+def finish_step(state, fp, counters, info):
+    """v ← v + Δv, x ← x + h v; checks for NaN/Inf and the speed bound. Returns a STATUS_* code."""
+    x, v, dv = state[0], state[1], state[2]
+    h = fp[FP_DT]
+    max_speed2 = fp[FP_MAX_SPEED] * fp[FP_MAX_SPEED]
+    status = STATUS_OK
+    for i in range(x.shape[0]):
+        s2 = 0.0
+        for k in range(3):
+            v[i, k] += dv[i, k]
+            x[i, k] += h * v[i, k]
+            s2 += v[i, k] * v[i, k]
+        if status == STATUS_OK:
+            if not (np.isfinite(s2) and np.isfinite(x[i, 0] + x[i, 1] + x[i, 2])):
+                status = STATUS_NAN
+                info[0] = i
+                info[1] = s2
+            elif s2 > max_speed2:
+                status = STATUS_SPEED
+                info[0] = i
+                info[1] = np.sqrt(s2)
+    counters[C_STEP] += 1
+    return status
+
+
+@numba.njit(cache=True)
+def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_steps, info):
+    """Advance `n_steps` steps with block-Jacobi PCG; stops at the first failure. Returns (status, steps done)."""
+    row_ptr, cols = model[11], model[12]
+    blocks, pinv, rhs, dv, work = state[6], state[8], state[10], state[2], state[11]
+    for step in range(n_steps):
+        status, _ = prepare_step(model, state, fp, ip, counters, desired_lengths, external, info)
+        if status != STATUS_OK:
+            return status, step
+        iters, res, threshold = block_jacobi_pcg(row_ptr, cols, blocks, pinv, rhs, dv, fp[FP_CG_TOL],
+                                                 fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], work)
+        counters[C_CG_ITERS] += abs(iters)
+        if iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold:
+            info[0] = iters
+            info[1] = res / threshold if threshold > 0 else np.inf
+            return STATUS_SOLVER, step
+        status = finish_step(state, fp, counters, info)
+        if status != STATUS_OK:
+            return status, step + 1
+    return STATUS_OK, n_steps

@@ -1,0 +1,265 @@
+"""`SoftBodySimulator`: the iguana soft body of paper Section V stepped by linearised backward Euler.
+
+Works with `iguana_ros.body.model.IguanaModel` or any object with the same attributes (e.g.
+`iguana_ros.physics.meshes.SoftBodyMesh`). Deterministic: the same inputs give bitwise the same states.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from iguana_ros.constants import (
+    CONTACT_DAMPING_RATIO, CONTACT_STIFFNESS, FRAME_RATE, FRICTION_COEFFICIENT, FRICTION_STIFFNESS, GRAVITY,
+    MAX_NODE_SPEED, MAX_PENETRATION, RAYLEIGH_ALPHA, RAYLEIGH_BETA)
+from iguana_ros.errors import InputError
+from iguana_ros.physics import integrator as itg
+from iguana_ros.physics.assembly import BlockPattern
+from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.physics.fidelity import Fidelity, get_fidelity
+from iguana_ros.physics.forces import CONTACT_NONE, corotated_elastic_forces, lame_parameters, shape_gradients
+from iguana_ros.physics.solver import DirectSolver
+
+_CAUSES = {itg.STATUS_NAN: 'nan', itg.STATUS_SPEED: 'speed', itg.STATUS_PENETRATION: 'penetration',
+           itg.STATUS_SOLVER: 'solver'}
+
+
+def friction_per_node(model, friction) -> np.ndarray:
+    """Coulomb μ per node `(n_nodes,)` from a number, a `(n_nodes,)` array, or {tag: μ} over the default 1.0."""
+    n = len(model.rest_positions)
+    if friction is None:
+        mu = np.full(n, FRICTION_COEFFICIENT)
+    elif isinstance(friction, dict):
+        mu = np.full(n, float(friction.get('default', FRICTION_COEFFICIENT)))
+        for tag, value in friction.items():
+            if tag == 'default':
+                continue
+            if tag not in model.node_tags:
+                raise InputError(f'friction: unknown node tag {tag!r}; known: {sorted(model.node_tags)}')
+            mu[np.asarray(model.node_tags[tag], dtype=bool)] = float(value)
+    else:
+        mu = np.broadcast_to(np.asarray(friction, dtype=np.float64), (n,)).copy()
+    if not np.all(np.isfinite(mu)) or np.any(mu < 0):
+        raise InputError('friction: every coefficient must be a finite number >= 0')
+    return mu
+
+
+class SoftBodySimulator:
+    """Tetrahedral soft body with springs, corotated FEM, Rayleigh damping and height-field ground contact.
+
+    `terrain` is a `HeightField` (None = no ground). `fidelity` is a preset name or `Fidelity`; `overrides`
+    replace its fields (dt, solver, cg_tol, cg_max_iter, jacobian_every, polar_iters).
+    """
+
+    def __init__(self, model, terrain=None, fidelity='balanced', *, friction=None, gravity: float = GRAVITY,
+                 rayleigh_alpha: float = RAYLEIGH_ALPHA, rayleigh_beta: float = RAYLEIGH_BETA,
+                 contact_stiffness: float = CONTACT_STIFFNESS, contact_damping_ratio: float = CONTACT_DAMPING_RATIO,
+                 friction_stiffness: float = FRICTION_STIFFNESS, max_speed: float = MAX_NODE_SPEED,
+                 max_penetration: float = MAX_PENETRATION, **overrides) -> None:
+        self.model = model
+        self.terrain = terrain
+        self.fidelity: Fidelity = get_fidelity(fidelity, **overrides)
+        self._build_model_arrays(model, terrain, friction)
+        self._build_params(gravity, rayleigh_alpha, rayleigh_beta, contact_stiffness, contact_damping_ratio,
+                           friction_stiffness, max_speed, max_penetration)
+        self._build_state()
+        self._direct = DirectSolver(self.pattern) if self.fidelity.solver == 'direct' else None
+        self.reset()
+
+    # ------------------------------------------------------------------------------------------ building
+    def _build_model_arrays(self, model, terrain, friction) -> None:
+        """Static arrays of the compiled kernels (the `model` tuple)."""
+        rest = np.ascontiguousarray(model.rest_positions, dtype=np.float64)
+        tets = np.ascontiguousarray(model.tets, dtype=np.int64)
+        springs = np.ascontiguousarray(model.springs, dtype=np.int64).reshape(-1, 2)
+        n = len(rest)
+        if rest.ndim != 2 or rest.shape[1] != 3 or tets.ndim != 2 or tets.shape[1] != 4:
+            raise InputError('simulator: model needs rest_positions (n, 3) and tets (m, 4)')
+        try:
+            grads, volume = shape_gradients(rest, tets)
+        except ValueError as exc:
+            raise InputError(f'simulator: model {exc}') from None
+        mu, lam = lame_parameters(np.broadcast_to(model.youngs_modulus, (len(tets),)), model.poisson_ratio)
+        mass = np.ascontiguousarray(model.node_mass, dtype=np.float64)
+        if mass.shape != (n,) or np.any(mass <= 0):
+            raise InputError('simulator: model.node_mass must be (n_nodes,) positive masses in kg')
+        self.pattern = BlockPattern.build(n, tets, springs)
+        self.rest_positions = rest
+        self.desired_lengths_rest = np.ascontiguousarray(model.spring_rest_lengths, dtype=np.float64)
+        heights, ox, oy, spacing = terrain.kernel_args() if terrain is not None else (np.zeros((2, 2)), 0., 0., 1.)
+        self.friction = friction_per_node(model, friction)
+        self._model = (mass, tets, grads, volume, np.ascontiguousarray(mu), np.ascontiguousarray(lam), springs,
+                       np.ascontiguousarray(np.broadcast_to(model.spring_stiffness, (len(springs),)),
+                                            dtype=np.float64),
+                       self.friction, heights, np.array([ox, oy, spacing]), self.pattern.row_ptr,
+                       self.pattern.cols, self.pattern.diag, self.pattern.tet_blocks, self.pattern.spring_blocks)
+
+    def _build_params(self, gravity, alpha, beta, kn, zeta, kt, max_speed, max_depth) -> None:
+        """Float/int parameter vectors of the compiled kernels."""
+        fid = self.fidelity
+        mass = self._model[0]
+        fp = np.zeros(itg.N_FP)
+        fp[itg.FP_DT] = fid.dt
+        fp[itg.FP_ALPHA] = alpha
+        fp[itg.FP_BETA] = beta
+        fp[itg.FP_GZ] = -gravity
+        fp[itg.FP_KN] = kn
+        fp[itg.FP_CN] = 2.0 * zeta * np.sqrt(kn)
+        fp[itg.FP_KT] = kt
+        fp[itg.FP_CT] = 2.0 * zeta * np.sqrt(kt)
+        fp[itg.FP_CG_TOL] = fid.cg_tol
+        fp[itg.FP_CG_ATOL] = fid.cg_tol * fid.dt * GRAVITY * np.linalg.norm(mass)
+        fp[itg.FP_CG_FAIL] = max(1.0, 0.1 / fid.cg_tol)
+        fp[itg.FP_MAX_SPEED] = max_speed
+        fp[itg.FP_MAX_DEPTH] = max_depth
+        ip = np.zeros(itg.N_IP, dtype=np.int64)
+        ip[itg.IP_CG_MAX_ITER] = fid.cg_max_iter
+        ip[itg.IP_JACOBIAN_EVERY] = fid.jacobian_every
+        ip[itg.IP_POLAR_ITERS] = fid.polar_iters
+        ip[itg.IP_HAS_GROUND] = self.terrain is not None
+        self._fp, self._ip = fp, ip
+
+    def _build_state(self) -> None:
+        """Preallocated state and work arrays (the `state` tuple)."""
+        n, n_tets, nb = len(self.rest_positions), len(self._model[1]), self.pattern.n_blocks
+        self._state = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n_tets, 4)),
+                       np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros((nb, 3, 3)), np.zeros((n, 3, 3)),
+                       np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((4, n, 3)),
+                       np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
+        self._counters = np.zeros(itg.N_COUNTERS, dtype=np.int64)
+        self._info = np.zeros(2)
+        self._zero_external = np.zeros((n, 3))
+
+    # ---------------------------------------------------------------------------------------------- state
+    def reset(self, positions=None, velocities=None) -> None:
+        """Set positions/velocities `(n_nodes, 3)` (default: rest pose at rest); clears contacts and time."""
+        x, v, dv, quats, anchors, contact = self._state[:6]
+        x[:] = self.rest_positions if positions is None else self._checked(positions, 'positions')
+        v[:] = 0.0 if velocities is None else self._checked(velocities, 'velocities')
+        dv[:] = 0.0
+        anchors[:] = 0.0
+        contact[:] = CONTACT_NONE
+        quats[:] = (0.0, 0.0, 0.0, 1.0)
+        self._counters[:] = 0
+        self.time = 0.0
+        self._diverged = None
+        m = self._model
+        corotated_elastic_forces(x, m[1], m[2], m[3], m[4], m[5], quats, 200, np.zeros_like(x),
+                                 self._state[6], m[14], 0.0)          # converge the element rotations
+
+    def _checked(self, array, name: str) -> np.ndarray:
+        """`array` as finite `(n_nodes, 3)` floats, or InputError."""
+        a = np.asarray(array, dtype=np.float64)
+        if a.shape != self.rest_positions.shape or not np.all(np.isfinite(a)):
+            raise InputError(f'simulator: {name} must be finite ({len(self.rest_positions)}, 3), got {a.shape}')
+        return a
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Node positions `(n_nodes, 3)` m (a copy)."""
+        return self._state[0].copy()
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Node velocities `(n_nodes, 3)` m/s (a copy)."""
+        return self._state[1].copy()
+
+    @property
+    def in_contact(self) -> np.ndarray:
+        """Per-node ground-contact flags `(n_nodes,)` bool, as of the last step."""
+        return self._state[5] != CONTACT_NONE
+
+    @property
+    def steps_per_frame(self) -> int:
+        """Steps in one 1/30 s reference frame at this time step."""
+        return max(1, int(round(1.0 / (FRAME_RATE * self.fidelity.dt))))
+
+    @property
+    def stats(self) -> dict:
+        """Counters: steps, CG iterations (total and per step), Jacobian refreshes, nodes in contact."""
+        c = self._counters
+        steps = int(c[itg.C_STEP])
+        return {'steps': steps, 'cg_iterations': int(c[itg.C_CG_ITERS]),
+                'cg_iterations_per_step': float(c[itg.C_CG_ITERS]) / max(steps, 1),
+                'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS])}
+
+    # -------------------------------------------------------------------------------------------- stepping
+    def advance_frame(self, desired_lengths=None, external_forces=None, n_steps: int | None = None) -> None:
+        """Advance `n_steps` (default one 1/30 s frame) with spring desired lengths `(n_springs,)` m and
+        constant external forces `(n_nodes, 3)` N (None = none); raises SimulationDiverged on failure."""
+        if self._diverged is not None:
+            raise self._diverged
+        ld = self.desired_lengths_rest if desired_lengths is None else np.asarray(desired_lengths, np.float64)
+        if ld.shape != self.desired_lengths_rest.shape or not np.all(np.isfinite(ld)) or np.any(ld < 0):
+            raise InputError(f'simulator: desired_lengths must be ({len(self.desired_lengths_rest)},) finite '
+                             f'lengths >= 0 m, got shape {ld.shape}')
+        ext = self._zero_external if external_forces is None else self._checked(external_forces, 'external_forces')
+        n_steps = self.steps_per_frame if n_steps is None else int(n_steps)
+        if self._direct is None:
+            status, done = itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters,
+                                            ld, ext, n_steps, self._info)
+        else:
+            status, done = self._run_direct(ld, ext, n_steps)
+        self.time = self._counters[itg.C_STEP] * self.fidelity.dt
+        if status != itg.STATUS_OK:
+            self._diverged = self._divergence(status)
+            raise self._diverged
+
+    def advance(self, duration: float, desired_lengths=None, external_forces=None) -> None:
+        """Advance by `duration` s (rounded to whole steps) with fixed inputs."""
+        self.advance_frame(desired_lengths, external_forces, int(round(duration / self.fidelity.dt)))
+
+    def _run_direct(self, ld, ext, n_steps) -> tuple:
+        """Step loop around scipy's sparse LU (refactorised when the Jacobian is refreshed)."""
+        state = self._state
+        for step in range(n_steps):
+            status, refreshed = itg.prepare_step(self._model, state, self._fp, self._ip, self._counters, ld, ext,
+                                                 self._info)
+            if status != itg.STATUS_OK:
+                return status, step
+            if refreshed:
+                try:
+                    self._direct.factorize(state[6])
+                except RuntimeError:
+                    self._info[:] = (-1, np.inf)
+                    return itg.STATUS_SOLVER, step
+            self._direct.solve(state[10], state[2])
+            status = itg.finish_step(state, self._fp, self._counters, self._info)
+            if status != itg.STATUS_OK:
+                return status, step + 1
+        return itg.STATUS_OK, n_steps
+
+    def _divergence(self, status: int) -> SimulationDiverged:
+        """The error for a failed step, naming the cause, the time and what to change."""
+        node, value = int(self._info[0]), float(self._info[1])
+        t = self._counters[itg.C_STEP] * self.fidelity.dt
+        hint = 'reduce dt, stiffness or forces, or use a more accurate fidelity preset'
+        messages = {
+            itg.STATUS_NAN: f'node {node} position or velocity became NaN/Inf',
+            itg.STATUS_SPEED: f'node {node} reached {value:.3g} m/s, above the {self._fp[itg.FP_MAX_SPEED]:g} m/s '
+                              'bound',
+            itg.STATUS_PENETRATION: f'node {node} is {value:.3g} m inside the terrain (bound '
+                                    f'{self._fp[itg.FP_MAX_DEPTH]:g} m)',
+            itg.STATUS_SOLVER: f'the CG linear solver failed (code {node}, residual {value:.3g}× its threshold); '
+                               'raise cg_max_iter or use solver="direct"',
+        }
+        return SimulationDiverged(_CAUSES[status], f'simulation diverged at t={t:.4f} s: {messages[status]}; {hint}',
+                                  time=t, node=node)
+
+    # ------------------------------------------------------------------------------------------- summaries
+    def center_of_mass(self) -> np.ndarray:
+        """Mass-weighted mean node position `(3,)` m."""
+        mass = self._model[0]
+        return mass @ self._state[0] / mass.sum()
+
+    def root_pose(self) -> tuple:
+        """Best rigid fit of the rest shape to the current nodes: (COM position (3,), quaternion xyzw (4,))."""
+        from scipy.spatial.transform import Rotation
+
+        mass = self._model[0]
+        x = self._state[0]
+        com = mass @ x / mass.sum()
+        rest_com = mass @ self.rest_positions / mass.sum()
+        cov = ((x - com) * mass[:, None]).T @ (self.rest_positions - rest_com)
+        u, _, vt = np.linalg.svd(cov)
+        d = np.sign(np.linalg.det(u @ vt))
+        rot = u @ np.diag([1.0, 1.0, d]) @ vt
+        return com, Rotation.from_matrix(rot).as_quat()

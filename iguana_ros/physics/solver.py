@@ -1,0 +1,86 @@
+"""Linear solvers for the implicit step `A Δv = b`: block-Jacobi preconditioned CG (numba) and a direct LU."""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from iguana_ros.physics.assembly import BlockPattern, block_matvec
+
+
+@numba.njit(cache=True)
+def _dot(a, b):
+    """Σ a·b over `(n, 3)` arrays."""
+    acc = 0.0
+    for i in range(a.shape[0]):
+        acc += a[i, 0] * b[i, 0] + a[i, 1] * b[i, 1] + a[i, 2] * b[i, 2]
+    return acc
+
+
+@numba.njit(cache=True)
+def _precondition(pinv, r, z):
+    """z = P⁻¹ r with the inverted 3×3 diagonal blocks `pinv (n, 3, 3)`."""
+    for i in range(r.shape[0]):
+        r0, r1, r2 = r[i, 0], r[i, 1], r[i, 2]
+        for k in range(3):
+            z[i, k] = pinv[i, k, 0] * r0 + pinv[i, k, 1] * r1 + pinv[i, k, 2] * r2
+
+
+@numba.njit(cache=True)
+def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, work):
+    """Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
+
+    Returns `(iterations, residual_norm, threshold)`; iterations = −k signals a breakdown (pᵀAp ≤ 0) at step k.
+    """
+    r, z, p, ap = work[0], work[1], work[2], work[3]
+    block_matvec(row_ptr, cols, blocks, x, ap)
+    for i in range(b.shape[0]):
+        for k in range(3):
+            r[i, k] = b[i, k] - ap[i, k]
+    threshold = max(tol * np.sqrt(_dot(b, b)), atol)
+    rnorm = np.sqrt(_dot(r, r))
+    if rnorm <= threshold:
+        return 0, rnorm, threshold
+    _precondition(pinv, r, z)
+    p[:] = z
+    rz = _dot(r, z)
+    for it in range(1, max_iter + 1):
+        block_matvec(row_ptr, cols, blocks, p, ap)
+        pap = _dot(p, ap)
+        if not pap > 0.0:
+            return -it, rnorm, threshold
+        alpha = rz / pap
+        rr = 0.0
+        for i in range(b.shape[0]):
+            for k in range(3):
+                x[i, k] += alpha * p[i, k]
+                r[i, k] -= alpha * ap[i, k]
+                rr += r[i, k] * r[i, k]
+        rnorm = np.sqrt(rr)
+        if rnorm <= threshold:
+            return it, rnorm, threshold
+        _precondition(pinv, r, z)
+        rz_new = _dot(r, z)
+        beta = rz_new / rz
+        rz = rz_new
+        for i in range(b.shape[0]):
+            for k in range(3):
+                p[i, k] = z[i, k] + beta * p[i, k]
+    return max_iter, rnorm, threshold
+
+
+class DirectSolver:
+    """Sparse LU (scipy `splu`) of the block matrix, refactorised on demand."""
+
+    def __init__(self, pattern: BlockPattern) -> None:
+        self._pattern = pattern
+        self._lu = None
+
+    def factorize(self, blocks: np.ndarray) -> None:
+        """Factorise the matrix with values `blocks (n_blocks, 3, 3)`; raises RuntimeError if singular."""
+        from scipy.sparse.linalg import splu
+
+        self._lu = splu(self._pattern.to_scipy(blocks), permc_spec='MMD_AT_PLUS_A')
+
+    def solve(self, rhs: np.ndarray, out: np.ndarray) -> None:
+        """out `(n, 3)` = A⁻¹ rhs `(n, 3)` with the last factorisation."""
+        out[:] = self._lu.solve(rhs.ravel()).reshape(out.shape)
