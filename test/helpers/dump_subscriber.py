@@ -1,0 +1,56 @@
+"""Test helper process: subscribes raw to topic keys of the table and dumps what it receives.
+
+Usage: dump_subscriber.py DUMP_FILE KEY [KEY ...] [--expect N]
+Prints 'subscribed' once its subscriptions exist; exits on SIGINT/SIGTERM, or once N messages came.
+The dump also records, per topic, the durability offered by the publisher it heard from.
+"""
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser()
+    parser.add_argument('dump')
+    parser.add_argument('keys', nargs='+')
+    parser.add_argument('--expect', type=int, default=0)
+    args = parser.parse_args()
+
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    from iguana_ros.nodes.ros_topics import resolve
+    from ros_harness import write_dump
+
+    stop = [False]
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda _s, _f: stop.__setitem__(0, True))
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node('test_dump_subscriber')
+    records, durability = [], {}
+
+    def on_message(name: str, data: bytes) -> None:
+        records.append((name, bytes(data)))
+        if name not in durability:
+            durability[name] = sorted({i.qos_profile.durability.name.lower()
+                                       for i in node.get_publishers_info_by_topic(name)})
+
+    for key in args.keys:
+        name, cls, qos = resolve(key)
+        full = '/' + name.lstrip('/')
+        node.create_subscription(cls, full, lambda d, n=full: on_message(n, d), qos, raw=True)
+    print('subscribed', flush=True)
+    while not stop[0] and not (args.expect and len(records) >= args.expect):
+        rclpy.spin_once(node, timeout_sec=0.05)
+    write_dump(args.dump, records, {'publisher_durability': durability})
+    print(f'received {len(records)} messages', flush=True)
+    node.destroy_node()
+    rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
