@@ -20,7 +20,8 @@ def _size(n_bytes: int) -> str:
 def _time(ns: int) -> str:
     """Local date and time with ms, plus epoch seconds, as ros2 bag info prints them."""
     stamp = datetime.fromtimestamp(ns / 1e9)
-    return f'{stamp:%b %d %Y %H:%M:%S}.{stamp.microsecond // 1000:03d} ({ns // 1_000_000_000}.{ns % 1_000_000_000:09d})'
+    epoch = f'{ns // 1_000_000_000}.{ns % 1_000_000_000:09d}'
+    return f'{stamp:%b %d %Y %H:%M:%S}.{stamp.microsecond // 1000:03d} ({epoch})'
 
 
 def truncation_line(summary: BagSummary) -> str:

@@ -98,7 +98,8 @@ class _Pacer:
             time.sleep(min(target - now, CLOCK_PERIOD_S))
 
 
-def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[bool]) -> int:
+def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[bool],
+               warn_damage: bool = True) -> int:
     """Stream the bag once through the publishers; returns the number of messages published."""
     reader = BagReader(path)
     pacer = _Pacer(rate, clock_pub)
@@ -114,6 +115,9 @@ def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[
             break
         pub.publish(msg.data)
         count += 1
+    if warn_damage and reader.truncated and not stop[0]:
+        _err(f'iguana bag play: warning: {path} ends early ({reader.problem}); '
+             f'played the {count} messages before the damage')
     return count
 
 
@@ -142,9 +146,10 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
         print(f'playing {summary.path}: {summary.message_count} messages on '
               f'{len(publishers)} topics at rate {rate:g}', flush=True)
         _wait_for_subscribers(publishers, wait_for_subscribers_s, stop)
-        total = _play_once(summary.path, publishers, rate, clock_pub, stop)
+        warn = not summary.truncated
+        total = _play_once(summary.path, publishers, rate, clock_pub, stop, warn)
         while loop and not stop[0]:
-            total += _play_once(summary.path, publishers, rate, clock_pub, stop)
+            total += _play_once(summary.path, publishers, rate, clock_pub, stop, warn)
         for pub in publishers.values():
             if pub.qos_profile.reliability == ReliabilityPolicy.RELIABLE:
                 pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S))

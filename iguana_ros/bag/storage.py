@@ -295,12 +295,14 @@ def summarize(path: str | Path) -> BagSummary:
         counts[msg.channel_id] = counts.get(msg.channel_id, 0) + 1
         first = msg.log_time if first is None else min(first, msg.log_time)
         last = max(last, msg.log_time)
+    if reader.header is None:
+        raise InputError(f'{reader.path} is corrupt: no readable MCAP header ({reader.problem})')
     topics = [reader.topic(cid) for cid in reader.channels]
     for cid, topic in zip(reader.channels, topics):
         topic.message_count = counts.get(cid, 0)
     header = reader.header
-    return BagSummary(reader.path, reader.path.stat().st_size, header.profile if header else '',
-                      header.library if header else '', topics, sum(counts.values()), first or 0,
+    return BagSummary(reader.path, reader.path.stat().st_size, header.profile, header.library,
+                      topics, sum(counts.values()), first or 0,
                       last, truncated=True,
                       problem=reader.problem or 'no summary section (recorder did not finish)',
                       schemas={s.name: s.data.decode(errors='replace') for s in reader.schemas.values()})

@@ -128,7 +128,8 @@ def test_marker_array_with_delete_all():
 
 
 @pytest.mark.parametrize('call, message', [
-    (lambda: cv.poses_to_msgs(np.zeros((3, 3)), np.zeros((2, 4))), r'quaternions has shape \(2, 4\), expected \(3, 4\)'),
+    (lambda: cv.poses_to_msgs(np.zeros((3, 3)), np.zeros((2, 4))),
+     r'quaternions has shape \(2, 4\), expected \(3, 4\)'),
     (lambda: cv.pose_stamped_msg([np.nan, 0, 0], [0, 0, 0, 1]), 'position has 1 non-finite'),
     (lambda: cv.joint_state_msg([[1.0]]), r'values has shape \(1, 1\), expected \(n\)'),
     (lambda: cv.odometry_msg([0, 0, 0], [0, 0, 0, 1], [np.inf, 0, 0], [0, 0, 0]), 'linear_velocity'),
