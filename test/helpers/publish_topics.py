@@ -80,8 +80,9 @@ def main() -> int:
         write_dump(args.dump, records)
         i += 1
         time.sleep(max(0.0, t0 + i / args.rate - time.monotonic()))
+    ack_deadline = time.monotonic() + 3.0  # shared: a killed subscriber never acknowledges
     for pub in pubs.values():
-        pub.wait_for_all_acked(Duration(seconds=3.0))
+        pub.wait_for_all_acked(Duration(seconds=max(ack_deadline - time.monotonic(), 0.01)))
     print(f'done {len(records)} messages', flush=True)
     node.destroy_node()
     rclpy.try_shutdown()
