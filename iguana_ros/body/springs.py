@@ -1,0 +1,26 @@
+"""Internal springs of the soft body (Section V): every node pair within a tet and across adjacent tets."""
+from __future__ import annotations
+
+import numpy as np
+
+from iguana_ros.body.mesh import TET_EDGES, face_adjacency
+
+
+def tet_springs(tets: np.ndarray, n_nodes: int | None = None) -> np.ndarray:
+    """Unique node pairs `(n_springs, 2)` (i < j, sorted lexicographically) of a tet mesh `(n_tets, 4)`.
+
+    The pairs are the six edges of every tet plus, for every two tets sharing a face, the pair of their
+    vertices opposite that face, so every pair of nodes of two adjacent cells is connected.
+    """
+    tets = np.asarray(tets, dtype=np.int64)
+    edges = tets[:, TET_EDGES].reshape(-1, 2)
+    pairs, local, _ = face_adjacency(tets)
+    opposite = np.stack([tets[pairs[:, 0], local[:, 0]], tets[pairs[:, 1], local[:, 1]]], axis=1)
+    both = np.sort(np.vstack([edges, opposite]), axis=1)
+    both = both[both[:, 0] != both[:, 1]]
+    return np.unique(both, axis=0)
+
+
+def spring_lengths(points: np.ndarray, springs: np.ndarray) -> np.ndarray:
+    """Lengths `(n_springs,)` of springs `(n_springs, 2)` between points `(..., n_nodes, 3)`."""
+    return np.linalg.norm(points[..., springs[:, 1], :] - points[..., springs[:, 0], :], axis=-1)

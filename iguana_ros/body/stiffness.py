@@ -1,0 +1,63 @@
+"""Stiffness presets of the soft body: spring scale `a`, leg factor, Young's modulus, Poisson ratio.
+
+`normal` is the moderate model used in every experiment of the paper and `softer` the Section VIII-D
+model with softer springs that absorb a push better. Springs follow f_s = a (l_d - l) per spring; `a` is
+normalised by rest length (a = A * L_REF / l_rest) so every spring resists the same *strain* with the same
+force: a 1 % stretch of any body spring pulls with A * L_REF * 0.01 N (normal: 300 N/m * 0.02 m * 0.01
+= 0.06 N, roughly the weight of 6 g per spring, ~1,500 springs hold a 4 kg body's shape). Springs between
+two leg nodes are LEG_FACTOR times stiffer ("high-tension springs", Section V) so legs barely change length;
+springs from a leg node to a trunk node get the geometric mean (sqrt(LEG_FACTOR)).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from iguana_ros.errors import InputError
+
+L_REF = 0.02
+"""Reference spring length of the stiffness normalisation, m."""
+
+
+@dataclass(frozen=True)
+class StiffnessPreset:
+    """Spring scale `a` at L_REF (N/m), leg multiplier, Young's modulus (Pa), leg E multiplier, Poisson."""
+
+    spring_a: float
+    leg_factor: float
+    youngs_modulus: float
+    leg_youngs_factor: float
+    poisson_ratio: float
+
+
+PRESETS = {
+    # moderate springs (paper: "normal model"); body tissue E ~ 50 kPa (soft muscle), legs 10x springs
+    'normal': StiffnessPreset(spring_a=300.0, leg_factor=10.0, youngs_modulus=5.0e4,
+                              leg_youngs_factor=4.0, poisson_ratio=0.35),
+    # Section VIII-D "softer model": every spring 0.4x (feet softer too, larger contact patches)
+    'softer': StiffnessPreset(spring_a=120.0, leg_factor=10.0, youngs_modulus=2.0e4,
+                              leg_youngs_factor=4.0, poisson_ratio=0.35),
+}
+"""Named stiffness presets."""
+
+
+def stiffness_preset(name: str) -> StiffnessPreset:
+    """The preset called `name`; InputError lists the choices."""
+    if name not in PRESETS:
+        raise InputError(f'unknown stiffness preset {name!r}; expected one of: {", ".join(PRESETS)}')
+    return PRESETS[name]
+
+
+def spring_stiffness(preset: StiffnessPreset, rest_lengths: np.ndarray, springs: np.ndarray,
+                     leg_nodes: np.ndarray) -> np.ndarray:
+    """Spring scales `a (n_springs,)` N/m from rest lengths `(n_springs,)` and a leg-node mask `(n_nodes,)`."""
+    node_factor = np.where(leg_nodes, preset.leg_factor, 1.0)
+    factor = np.sqrt(node_factor[springs[:, 0]] * node_factor[springs[:, 1]])
+    return preset.spring_a * (L_REF / rest_lengths) * factor
+
+
+def youngs_moduli(preset: StiffnessPreset, tets: np.ndarray, leg_nodes: np.ndarray) -> np.ndarray:
+    """Young's modulus `(n_tets,)` Pa: legs (tets with >= 3 leg nodes) stiffer by leg_youngs_factor."""
+    legs = leg_nodes[tets].sum(axis=1) >= 3
+    return np.where(legs, preset.youngs_modulus * preset.leg_youngs_factor, preset.youngs_modulus)
