@@ -143,8 +143,9 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
         if clock:
             name, cls, qos = resolve('clock')
             clock_pub = node.create_publisher(cls, name, qos)
-        print(f'playing {summary.path}: {summary.message_count} messages on '
-              f'{len(publishers)} topics at rate {rate:g}', flush=True)
+        n_selected = sum(t.message_count for t in selected if t.name in publishers)
+        print(f'playing {summary.path}: {n_selected} messages on {len(publishers)} topics '
+              f'at rate {rate:g}', flush=True)
         _wait_for_subscribers(publishers, wait_for_subscribers_s, stop)
         warn = not summary.truncated
         total = _play_once(summary.path, publishers, rate, clock_pub, stop, warn)

@@ -278,7 +278,7 @@ def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 
     w.pack('3d', 1.0, 1.0, 1.0, align=8)                      # scale
     w.pack('4f', 1.0, 1.0, 1.0, 1.0)                          # color
     w.pack('iI?', 0, 0, False)                                # lifetime, frame_locked
-    w.array(points.astype('<f8'), 8)
+    w.array(points.astype('<f8', copy=False), 8)
     w.array(rgba.astype('<f4'), 4)
     w.string('')                                              # texture_resource
     w.pack('iI', 0, 0)                                        # texture.header.stamp
