@@ -1,0 +1,50 @@
+"""The root (pelvis) frame of the simulated soft body, from a rigid fit of the pelvis-region nodes.
+
+The paper synchronises the motion graph's root with the simulated iguana (end of Section VII); the soft body
+has no skeleton, so its root is the best rigid transform of the nodes skinned mostly to the pelvis and the
+first trunk segments, applied to the rest pelvis frame.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from iguana_ros.geometry import matrix_to_quat, yaw_of
+
+ROOT_REGION_BONES = ('pelvis', 'spine_1', 'spine_2', 'hip_hl', 'hip_hr', 'tail_1')
+"""Bones whose dominantly-skinned nodes define the root region."""
+
+
+def kabsch(source: np.ndarray, target: np.ndarray, weights: np.ndarray) -> tuple:
+    """Rotation `(3, 3)` and translation `(3,)` minimising the weighted distance from R·source + t to target."""
+    w = weights / weights.sum()
+    cs, ct = w @ source, w @ target
+    cov = ((target - ct) * w[:, None]).T @ (source - cs)
+    u, _, vt = np.linalg.svd(cov)
+    d = np.sign(np.linalg.det(u @ vt)) or 1.0
+    rot = u @ np.diag([1.0, 1.0, d]) @ vt
+    return rot, ct - rot @ cs
+
+
+class RootTracker:
+    """Estimates the root pose of a soft-body iguana from its node positions `(n_nodes, 3)`."""
+
+    def __init__(self, model) -> None:
+        """Select the root-region nodes of `model` (an IguanaModel)."""
+        skeleton = model.skeleton
+        dominant = model.skin_bones[np.arange(model.n_nodes), np.argmax(model.skin_weights, axis=1)]
+        region = np.isin(dominant, skeleton.indices(list(ROOT_REGION_BONES)))
+        if region.sum() < 4:
+            raise ValueError('the root region has fewer than 4 nodes; cannot fit a root frame')
+        self.nodes = np.flatnonzero(region)
+        self.rest = np.asarray(model.rest_positions, float)[self.nodes]
+        self.weights = np.asarray(model.node_mass, float)[self.nodes]
+        self.rest_root = np.asarray(skeleton.offsets[0], float)  # pelvis joint at rest, world frame
+
+    def root_pose(self, positions: np.ndarray) -> tuple:
+        """(root position (3,), root orientation xyzw (4,)) for node positions `(n_nodes, 3)`."""
+        rot, trans = kabsch(self.rest, np.asarray(positions, float)[self.nodes], self.weights)
+        return rot @ self.rest_root + trans, matrix_to_quat(rot)
+
+    def heading(self, positions: np.ndarray) -> float:
+        """Yaw (rad) of the root for node positions `(n_nodes, 3)`."""
+        return float(yaw_of(self.root_pose(positions)[1]))

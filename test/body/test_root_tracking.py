@@ -1,0 +1,28 @@
+"""The soft body's root frame follows rigid motions of the body exactly."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from iguana_ros.body.model import build_model
+from iguana_ros.body.root_tracking import RootTracker, kabsch
+
+
+def test_kabsch_recovers_a_rigid_transform():
+    rng = np.random.default_rng(0)
+    src = rng.normal(size=(20, 3))
+    rot = Rotation.random(random_state=1).as_matrix()
+    r, t = kabsch(src, src @ rot.T + [1.0, 2.0, 3.0], np.ones(20))
+    assert np.allclose(r, rot) and np.allclose(t, [1.0, 2.0, 3.0])
+
+
+def test_root_pose_of_moved_rest_body():
+    model = build_model('coarse')
+    tracker = RootTracker(model)
+    pos, quat = tracker.root_pose(model.rest_positions)
+    assert np.allclose(pos, model.skeleton.offsets[0], atol=1e-12)
+    assert np.allclose(np.abs(quat), [0, 0, 0, 1], atol=1e-12)
+    rot = Rotation.from_euler('z', 75, degrees=True)
+    moved = rot.apply(np.array(model.rest_positions)) + [0.5, -1.0, 0.2]
+    pos, quat = tracker.root_pose(moved)
+    assert np.allclose(pos, rot.apply(model.skeleton.offsets[0]) + [0.5, -1.0, 0.2])
+    assert tracker.heading(moved) == pytest.approx(np.radians(75))
