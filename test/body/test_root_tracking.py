@@ -24,5 +24,5 @@ def test_root_pose_of_moved_rest_body():
     rot = Rotation.from_euler('z', 75, degrees=True)
     moved = rot.apply(np.array(model.rest_positions)) + [0.5, -1.0, 0.2]
     pos, quat = tracker.root_pose(moved)
-    assert np.allclose(pos, rot.apply(model.skeleton.offsets[0]) + [0.5, -1.0, 0.2])
+    assert np.allclose(pos, rot.apply(np.array(model.skeleton.offsets[0])) + [0.5, -1.0, 0.2])
     assert tracker.heading(moved) == pytest.approx(np.radians(75))
