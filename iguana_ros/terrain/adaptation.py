@@ -1,0 +1,472 @@
+"""Motion adaptation for terrain (Section VI): plane fitting, then residual fitting of feet and tail.
+
+A clip pose was captured over a flat floor at z = 0. The *residual height* of a foot (or of the tail tip) is
+its height above that floor in the clip pose. Its *target* on the terrain is the point straight below or above
+it on the terrain surface, raised by the residual height along the world up axis (+z). Vertical, not along the
+terrain normal, because residual heights were measured vertically over the capture floor and a height field is
+a function of (x, y): the target keeps the foot's (x, y), so fitting does not drag feet sideways on a slope,
+and its clearance along the normal is still `h cos(slope) >= 0`.
+
+*Plane fitting* (VI-A) moves the whole pose rigidly: the SVD (Kabsch) rotation and translation that best
+map the four clip feet to their four targets, applied to the root. *Residual fitting* (VI-B) then runs an
+L-BFGS-B inverse kinematics over the leg, tail, neck and head joints (bounded by the joint limits) and a
+small root lift, so that the feet and the tail tip reach their targets re-projected under the plane-fitted
+pose, no joint sinks into the terrain, and the pose stays close to the plane-fitted one. Objective, FK and
+analytic gradient are one compiled kernel that reads the height field directly; each frame warm-starts from
+the previous frame's joint corrections (`AdaptationState`).
+
+Flat ground needs neither step: a flat terrain at height 0 leaves the pose exactly unchanged, a flat
+terrain at height c only raises the root by c.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numba
+import numpy as np
+
+from iguana_ros.body.skeleton import Skeleton
+from iguana_ros.errors import IguanaError, InputError
+from iguana_ros.geometry import matrix_to_quat, quat_from_rotvec, quat_mul, quat_to_matrix, quat_to_rotvec
+from iguana_ros.terrain.heightfield import HeightField, bilinear_height_gradient
+
+FOOT_BONES = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
+"""Bones whose joints are the four foot points, in the clips' contact order (fl, fr, hl, hr)."""
+
+TAIL_TIP_BONE = 'tail_tip'
+"""Bone whose joint is the tail point with a residual height."""
+
+IK_BONE_PREFIXES = ('shoulder_', 'elbow_', 'wrist_', 'hip_', 'knee_', 'ankle_', 'tail_', 'neck', 'head')
+"""Bones that residual fitting may rotate (those with children and a non-zero joint range)."""
+
+
+@dataclass(frozen=True)
+class AdaptationSettings:
+    """Weights and limits of residual fitting; position errors are measured in units of `length_scale`."""
+
+    length_scale: float = 0.01
+    """m; a position error of this size costs `weight` (keeps the objective near 1 for L-BFGS)."""
+    stance_foot_weight: float = 1.0
+    swing_foot_weight: float = 0.3
+    tail_weight: float = 0.3
+    pose_weight: float = 0.5
+    """Cost per rad² of joint rotation-vector change from the plane-fitted pose."""
+    lift_weight: float = 0.05
+    """Cost per `length_scale`² of root lift."""
+    penetration_weight: float = 300.0
+    """Cost per `length_scale`² of a joint below terrain + clearance."""
+    clearance: float = 0.003
+    """m kept between every joint and the terrain (a foot: at most its own residual height)."""
+    max_root_lift: float = 0.03
+    """m the root may be raised or lowered by residual fitting."""
+    max_iterations: int = 200
+    gradient_tolerance: float = 1e-7
+    function_tolerance: float = 1e-6
+
+
+@dataclass
+class AdaptationState:
+    """Warm start carried between frames: the previous solution's joint corrections and solver counts."""
+
+    correction: np.ndarray | None = None
+    iterations: int = 0
+    evaluations: int = 0
+
+
+@dataclass(frozen=True)
+class PlaneFit:
+    """Plane-fitted pose: root `(3,)`, local rotations `(n_bones, 4)`, the rigid motion R `(3, 3)`, t `(3,)`."""
+
+    root_position: np.ndarray
+    local_rotations: np.ndarray
+    rotation: np.ndarray
+    translation: np.ndarray
+    foot_targets: np.ndarray
+    """`(4, 3)` targets the rigid fit aimed at (terrain under the clip feet + residual heights)."""
+
+
+@dataclass(frozen=True)
+class AdaptedPose:
+    """A terrain-adapted pose and its world bone frames, plus the targets it was fitted to."""
+
+    root_position: np.ndarray
+    """`(3,)` m."""
+    local_rotations: np.ndarray
+    """`(n_bones, 4)` xyzw, root entry = world orientation."""
+    joint_positions: np.ndarray
+    """`(n_bones, 3)` world joint positions, m."""
+    joint_rotations: np.ndarray
+    """`(n_bones, 4)` world bone orientations."""
+    foot_targets: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))
+    """`(4, 3)` foot targets of residual fitting (zeros when nothing was fitted)."""
+    tail_target: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    """`(3,)` tail-tip target of residual fitting."""
+
+
+# ------------------------------------------------------------------------------------------ compiled FK
+
+@numba.njit(cache=True)
+def _fk_kernel(root_position, local_rotations, parents, offsets, positions, rotations):
+    """Quaternion (xyzw) forward kinematics of one pose into `positions (n, 3)`, `rotations (n, 4)`."""
+    for b in range(parents.shape[0]):
+        p = parents[b]
+        if p < 0:
+            positions[b] = root_position
+            rotations[b] = local_rotations[b]
+            continue
+        ax, ay, az, aw = rotations[p]
+        bx, by, bz, bw = local_rotations[b]
+        rotations[b, 0] = aw * bx + ax * bw + ay * bz - az * by
+        rotations[b, 1] = aw * by - ax * bz + ay * bw + az * bx
+        rotations[b, 2] = aw * bz + ax * by - ay * bx + az * bw
+        rotations[b, 3] = aw * bw - ax * bx - ay * by - az * bz
+        v = offsets[b]  # rotate v by the parent: v + 2w (u x v) + 2 u x (u x v)
+        tx = 2.0 * (ay * v[2] - az * v[1])
+        ty = 2.0 * (az * v[0] - ax * v[2])
+        tz = 2.0 * (ax * v[1] - ay * v[0])
+        positions[b, 0] = positions[p, 0] + v[0] + aw * tx + ay * tz - az * ty
+        positions[b, 1] = positions[p, 1] + v[1] + aw * ty + az * tx - ax * tz
+        positions[b, 2] = positions[p, 2] + v[2] + aw * tz + ax * ty - ay * tx
+
+
+def pose_kinematics(skeleton: Skeleton, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
+    """World joint positions `(n_bones, 3)` and rotations `(n_bones, 4)` of one pose (compiled FK)."""
+    positions = np.empty((skeleton.n_bones, 3))
+    rotations = np.empty((skeleton.n_bones, 4))
+    _fk_kernel(np.ascontiguousarray(root_position, dtype=float),
+               np.ascontiguousarray(local_rotations, dtype=float), skeleton.parents,
+               np.ascontiguousarray(skeleton.offsets), positions, rotations)
+    return positions, rotations
+
+
+# --------------------------------------------------------------------------------------------- plane fitting
+
+def rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple:
+    """Rotation `(3, 3)` and translation `(3,)` minimising Σ‖R s + t − t_i‖² over points `(n, 3)` (Kabsch).
+
+    Reflections are excluded; a degenerate set (collinear or coincident points) gets the smallest rotation
+    that fits, through a tiny bias of the cross-covariance toward the identity.
+    """
+    source = np.asarray(source, dtype=float)
+    target = np.asarray(target, dtype=float)
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    cov = (source - cs).T @ (target - ct)
+    cov = cov + (1e-6 * np.linalg.norm(cov) + 1e-15) * np.eye(3)
+    u, _s, vt = np.linalg.svd(cov)
+    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
+    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return rotation, ct - rotation @ cs
+
+
+def terrain_targets(terrain: HeightField, points: np.ndarray, residual_heights: np.ndarray) -> np.ndarray:
+    """Points `(n, 3)` projected vertically onto the terrain and raised by their residual heights `(n,)`."""
+    points = np.asarray(points, dtype=float)
+    out = points.copy()
+    out[:, 2] = terrain.height(points[:, :2]) + residual_heights
+    return out
+
+
+def residual_heights_of(skeleton: Skeleton, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
+    """Residual heights of the clip pose: feet `(4,)` and tail tip (float), z above the capture floor, >= 0."""
+    positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
+    z = np.maximum(positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE]), 2], 0.0)
+    return z[:4], float(z[4])
+
+
+def plane_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.ndarray,
+              local_rotations: np.ndarray, foot_residual_heights: np.ndarray) -> PlaneFit:
+    """Rigidly move a clip pose so its 4 feet best match terrain + residual heights (Section VI-A)."""
+    root_position = np.asarray(root_position, dtype=float)
+    local_rotations = np.asarray(local_rotations, dtype=float)
+    positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
+    feet = positions[skeleton.indices(list(FOOT_BONES))]
+    targets = terrain_targets(terrain, feet, np.maximum(foot_residual_heights, 0.0))
+    rotation, translation = rigid_fit(feet, targets)
+    fitted = local_rotations.copy()
+    fitted[0] = quat_mul(matrix_to_quat(rotation), local_rotations[0])
+    return PlaneFit(rotation @ root_position + translation, fitted, rotation, translation, targets)
+
+
+# ------------------------------------------------------------------------------------------ residual fitting
+
+@numba.njit(cache=True)
+def _skew_terms(r):
+    """Angle and the two Rodrigues/left-Jacobian coefficient triples of a rotation vector."""
+    th2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    th = np.sqrt(th2)
+    if th < 1e-4:
+        a = 1.0 - th2 / 6.0
+        b = 0.5 - th2 / 24.0
+        c = 1.0 / 6.0 - th2 / 120.0
+    else:
+        a = np.sin(th) / th
+        b = (1.0 - np.cos(th)) / th2
+        c = (th - np.sin(th)) / (th2 * th)
+    return a, b, c
+
+
+@numba.njit(cache=True)
+def _rotation_and_jacobian(r, rot, jac):
+    """Fill rotation matrix `rot (3, 3)` = exp(r) and left Jacobian `jac (3, 3)` of rotation vector `r`."""
+    a, b, c = _skew_terms(r)
+    th2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    k = ((0.0, -r[2], r[1]), (r[2], 0.0, -r[0]), (-r[1], r[0], 0.0))
+    for i in range(3):
+        for j in range(3):
+            k2 = r[i] * r[j] - (th2 if i == j else 0.0)  # [r]x^2 = r r^T - |r|^2 I
+            eye = 1.0 if i == j else 0.0
+            rot[i, j] = eye + a * k[i][j] + b * k2
+            jac[i, j] = eye + b * k[i][j] + c * k2
+
+
+@numba.njit(cache=True)
+def _mat_mul(a, b, out):
+    """out = a @ b for 3x3 matrices (no BLAS call)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@numba.njit(cache=True)
+def _forward(x, var_bones, root_position, local_mats, parents, offsets, lift_scale, local, jacs, world,
+             positions):
+    """FK of solution `x`: fills local/world rotations `(n_bones, 3, 3)`, Jacobians and joint positions."""
+    nv = var_bones.shape[0]
+    local[:] = local_mats
+    for k in range(nv):
+        _rotation_and_jacobian(x[3 * k:3 * k + 3], local[var_bones[k]], jacs[k])
+    for b in range(parents.shape[0]):
+        p = parents[b]
+        if p < 0:
+            world[b] = local[b]
+            positions[b] = root_position
+            positions[b, 2] += x[3 * nv] * lift_scale
+            continue
+        _mat_mul(world[p], local[b], world[b])
+        for i in range(3):
+            positions[b, i] = positions[p, i] + (world[p, i, 0] * offsets[b, 0] + world[p, i, 1] * offsets[b, 1]
+                                                 + world[p, i, 2] * offsets[b, 2])
+
+
+@numba.njit(cache=True)
+def _position_cost(positions, eff_bones, eff_targets, eff_weights, clearance, pen_weight, inv_scale2,
+                   heights, ox, oy, spacing, g):
+    """Effector and terrain-penetration cost; fills its gradient `g (n_bones, 3)` w.r.t. joint positions."""
+    f = 0.0
+    g[:] = 0.0
+    for i in range(eff_bones.shape[0]):
+        b = eff_bones[i]
+        w = eff_weights[i] * inv_scale2
+        for c in range(3):
+            d = positions[b, c] - eff_targets[i, c]
+            f += w * d * d
+            g[b, c] += 2.0 * w * d
+    w = pen_weight * inv_scale2
+    for b in range(positions.shape[0]):
+        h, gx, gy = bilinear_height_gradient(heights, ox, oy, spacing, positions[b, 0], positions[b, 1])
+        s = h + clearance[b] - positions[b, 2]
+        if s > 0.0:
+            f += w * s * s
+            g[b, 0] += 2.0 * w * s * gx
+            g[b, 1] += 2.0 * w * s * gy
+            g[b, 2] -= 2.0 * w * s
+    return f
+
+
+@numba.njit(cache=True)
+def _ik_objective(x, var_bones, root_position, local_mats, parents, offsets, eff_bones, eff_targets,
+                  eff_weights, x_ref, pose_weight, lift_weight, clearance, pen_weight, inv_scale2, lift_scale,
+                  heights, ox, oy, spacing, positions):
+    """Residual-fitting objective and gradient `(n_x,)`; fills world joint `positions (n_bones, 3)`.
+
+    x = rotation vectors of `var_bones` (3 each, rad) followed by the root lift (in units of `lift_scale` m).
+    """
+    n = parents.shape[0]
+    nv = var_bones.shape[0]
+    local = np.empty((n, 3, 3))
+    world = np.empty((n, 3, 3))
+    jacs = np.empty((nv, 3, 3))
+    _forward(x, var_bones, root_position, local_mats, parents, offsets, lift_scale, local, jacs, world,
+             positions)
+    g = np.empty((n, 3))
+    f = _position_cost(positions, eff_bones, eff_targets, eff_weights, clearance, pen_weight, inv_scale2,
+                       heights, ox, oy, spacing, g)
+    # subtree sums of position gradients (s) and of their moments about the origin (m), leaves first
+    s = g.copy()
+    m = np.empty((n, 3))
+    for b in range(n):
+        p = positions[b]
+        m[b, 0] = p[1] * g[b, 2] - p[2] * g[b, 1]
+        m[b, 1] = p[2] * g[b, 0] - p[0] * g[b, 2]
+        m[b, 2] = p[0] * g[b, 1] - p[1] * g[b, 0]
+    for b in range(n - 1, 0, -1):
+        s[parents[b]] += s[b]
+        m[parents[b]] += m[b]
+    grad = np.zeros(x.shape[0])
+    for k in range(nv):
+        b = var_bones[k]
+        p = positions[b]
+        t = np.empty(3)  # moment of the subtree about joint b, in world axes
+        t[0] = m[b, 0] - (p[1] * s[b, 2] - p[2] * s[b, 1])
+        t[1] = m[b, 1] - (p[2] * s[b, 0] - p[0] * s[b, 2])
+        t[2] = m[b, 2] - (p[0] * s[b, 1] - p[1] * s[b, 0])
+        r = world[parents[b]]
+        for i in range(3):  # grad = J_l^T R_parent^T t
+            u = 0.0
+            for j in range(3):
+                u += jacs[k, j, i] * (r[0, j] * t[0] + r[1, j] * t[1] + r[2, j] * t[2])
+            grad[3 * k + i] = u
+    grad[3 * nv] = s[0, 2] * lift_scale
+    for i in range(3 * nv):
+        d = x[i] - x_ref[i]
+        f += pose_weight * d * d
+        grad[i] += 2.0 * pose_weight * d
+    f += lift_weight * x[3 * nv] ** 2
+    grad[3 * nv] += 2.0 * lift_weight * x[3 * nv]
+    return f, grad
+
+
+def ik_bones(skeleton: Skeleton) -> np.ndarray:
+    """Indices of the bones residual fitting rotates: legs, tail, neck, head (with children and a range)."""
+    has_child = np.zeros(skeleton.n_bones, dtype=bool)
+    has_child[skeleton.parents[skeleton.parents >= 0]] = True
+    movable = np.ptp(skeleton.limits, axis=2).max(axis=1) > 0
+    chosen = [i for i, name in enumerate(skeleton.names)
+              if name.startswith(IK_BONE_PREFIXES) and has_child[i] and movable[i] and i > 0]
+    return np.array(chosen, dtype=np.int64)
+
+
+class _ResidualProblem:
+    """The arrays of one residual-fitting solve, bound to the compiled objective."""
+
+    def __init__(self, skeleton: Skeleton, terrain: HeightField, root_position: np.ndarray,
+                 local_rotations: np.ndarray, targets: np.ndarray, weights: np.ndarray,
+                 clearance: np.ndarray, settings: AdaptationSettings) -> None:
+        self.var_bones = ik_bones(skeleton)
+        self.x_ref = np.append(quat_to_rotvec(local_rotations[self.var_bones]).ravel(), 0.0)
+        self.positions = np.empty((skeleton.n_bones, 3))
+        inv_scale2 = 1.0 / settings.length_scale ** 2
+        self.args = (self.var_bones, np.asarray(root_position, dtype=float),
+                     np.ascontiguousarray(quat_to_matrix(local_rotations)), skeleton.parents,
+                     np.ascontiguousarray(skeleton.offsets), skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE]),
+                     targets, weights, self.x_ref, settings.pose_weight, settings.lift_weight, clearance,
+                     settings.penetration_weight, inv_scale2, settings.length_scale, *terrain.kernel_args(),
+                     self.positions)
+        self.lift_scale = settings.length_scale
+        self.bounds = self._bounds(skeleton.limits[self.var_bones], settings.max_root_lift / self.lift_scale)
+
+    def _bounds(self, limits: np.ndarray, max_lift: float) -> list:
+        """Joint-limit box `(n_x, 2)` widened to contain the plane-fitted pose itself, plus the lift range."""
+        lo = np.minimum(limits[..., 0].ravel(), self.x_ref[:-1])
+        hi = np.maximum(limits[..., 1].ravel(), self.x_ref[:-1])
+        return list(zip(np.append(lo, -max_lift), np.append(hi, max_lift)))
+
+    def __call__(self, x: np.ndarray) -> tuple:
+        """Objective and gradient at `x (n_x,)`."""
+        return _ik_objective(x, *self.args)
+
+    def start(self, correction: np.ndarray | None) -> np.ndarray:
+        """Warm start: the plane-fitted pose plus last frame's correction, clipped into the bounds."""
+        if correction is None or correction.shape != self.x_ref.shape:
+            return self.x_ref.copy()
+        lo, hi = np.array(self.bounds).T
+        return np.clip(self.x_ref + correction, lo, hi)
+
+    def pose(self, x: np.ndarray, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
+        """(root `(3,)`, local rotations `(n_bones, 4)`) of solution `x`."""
+        local = np.array(local_rotations, dtype=float)
+        local[self.var_bones] = quat_from_rotvec(x[:-1].reshape(-1, 3))
+        root = np.array(root_position, dtype=float)
+        root[2] += x[-1] * self.lift_scale
+        return root, local
+
+
+@lru_cache(maxsize=1)
+def _blas_controller():
+    """The process's BLAS thread-pool controller (inspecting loaded libraries once costs milliseconds)."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
+def _single_threaded_blas():
+    """Context manager limiting BLAS to one thread."""
+    return _blas_controller().limit(limits=1, user_api='blas')
+
+
+def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.ndarray,
+                 local_rotations: np.ndarray, foot_residual_heights: np.ndarray, tail_residual_height: float,
+                 stance: np.ndarray | None = None, state: AdaptationState | None = None,
+                 settings: AdaptationSettings | None = None) -> AdaptedPose:
+    """L-BFGS-B IK moving feet and tail tip of a plane-fitted pose to their terrain targets (Section VI-B).
+
+    `foot_residual_heights (4,)`, `stance (4,)` bool (None: all stance); `state` is updated for warm starts.
+    """
+    from scipy.optimize import minimize
+
+    settings = settings or AdaptationSettings()
+    state = state if state is not None else AdaptationState()
+    local_rotations = np.asarray(local_rotations, dtype=float)
+    positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
+    points = positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE])]
+    heights = np.maximum(np.append(foot_residual_heights, tail_residual_height), 0.0)
+    targets = terrain_targets(terrain, points, heights)
+    stance = np.ones(4, dtype=bool) if stance is None else np.asarray(stance, dtype=bool)
+    weights = np.append(np.where(stance, settings.stance_foot_weight, settings.swing_foot_weight),
+                        settings.tail_weight)
+    clearance = np.full(skeleton.n_bones, settings.clearance)
+    clearance[skeleton.indices(list(FOOT_BONES))] = np.minimum(settings.clearance, heights[:4])
+    problem = _ResidualProblem(skeleton, terrain, root_position, local_rotations, targets, weights,
+                               clearance, settings)
+    with _single_threaded_blas():  # a 70-variable L-BFGS-B is slower with BLAS threads than without
+        result = minimize(problem, problem.start(state.correction), jac=True, method='L-BFGS-B',
+                          bounds=problem.bounds,
+                          options={'maxiter': settings.max_iterations, 'gtol': settings.gradient_tolerance,
+                                   'ftol': settings.function_tolerance})
+    if not np.all(np.isfinite(result.x)):
+        raise IguanaError('residual fitting produced a non-finite pose; check the clip pose and terrain')
+    state.correction = result.x - problem.x_ref
+    state.iterations, state.evaluations = int(result.nit), int(result.nfev)
+    root, local = problem.pose(result.x, root_position, local_rotations)
+    joint_positions, joint_rotations = pose_kinematics(skeleton, root, local)
+    return AdaptedPose(root, local, joint_positions, joint_rotations, targets[:4], targets[4])
+
+
+# ------------------------------------------------------------------------------------------------- both
+
+def _check_pose(skeleton: Skeleton, root_position: np.ndarray, local_rotations: np.ndarray) -> None:
+    """Raise InputError unless the pose has the skeleton's shapes and finite values."""
+    if root_position.shape != (3,) or local_rotations.shape != (skeleton.n_bones, 4):
+        raise InputError(f'pose must be root_position (3,) and local_rotations ({skeleton.n_bones}, 4), '
+                         f'got {root_position.shape} and {local_rotations.shape}')
+    if not (np.all(np.isfinite(root_position)) and np.all(np.isfinite(local_rotations))):
+        raise InputError('pose contains NaN or Inf')
+
+
+def adapt_pose(skeleton: Skeleton, terrain: HeightField | None, root_position: np.ndarray,
+               local_rotations: np.ndarray, foot_residual_heights: np.ndarray | None = None,
+               tail_residual_height: float | None = None, stance: np.ndarray | None = None,
+               state: AdaptationState | None = None,
+               settings: AdaptationSettings | None = None) -> AdaptedPose:
+    """Plane fitting then residual fitting of one clip pose on `terrain` (None or flat: no IK at all).
+
+    Residual heights default to the clip pose's own heights above z = 0 (feet `(4,)`, tail tip).
+    """
+    root_position = np.asarray(root_position, dtype=float)
+    local_rotations = np.asarray(local_rotations, dtype=float)
+    _check_pose(skeleton, root_position, local_rotations)
+    if terrain is None or terrain.is_flat:
+        root = root_position.copy()
+        if terrain is not None:
+            root[2] += float(terrain.heights[0, 0])
+        positions, rotations = pose_kinematics(skeleton, root, local_rotations)
+        return AdaptedPose(root, local_rotations.copy(), positions, rotations)
+    feet_h, tail_h = residual_heights_of(skeleton, root_position, local_rotations)
+    feet_h = feet_h if foot_residual_heights is None else np.asarray(foot_residual_heights, dtype=float)
+    tail_h = tail_h if tail_residual_height is None else float(tail_residual_height)
+    if feet_h.shape != (4,):
+        raise InputError(f'foot_residual_heights must have shape (4,) (fl, fr, hl, hr), got {feet_h.shape}')
+    fit = plane_fit(skeleton, terrain, root_position, local_rotations, feet_h)
+    return residual_fit(skeleton, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
+                        stance=stance, state=state, settings=settings)
