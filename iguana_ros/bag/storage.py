@@ -187,7 +187,11 @@ class BagWriter:
             self.metadata(), sort_keys=False, default_flow_style=False))
 
     def metadata(self) -> dict:
-        """metadata.yaml contents in rosbag2's `rosbag2_bagfile_information` format (version 9)."""
+        """metadata.yaml contents in rosbag2's `rosbag2_bagfile_information` format (version 9).
+
+        From version 9 on, rosbag2 stores offered_qos_profiles here as a YAML list (in the MCAP
+        channel metadata it stays a YAML string).
+        """
         start = self._first_ns or 0
         duration = self._last_ns - start if self._first_ns is not None else 0
         count = sum(t.message_count for t in self._channels.values())
@@ -198,7 +202,7 @@ class BagWriter:
             'message_count': count,
             'topics_with_message_count': [
                 {'topic_metadata': {'name': t.name, 'type': t.type, 'serialization_format': 'cdr',
-                                    'offered_qos_profiles': t.offered_qos_profiles,
+                                    'offered_qos_profiles': parse_qos_profiles(t.offered_qos_profiles),
                                     'type_description_hash': t.type_hash},
                  'message_count': t.message_count} for t in self._channels.values()],
             'compression_format': '', 'compression_mode': '',

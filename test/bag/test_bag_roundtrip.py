@@ -66,6 +66,12 @@ def test_record_then_play_reproduces_messages(tmp_path):
     assert meta['relative_file_paths'] == ['run.mcap']
     assert meta['message_count'] == sum(map(len, published.values()))
     counts = {t['topic_metadata']['name']: t['message_count'] for t in meta['topics_with_message_count']}
+    latched = next(t['topic_metadata'] for t in meta['topics_with_message_count']
+                   if t['topic_metadata']['name'] == '/scene_markers')
+    assert latched['offered_qos_profiles'][0]['durability'] == 'transient_local'
+    assert set(latched['offered_qos_profiles'][0]) == {
+        'history', 'depth', 'reliability', 'durability', 'deadline', 'lifespan', 'liveliness',
+        'liveliness_lease_duration', 'avoid_ros_namespace_conventions'}
     assert counts == {t: len(v) for t, v in published.items()}
 
     # Replay to a real subscriber process: same bytes, and the latched topic is offered latched again.
