@@ -72,8 +72,8 @@ measured 3.9 Hz at 0.5 m/s in a 0.1 m-SVL lizard, lower for a 3x longer animal).
 TROT_DUTY_FACTOR = 0.65
 """Fraction of a stride a foot is on the ground (Fieler & Jayne 1998: 0.63 at their slowest speed)."""
 
-TROT_STRIDE_LENGTH = 0.65 * SNOUT_VENT_LENGTH
-"""Stride length of the slow trot, m (0.65 SVL, 0.19 m; assumption within 0.6-0.8 SVL of slow lizard gaits)."""
+TROT_STRIDE_LENGTH = 0.55 * SNOUT_VENT_LENGTH
+"""Stride length of the slow trot, m (0.55 SVL, 0.16 m; assumed, the longest the model's legs reach)."""
 
 PELVIC_YAW_AMPLITUDE = 0.21
 """Pelvic rotation in the horizontal plane, rad, amplitude (±12°; Fieler & Jayne 1998 report 36° peak to

@@ -1,0 +1,287 @@
+"""Parametric trotting-lizard gait: the synthetic 'capture subject' whose markers stand in for the paper's
+unpublished iguana capture.
+
+A take is generated in the active-DOF parametrisation of `iguana_ros.motion.dofs`: a root path (straight or
+curved) driven by a speed factor `s(t)` in [0, 1] (0 = standing, 1 = steady trot), a trot with diagonal foot
+pairs (FL+HR, then FR+HL half a stride later), lateral trunk bending as a standing wave with nodes at the
+girdles (Ritter 1992), a travelling wave of tail sway, a head that counter-rotates to hold its heading, and
+feet that stay fixed in the world during stance and follow a raised arc in swing. Leg angles come from a
+small per-leg IK that puts each foot marker on its target.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from iguana_ros.constants import (FRAME_RATE, PELVIC_YAW_AMPLITUDE, TROT_DUTY_FACTOR, TROT_STRIDE_FREQUENCY,
+                                  TROT_STRIDE_LENGTH)
+from iguana_ros.errors import IguanaError
+from iguana_ros.geometry import quat_to_rotvec
+from iguana_ros.motion.dofs import LEGS, BodyModel, iguana_body_model, local_rotations
+
+FOOT_PHASE = {'fl': 0.0, 'hr': 0.0, 'fr': 0.5, 'hl': 0.5}
+"""Phase (fraction of a stride) of each foot's touchdown: a trot, FL+HR then FR+HL."""
+_FINE = 8  # oversampling of the root-path integration grid
+
+
+@dataclass(frozen=True)
+class GaitParameters:
+    """Trot and posture parameters; literature values via `iguana_ros.constants`, the rest assumptions."""
+
+    stride_frequency: float = TROT_STRIDE_FREQUENCY
+    duty_factor: float = TROT_DUTY_FACTOR
+    stride_length: float = TROT_STRIDE_LENGTH
+    swing_height: float = 0.02
+    stance_shift: tuple = (-0.03, -0.03, -0.02, -0.02)
+    """Fore-aft shift (m) of each foot's mid-stance position from the rest pose (fl, fr, hl, hr)."""
+    swing_outward: tuple = (0.6, 0.6, 0.1, 0.1)
+    """Outward (lateral) swing excursion per metre of foot lift: sprawling limbs swing on a lateral arc."""
+    pelvis_yaw_amplitude: float = PELVIC_YAW_AMPLITUDE
+    turn_bend: float = 0.5
+    """Fraction of each stride's heading change held as a static trunk bend toward the turn."""
+    tail_yaw_amplitudes: tuple = (0.10, 0.16, 0.22)
+    """Tail sway amplitude (rad) at the base, mid and tip control points."""
+    tail_wave_lag: tuple = (0.0, 0.15, 0.30)
+    """Phase lag (strides) of the tail wave at the control points: a wave travelling to the tip."""
+    tail_pitch: tuple = (-0.045, 0.02)
+    """Tail pitch (rad) at base and tip: the tail droops toward the floor."""
+    neck_pitch: float = -0.12
+    root_bob: float = 0.002
+    root_roll_amplitude: float = 0.035
+    root_pitch_amplitude: float = 0.015
+    spine_pitch_amplitude: float = 0.01
+    idle_tail_amplitude: float = 0.06
+    idle_head_amplitude: float = 0.15
+    idle_frequency: float = 0.3
+
+
+@dataclass(frozen=True)
+class TakeSpec:
+    """One synthetic take: duration (s), heading change per stride at full speed (rad, + = left), and the
+    speed factor as piecewise-linear knots `((time s, factor), ...)` smoothed over ~0.3 s."""
+
+    name: str
+    duration: float
+    turn_per_stride: float = 0.0
+    speed_knots: tuple = ((0.0, 1.0),)
+    phase_offset: float = 0.37
+
+
+SYNTHETIC_TAKES = (
+    TakeSpec('trot_straight', 7.0),
+    TakeSpec('trot_turn_left', 7.0, turn_per_stride=np.radians(15.0)),
+    TakeSpec('trot_turn_right', 7.0, turn_per_stride=-np.radians(15.0)),
+    TakeSpec('stand', 4.0, speed_knots=((0.0, 0.0),)),
+    TakeSpec('stand_trot_stand', 9.0,
+             speed_knots=((0.0, 0.0), (1.2, 0.0), (2.6, 1.0), (6.0, 1.0), (7.4, 0.0), (9.0, 0.0))),
+)
+"""The shipped takes: straight trot, turning left and right, standing still, and a start-stop transition."""
+
+
+@dataclass(frozen=True)
+class SyntheticTake:
+    """A generated take: poses `theta (F, n_dof)`, true contacts `(F, 4)`, clean markers `(F, n_markers, 3)`,
+    speed factor `(F,)` and per-foot true touchdown times (s)."""
+
+    name: str
+    frame_rate: float
+    theta: np.ndarray
+    contacts: np.ndarray
+    markers: np.ndarray
+    speed: np.ndarray
+    touchdown_times: dict = field(default_factory=dict)
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames."""
+        return int(self.theta.shape[0])
+
+    def touchdown_frames(self, leg: str) -> np.ndarray:
+        """First frame index at or after each true touchdown of `leg` inside the take."""
+        frames = np.ceil(np.asarray(self.touchdown_times[leg]) * self.frame_rate - 1e-9).astype(int)
+        return frames[(frames >= 0) & (frames < self.n_frames)]
+
+
+def _smooth(values: np.ndarray, sigma: int) -> np.ndarray:
+    """Gaussian smoothing `(n,)` with edge padding, sigma in samples."""
+    if sigma <= 0:
+        return values
+    x = np.arange(-3 * sigma, 3 * sigma + 1)
+    kernel = np.exp(-0.5 * (x / sigma) ** 2)
+    kernel /= kernel.sum()
+    padded = np.pad(values, 3 * sigma, mode='edge')
+    return np.convolve(padded, kernel, mode='valid')
+
+
+@dataclass(frozen=True)
+class RootPath:
+    """Root path on a time grid `(n,)`: speed factor, phase (strides), heading (rad) and position xy `(n, 2)`."""
+
+    time: np.ndarray
+    speed: np.ndarray
+    phase: np.ndarray
+    heading: np.ndarray
+    xy: np.ndarray
+
+    def at(self, t: np.ndarray) -> tuple:
+        """(xy `(..., 2)`, heading `(...)`) interpolated at times `t`."""
+        t = np.asarray(t, dtype=float)
+        xy = np.stack([np.interp(t, self.time, self.xy[:, k]) for k in range(2)], axis=-1)
+        return xy, np.interp(t, self.time, self.heading)
+
+
+def root_path(spec: TakeSpec, gait: GaitParameters, frame_rate: float, margin: float = 2.0) -> RootPath:
+    """Integrate speed and turn rate on a fine grid from `-margin` to `duration + margin` s (origin at t=0)."""
+    dt = 1.0 / (frame_rate * _FINE)
+    time = np.arange(-margin, spec.duration + margin + dt, dt)
+    knots = np.asarray(spec.speed_knots, dtype=float)
+    speed = np.clip(_smooth(np.interp(time, knots[:, 0], knots[:, 1]), int(0.12 / dt)), 0.0, 1.0)
+    velocity = gait.stride_length * gait.stride_frequency * speed
+    turn_rate = spec.turn_per_stride * gait.stride_frequency * speed
+    heading = _cumulative(turn_rate, dt, time)
+    xy = np.stack([_cumulative(velocity * np.cos(heading), dt, time),
+                   _cumulative(velocity * np.sin(heading), dt, time)], axis=-1)
+    phase = spec.phase_offset + gait.stride_frequency * time
+    return RootPath(time=time, speed=speed, phase=phase, heading=heading, xy=xy)
+
+
+def _cumulative(rate: np.ndarray, dt: float, time: np.ndarray) -> np.ndarray:
+    """Trapezoid integral of `rate (n,)`, zero at t = 0."""
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * dt)])
+    return integral - np.interp(0.0, time, integral)
+
+
+def trunk_theta(model: BodyModel, path: RootPath, spec: TakeSpec, gait: GaitParameters,
+                t: np.ndarray) -> np.ndarray:
+    """Poses `(F, n_dof)` at times `t (F,)` with every DOF but the legs set by the gait."""
+    d = model.dofs
+    s = np.interp(t, path.time, path.speed)
+    phase = np.interp(t, path.time, path.phase)
+    xy, heading = path.at(t)
+    wave = np.cos(2.0 * np.pi * phase)
+    twice = np.cos(4.0 * np.pi * phase)
+    theta = np.zeros((t.size, d.n_dof))
+    theta[:, d.index('root_x')], theta[:, d.index('root_y')] = xy[:, 0], xy[:, 1]
+    rest_height = model.skeleton.offsets[0, 2]
+    theta[:, d.index('root_z')] = rest_height + gait.root_bob * s * twice
+    pelvis = gait.pelvis_yaw_amplitude * s * wave  # + = pelvis turned left, at the FL+HR touchdown
+    turn_bend = gait.turn_bend * spec.turn_per_stride * s
+    theta[:, d.index('root_yaw')] = heading + pelvis - 0.5 * turn_bend
+    theta[:, d.index('root_pitch')] = gait.root_pitch_amplitude * s * twice
+    theta[:, d.index('root_roll')] = gait.root_roll_amplitude * s * np.sin(2.0 * np.pi * phase)
+    bend = (-2.0 * pelvis + turn_bend) / 5.0  # standing wave, nodes at the girdles: uniform curvature
+    for name in ('spine_yaw_1', 'spine_yaw_3', 'spine_yaw_5'):
+        theta[:, d.index(name)] = bend
+    theta[:, d.index('spine_pitch')] = gait.spine_pitch_amplitude * s * twice
+    idle = 2.0 * np.pi * gait.idle_frequency * t
+    # head stabilisation: undo the shoulder girdle's yaw about the heading, look a little into the turn
+    shoulder_yaw = pelvis - 0.5 * turn_bend + 5.0 * bend
+    theta[:, d.index('neck_yaw')] = (-shoulder_yaw + 0.5 * turn_bend
+                                     + (1.0 - s) * gait.idle_head_amplitude * np.sin(0.5 * idle))
+    theta[:, d.index('neck_pitch')] = gait.neck_pitch - 0.5 * theta[:, d.index('root_pitch')]
+    for k, tag in enumerate(('base', 'mid', 'tip')):
+        lag = 2.0 * np.pi * gait.tail_wave_lag[k]
+        trot = -gait.tail_yaw_amplitudes[k] * np.cos(2.0 * np.pi * phase - lag)
+        rest = gait.idle_tail_amplitude * (k + 1) / 3.0 * np.sin(idle - lag)
+        theta[:, d.index(f'tail_yaw_{tag}')] = s * trot + (1.0 - s) * rest - 0.3 * turn_bend
+    theta[:, d.index('tail_pitch_base')] = gait.tail_pitch[0]
+    theta[:, d.index('tail_pitch_tip')] = gait.tail_pitch[1]
+    return theta
+
+
+def foot_targets(model: BodyModel, path: RootPath, gait: GaitParameters, t: np.ndarray) -> tuple:
+    """Foot marker targets `(F, 4, 3)`, true contacts `(F, 4)` and touchdown times per leg at times `t`."""
+    rest_root, rest_local = model.skeleton.rest_pose()
+    rest_theta = np.zeros((1, model.dofs.n_dof))
+    rest_theta[0, :3] = rest_root
+    neutral = model.marker_positions(rest_theta)[0, :4]  # FOOT_FL, FOOT_FR, FOOT_HL, FOOT_HR
+    neutral[:, 0] += np.asarray(gait.stance_shift)
+    phase = np.interp(t, path.time, path.phase)
+    targets = np.empty((t.size, 4, 3))
+    contacts = np.empty((t.size, 4), dtype=bool)
+    touchdowns = {}
+    f0, duty = gait.stride_frequency, gait.duty_factor
+    offset = path.phase[0] - f0 * path.time[0]
+    for i, leg in enumerate(LEGS):
+        foot_phase = phase - FOOT_PHASE[leg]
+        k = np.floor(foot_phase)
+        within = foot_phase - k
+        steps = np.arange(k.min() - 1, k.max() + 2)
+        t_mid = (steps + FOOT_PHASE[leg] + 0.5 * duty - offset) / f0
+        xy, heading = path.at(t_mid)
+        c, s = np.cos(heading), np.sin(heading)
+        placed = xy + np.stack([c * neutral[i, 0] - s * neutral[i, 1], s * neutral[i, 0] + c * neutral[i, 1]], -1)
+        j = (k - steps[0]).astype(int)
+        start, end = placed[j], placed[j + 1]
+        u = np.clip((within - duty) / (1.0 - duty), 0.0, 1.0)
+        ease = 0.5 * (1.0 - np.cos(np.pi * u))
+        step = np.linalg.norm(end - start, axis=-1)
+        lift = gait.swing_height * np.minimum(1.0, step / (0.5 * gait.stride_length))
+        raise_ = lift * np.sin(np.pi * u)
+        _, swing_heading = path.at(t)
+        outward = np.sign(neutral[i, 1]) * gait.swing_outward[i] * raise_
+        targets[:, i, 0] = start[:, 0] + ease * (end - start)[:, 0] - np.sin(swing_heading) * outward
+        targets[:, i, 1] = start[:, 1] + ease * (end - start)[:, 1] + np.cos(swing_heading) * outward
+        targets[:, i, 2] = neutral[i, 2] + raise_
+        contacts[:, i] = (within < duty) | (lift < 0.002)
+        touchdowns[leg] = (steps + FOOT_PHASE[leg] - offset) / f0
+    return targets, contacts, touchdowns
+
+
+def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.ndarray,
+           iterations: int = 30) -> np.ndarray:
+    """Poses `(F, n_dof)` with the 12 leg DOFs set so the foot markers reach `targets (F, 4, 3)`.
+
+    Bounded Gauss-Newton over all frames at once. Stance targets (`stance (F, 4)` True) must be met within
+    0.5 mm; swing targets are a design path that joint limits may cut short (the markers follow the pose).
+    """
+    d = model.dofs
+    legs = np.array([[d.index(n) for n in _leg_dof_names(leg)] for leg in LEGS])  # (4 legs, 3 dofs)
+    theta = np.array(theta, dtype=float, copy=True)
+    eps = 1e-6
+    for _ in range(iterations):
+        feet = model.marker_positions(theta)[:, :4]
+        error = targets - feet
+        jac = np.empty(error.shape + (3,))  # (F, 4, 3 xyz, 3 dofs)
+        for k in range(3):
+            bumped = theta.copy()
+            bumped[:, legs[:, k]] += eps
+            jac[..., k] = (model.marker_positions(bumped)[:, :4] - feet) / eps
+        jtj = np.einsum('flik,flij->flkj', jac, jac) + 1e-6 * np.eye(3)
+        step = np.linalg.solve(jtj, np.einsum('flik,fli->flk', jac, error)[..., None])[..., 0]
+        theta[:, legs] = np.clip(theta[:, legs] + step, d.lower[legs], d.upper[legs])
+    miss = np.linalg.norm(targets - model.marker_positions(theta)[:, :4], axis=-1)
+    worst = miss[stance].max(initial=0.0)
+    if worst > 5e-4:
+        raise IguanaError(f'gait parameters put a stance foot out of reach: foot IK error {worst * 1e3:.1f} mm '
+                          '(reduce stride_length or turn_per_stride)')
+    return theta
+
+
+def _leg_dof_names(leg: str) -> tuple:
+    """The three active DOFs of leg `leg`: upper yaw, upper roll, middle roll."""
+    upper, middle = ('shoulder', 'elbow') if leg[0] == 'f' else ('hip', 'knee')
+    return f'{upper}_yaw_{leg}', f'{upper}_roll_{leg}', f'{middle}_roll_{leg}'
+
+
+def joint_limit_violation(model: BodyModel, theta: np.ndarray) -> float:
+    """Largest excess (rad) of any non-root local rotation-vector component over the skeleton's limits."""
+    rotvec = quat_to_rotvec(local_rotations(model.dofs, theta))[:, 1:]
+    limits = model.skeleton.limits[1:]
+    excess = np.maximum(rotvec - limits[..., 1], limits[..., 0] - rotvec)
+    return float(max(excess.max(), 0.0))
+
+
+def generate_take(spec: TakeSpec, gait: GaitParameters = GaitParameters(), frame_rate: float = FRAME_RATE,
+                  model: BodyModel | None = None) -> SyntheticTake:
+    """Generate the poses, true contacts and clean 15-marker trajectories of one synthetic take."""
+    model = model or iguana_body_model()
+    path = root_path(spec, gait, frame_rate)
+    t = np.arange(int(round(spec.duration * frame_rate))) / frame_rate
+    theta = trunk_theta(model, path, spec, gait, t)
+    targets, contacts, touchdowns = foot_targets(model, path, gait, t)
+    theta = leg_ik(model, theta, targets, contacts)
+    return SyntheticTake(name=spec.name, frame_rate=frame_rate, theta=theta, contacts=contacts,
+                         markers=model.marker_positions(theta), speed=np.interp(t, path.time, path.speed),
+                         touchdown_times=touchdowns)
