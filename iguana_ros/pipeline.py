@@ -1,0 +1,274 @@
+"""The ROS-free frame loop: goal -> clip -> adapted pose -> spring lengths -> 40 simulator steps per frame.
+
+Each box of DESIGN.md's data flow is a stage object here; the ROS 2 nodes wrap the very same stages, so a
+lockstep node run and `run(scene)` compute the same numbers in the same order.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from iguana_ros.body.model import build_model
+from iguana_ros.body.root_tracking import RootTracker
+from iguana_ros.body.spring_lengths import SpringLengthComputer
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
+from iguana_ros.motion.motion_graph import AlignedClip, MotionGraph, PolicyParams
+from iguana_ros.physics.simulator import SoftBodySimulator
+from iguana_ros.scene import PushSpec, Scene
+from iguana_ros.terrain.adaptation import (AdaptationState, adapt_pose, pose_kinematics,
+                                           residual_heights_of)
+from iguana_ros.terrain.from_scene import terrain_from_spec
+from iguana_ros.terrain.heightfield import HeightField
+
+STANCE_HEIGHT = 0.006
+"""A clip foot lower than this above the capture floor counts as in stance for residual fitting, m."""
+
+
+# ----------------------------------------------------------------------------------------------- planner
+
+class PlannerStage:
+    """Section IV: at each stride end, picks the next clip toward the goal and aligns it to the body."""
+
+    def __init__(self, graph: MotionGraph, params: PolicyParams = PolicyParams()) -> None:
+        """Plan over `graph` with policy `params`."""
+        self.graph = graph
+        self.params = params
+        self.goal: np.ndarray | None = None
+        self.clip: AlignedClip | None = None
+        self.clip_start = 0
+        self.history: list[tuple[int, str]] = []
+
+    def set_goal(self, goal_xy: np.ndarray | None) -> None:
+        """Set the goal `(2,)` (world x, y) used from the next stride on; None = stop."""
+        self.goal = None if goal_xy is None else np.asarray(goal_xy, float)[:2].copy()
+
+    def stride_ends_at(self, frame: int) -> bool:
+        """Whether a new clip must be chosen at `frame` (no clip yet, or the current one is used up)."""
+        return self.clip is None or frame >= self.clip_start + len(self.clip.root_positions) - 1
+
+    def update(self, frame: int, root_position: np.ndarray, root_orientation: np.ndarray) -> AlignedClip | None:
+        """At a stride end, choose and align the next clip from the body's root pose; else None."""
+        if not self.stride_ends_at(frame):
+            return None
+        heading = float(yaw_of(root_orientation))
+        current = self.clip.name if self.clip is not None else None
+        name = self.graph.choose_next(root_position[:2], heading, self.goal, current, self.params)
+        self.clip = self.graph.align(name, root_position[:2], heading, previous=self.clip)
+        self.clip_start = frame
+        self.history.append((frame, name))
+        return self.clip
+
+
+# -------------------------------------------------------------------------------------------- adaptation
+
+def clip_pose(clip: AlignedClip, index: int) -> tuple:
+    """(root (3,), local rotations (n_bones, 4)) of frame `index` of a placed clip (clamped to its length)."""
+    i = int(np.clip(index, 0, len(clip.root_positions) - 1))
+    return clip.root_positions[i], clip.local_rotations[i]
+
+
+class AdaptationStage:
+    """Section VI: the clip pose of a frame, adapted to the terrain (plane + residual fitting) if enabled."""
+
+    def __init__(self, skeleton, terrain: HeightField, enabled: bool = True) -> None:
+        """Adapt poses of `skeleton` to `terrain`; `enabled=False` (or flat ground) runs no IK at all."""
+        self.skeleton = skeleton
+        self.terrain = terrain
+        self.enabled = bool(enabled) and not terrain.is_flat
+        self.state = AdaptationState()
+
+    def reference_pose(self, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
+        """World bone positions `(n_bones, 3)` and rotations `(n_bones, 4)` of the adapted pose."""
+        if not self.enabled:
+            return pose_kinematics(self.skeleton, np.asarray(root_position, float),
+                                   np.asarray(local_rotations, float))
+        feet_h, tail_h = residual_heights_of(self.skeleton, root_position, local_rotations)
+        adapted = adapt_pose(self.skeleton, self.terrain, root_position, local_rotations, feet_h, tail_h,
+                             stance=feet_h < STANCE_HEIGHT, state=self.state)
+        return adapted.joint_positions, adapted.joint_rotations
+
+
+# ----------------------------------------------------------------------------------------------- pushes
+
+def push_forces(model, pushes: tuple, time: float) -> np.ndarray | None:
+    """External forces `(n_nodes, 3)` N of the pushes active at `time` (None when none is active).
+
+    Each push's force is spread over its region's nodes in proportion to their mass (total = the force).
+    """
+    active = [p for p in pushes if p.at <= time + 1e-9 < p.at + p.duration]
+    if not active:
+        return None
+    forces = np.zeros((model.n_nodes, 3))
+    for push in active:  # a handful of pushes per scene, not a loop over nodes
+        forces += _push_on_region(model, push)
+    return forces
+
+
+def _push_on_region(model, push: PushSpec) -> np.ndarray:
+    """Force field `(n_nodes, 3)` of one push on its tagged region."""
+    mask = np.ones(model.n_nodes, bool) if push.region == 'all' else model.node_tags[push.region]
+    weights = np.where(mask, model.node_mass, 0.0)
+    return np.outer(weights / weights.sum(), np.asarray(push.force, float))
+
+
+# ---------------------------------------------------------------------------------------------- the run
+
+@dataclass
+class RunResult:
+    """Trajectories of a run, one row per frame (F frames, n nodes)."""
+
+    times: np.ndarray                 # (F,) s, simulated time at the end of each frame
+    root_positions: np.ndarray        # (F, 3) m
+    root_orientations: np.ndarray     # (F, 4) xyzw
+    node_positions: np.ndarray        # (F, n, 3) m
+    contacts: np.ndarray              # (F, n) bool
+    reference_joints: np.ndarray      # (F, n_bones, 3) m, adapted reference pose
+    clip_history: list = field(default_factory=list)  # (start frame, clip name)
+    goals: list = field(default_factory=list)         # (time, x, y)
+    wall_seconds: float = 0.0
+
+    def save(self, path: str | Path) -> Path:
+        """Write the trajectories to an `.npz` file; returns its path."""
+        path = Path(path)
+        frames = np.array([f for f, _ in self.clip_history], dtype=np.int64)
+        names = np.array([n for _, n in self.clip_history])
+        np.savez_compressed(path, times=self.times, root_positions=self.root_positions,
+                            root_orientations=self.root_orientations, node_positions=self.node_positions,
+                            contacts=self.contacts, reference_joints=self.reference_joints,
+                            clip_frames=frames, clip_names=names, goals=np.array(self.goals, float),
+                            wall_seconds=self.wall_seconds)
+        return path
+
+
+class SimulatorStage:
+    """Section V: the soft body, placed at the scene's start pose on the terrain, advanced frame by frame."""
+
+    def __init__(self, model, terrain: HeightField, fidelity: str, pushes: tuple = (),
+                 start_xy: tuple = (0.0, 0.0), start_yaw: float = 0.0) -> None:
+        """Build the simulator for `model` on `terrain`; pushes are applied by simulated time."""
+        self.model = model
+        self.pushes = tuple(pushes)
+        self.sim = SoftBodySimulator(model, terrain, fidelity)
+        self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, start_xy, start_yaw))
+        self.tracker = RootTracker(model)
+        self.frame = 0
+
+    @property
+    def time(self) -> float:
+        """Simulated time at the current frame, s."""
+        return self.frame / FRAME_RATE
+
+    def root_pose(self) -> tuple:
+        """(root position (3,), orientation xyzw (4,)) of the body now."""
+        return self.tracker.root_pose(self.sim.positions)
+
+    def advance(self, desired_lengths: np.ndarray) -> None:
+        """Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` and any active push."""
+        forces = push_forces(self.model, self.pushes, self.time) if self.pushes else None
+        self.sim.advance_frame(desired_lengths, forces)
+        self.frame += 1
+
+
+def place_on_terrain(rest_positions: np.ndarray, terrain: HeightField, start_xy: tuple,
+                     start_yaw: float) -> np.ndarray:
+    """Rest nodes `(n, 3)` turned by `start_yaw`, moved to `start_xy` and lifted so none is below the terrain."""
+    q = quat_from_yaw(start_yaw)
+    moved = quat_rotate(q, np.asarray(rest_positions, float))
+    moved[:, :2] += np.asarray(start_xy, float)
+    ground = terrain.height(moved[:, :2])
+    moved[:, 2] += max(0.0, float(np.max(ground - moved[:, 2])))
+    return moved
+
+
+@dataclass
+class Pipeline:
+    """All four stages for one scene, built once; `step()` runs one frame."""
+
+    scene: Scene
+    planner: PlannerStage
+    adaptation: AdaptationStage
+    springs: SpringLengthComputer
+    simulator: SimulatorStage
+    frame: int = 0
+
+    def apply_goals(self) -> None:
+        """Give the planner every scene goal whose time has come."""
+        t = self.frame / FRAME_RATE
+        due = [g for g in self.scene.goals if g.at <= t + 1e-9]
+        if due:
+            goal = due[-1]
+            if self.planner.goal is None or not np.allclose(self.planner.goal, [goal.x, goal.y]):
+                self.planner.set_goal(np.array([goal.x, goal.y]))
+
+    def step(self) -> tuple:
+        """One frame; returns (root position, orientation, adapted joint positions)."""
+        self.apply_goals()
+        root, quat = self.simulator.root_pose()
+        self.planner.update(self.frame, root, quat)
+        ref_root, ref_local = clip_pose(self.planner.clip, self.frame - self.planner.clip_start)
+        joints, rotations = self.adaptation.reference_pose(ref_root, ref_local)
+        lengths = self.springs.lengths_from_bones(rotations, joints)
+        self.simulator.advance(lengths)
+        self.frame += 1
+        return root, quat, joints
+
+
+def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict | None = None) -> Pipeline:
+    """Build only what `scene` needs: terrain, model, motion graph, stages (adaptation off on flat ground)."""
+    terrain = terrain_from_spec(scene.terrain)
+    model = build_model(scene.model.resolution, scene.model.stiffness)
+    if library is None:
+        from iguana_ros.motion.clips import load_clip_library
+        library = load_clip_library()
+    graph = MotionGraph(library)
+    use_adaptation = scene.adaptation if adaptation is None else adaptation
+    return Pipeline(
+        scene=scene,
+        planner=PlannerStage(graph, PolicyParams(goal_radius=scene.goal_radius)),
+        adaptation=AdaptationStage(model.skeleton, terrain, enabled=use_adaptation),
+        springs=SpringLengthComputer(model),
+        simulator=SimulatorStage(model, terrain, scene.fidelity, scene.pushes if scene.needs_pushes else (),
+                                 (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg)),
+    )
+
+
+def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
+        progress: Callable[[int, int], None] | None = None) -> RunResult:
+    """Run `scene` for its duration (or `n_frames`) and return the trajectories."""
+    import time as _time
+
+    pipe = build_pipeline(scene, adaptation)
+    total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
+    model = pipe.simulator.model
+    rows = _allocate(total, model.n_nodes, model.skeleton.n_bones)
+    start = _time.perf_counter()
+    for f in range(total):
+        _, _, joints = pipe.step()
+        root, quat = pipe.simulator.root_pose()
+        _store(rows, f, root, quat, pipe.simulator.sim, joints)
+        if progress is not None:
+            progress(f + 1, total)
+    wall = _time.perf_counter() - start
+    goals = [(g.at, g.x, g.y) for g in scene.goals]
+    return RunResult(times=(np.arange(total) + 1) / FRAME_RATE, clip_history=list(pipe.planner.history),
+                     goals=goals, wall_seconds=wall, **rows)
+
+
+def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:
+    """Preallocated trajectory arrays."""
+    return {'root_positions': np.zeros((n_frames, 3)), 'root_orientations': np.zeros((n_frames, 4)),
+            'node_positions': np.zeros((n_frames, n_nodes, 3)), 'contacts': np.zeros((n_frames, n_nodes), bool),
+            'reference_joints': np.zeros((n_frames, n_bones, 3))}
+
+
+def _store(rows: dict, f: int, root, quat, sim: SoftBodySimulator, joints) -> None:
+    """Record frame `f`."""
+    rows['root_positions'][f] = root
+    rows['root_orientations'][f] = quat
+    rows['node_positions'][f] = sim.positions
+    rows['contacts'][f] = sim.in_contact
+    rows['reference_joints'][f] = joints
