@@ -81,11 +81,15 @@ def extract_rotation(a, q, r, max_iter):
         ox *= inv
         oy *= inv
         oz *= inv
-        angle = np.sqrt(ox * ox + oy * oy + oz * oz)
-        if angle < 1e-9:
+        angle2 = ox * ox + oy * oy + oz * oz
+        if angle2 < 1e-16:                           # converged to 1e-8 rad
             break
-        s = np.sin(0.5 * angle) / angle
-        dx, dy, dz, dw = ox * s, oy * s, oz * s, np.cos(0.5 * angle)
+        if angle2 < 1e-4:                            # small step: first-order quaternion (normalised below)
+            dx, dy, dz, dw = 0.5 * ox, 0.5 * oy, 0.5 * oz, 1.0
+        else:
+            angle = np.sqrt(angle2)
+            s = np.sin(0.5 * angle) / angle
+            dx, dy, dz, dw = ox * s, oy * s, oz * s, np.cos(0.5 * angle)
         x, y, z, w = q[0], q[1], q[2], q[3]
         nx = dw * x + dx * w + dy * z - dz * y
         ny = dw * y - dx * z + dy * w + dz * x
@@ -104,14 +108,17 @@ def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters
     r = np.empty((3, 3))
     p = np.empty((3, 3))
     rg = np.empty((4, 3))
+    xl = np.empty((4, 3))
     for t in range(tets.shape[0]):
         g = grads[t]
+        for a in range(4):                          # gather the 4 node positions
+            node = tets[t, a]
+            xl[a, 0] = x[node, 0]
+            xl[a, 1] = x[node, 1]
+            xl[a, 2] = x[node, 2]
         for i in range(3):                          # deformation gradient F = Σ_a x_a ⊗ ∇φ_a
             for j in range(3):
-                acc = 0.0
-                for a in range(4):
-                    acc += x[tets[t, a], i] * g[a, j]
-                f_def[i, j] = acc
+                f_def[i, j] = xl[0, i] * g[0, j] + xl[1, i] * g[1, j] + xl[2, i] * g[2, j] + xl[3, i] * g[3, j]
         extract_rotation(f_def, quats[t], r, polar_iters)
         tr = 0.0
         for i in range(3):                          # ε = sym(RᵀF) − I, written into p
@@ -146,13 +153,18 @@ def _add_tet_stiffness(g, r, vmu, vlam, rg, blocks, block_index):
         for i in range(3):
             rg[a, i] = r[i, 0] * g[a, 0] + r[i, 1] * g[a, 1] + r[i, 2] * g[a, 2]
     for a in range(4):
-        for b in range(4):
-            blk = blocks[block_index[4 * a + b]]
+        for b in range(a, 4):                        # upper blocks; (b, a) is the transpose
             gg = vmu * (g[a, 0] * g[b, 0] + g[a, 1] * g[b, 1] + g[a, 2] * g[b, 2])
+            ab = blocks[block_index[4 * a + b]]
+            ba = blocks[block_index[4 * b + a]]
             for i in range(3):
                 for j in range(3):
-                    blk[i, j] += vmu * rg[b, i] * rg[a, j] + vlam * rg[a, i] * rg[b, j]
-                blk[i, i] += gg
+                    k = vmu * rg[b, i] * rg[a, j] + vlam * rg[a, i] * rg[b, j]
+                    if i == j:
+                        k += gg
+                    ab[i, j] += k
+                    if a != b:
+                        ba[j, i] += k
 
 
 # ----------------------------------------------------------------------------------------------- springs
@@ -185,14 +197,20 @@ def spring_forces(x, springs, stiffness, desired_lengths, forces, blocks, spring
 @numba.njit(cache=True)
 def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, idx):
     """Add ±a[u uᵀ + geo (I − u uᵀ)] into the (ii, jj, ij, ji) blocks `idx (4,)`."""
-    u = (u0, u1, u2)
-    for p in range(3):
-        for q in range(3):
-            k = a * ((1.0 - geo) * u[p] * u[q] + (geo if p == q else 0.0))
-            blocks[idx[0], p, q] += k
-            blocks[idx[1], p, q] += k
-            blocks[idx[2], p, q] -= k
-            blocks[idx[3], p, q] -= k
+    c = a * (1.0 - geo)
+    k00, k11, k22 = c * u0 * u0 + a * geo, c * u1 * u1 + a * geo, c * u2 * u2 + a * geo
+    k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
+    for b, sign in ((idx[0], 1.0), (idx[1], 1.0), (idx[2], -1.0), (idx[3], -1.0)):
+        blk = blocks[b]
+        blk[0, 0] += sign * k00
+        blk[1, 1] += sign * k11
+        blk[2, 2] += sign * k22
+        blk[0, 1] += sign * k01
+        blk[1, 0] += sign * k01
+        blk[0, 2] += sign * k02
+        blk[2, 0] += sign * k02
+        blk[1, 2] += sign * k12
+        blk[2, 1] += sign * k12
 
 
 # ----------------------------------------------------------------------------------------------- contact

@@ -1,0 +1,85 @@
+"""Benchmark scenes for the simulator: the iguana (or a stand-in) on hills, driven by a lateral-bend gait."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.errors import InputError
+from iguana_ros.physics.meshes import box_mesh
+
+STAND_IN_CELLS = {'coarse': (16, 2, 2), 'medium': (44, 2, 2), 'fine': (48, 4, 4)}
+"""Cells of the box stand-in used while `iguana_ros.body.model` is unavailable (153, 405, 1225 nodes)."""
+
+
+def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
+    """The iguana model at `resolution`, or an 0.85 m box stand-in of similar node count if the body model is
+    not installed. Returns `(model, name)`."""
+    if resolution not in STAND_IN_CELLS:
+        raise InputError(f'mesh resolution must be one of {sorted(STAND_IN_CELLS)}, got {resolution!r}')
+    try:
+        from iguana_ros.body.model import build_model
+    except ImportError:
+        from iguana_ros.constants import BODY_LENGTH, BODY_MASS
+
+        model = box_mesh(size=(BODY_LENGTH, 0.12, 0.06), cells=STAND_IN_CELLS[resolution], total_mass=BODY_MASS)
+        return model, f'box stand-in ({resolution})'
+    return build_model(resolution=resolution, stiffness=stiffness), f'iguana ({resolution}, {stiffness})'
+
+
+def place_on_terrain(positions: np.ndarray, terrain, clearance: float = 1e-3) -> np.ndarray:
+    """`positions (n, 3)` lifted so that the lowest node relative to the terrain is `clearance` m above it."""
+    gap = positions[:, 2] - terrain.height(positions[:, :2])
+    return positions + [0.0, 0.0, clearance - gap.min()]
+
+
+@dataclass
+class LateralBendGait:
+    """Desired spring lengths of a travelling lateral bend: l_d = l_0 (1 − κ(t, x) y u_x²).
+
+    κ(t, x) = `curvature` sin(2π (`frequency` t − x / `wavelength`)) (1/m); x, y are a spring's rest midpoint
+    (forward, left) and u_x its rest direction's forward component: the axial strain of a bent beam.
+    """
+
+    rest_positions: np.ndarray
+    springs: np.ndarray
+    rest_lengths: np.ndarray
+    curvature: float = 4.0
+    frequency: float = 1.5
+    wavelength: float = 0.9
+
+    def __post_init__(self) -> None:
+        a = self.rest_positions[self.springs[:, 0]]
+        b = self.rest_positions[self.springs[:, 1]]
+        mid = 0.5 * (a + b)
+        ux = (b[:, 0] - a[:, 0]) / np.maximum(self.rest_lengths, 1e-12)
+        self._x = mid[:, 0]
+        self._lever = mid[:, 1] * ux ** 2 * self.rest_lengths
+
+    def desired_lengths(self, t: float) -> np.ndarray:
+        """Desired spring lengths `(n_springs,)` m at time `t` s."""
+        kappa = self.curvature * np.sin(2 * np.pi * (self.frequency * t - self._x / self.wavelength))
+        return self.rest_lengths - kappa * self._lever
+
+
+def gait_for(model, **kwargs) -> LateralBendGait:
+    """A `LateralBendGait` for `model`."""
+    return LateralBendGait(np.asarray(model.rest_positions), np.asarray(model.springs),
+                           np.asarray(model.spring_rest_lengths), **kwargs)
+
+
+def run_gait(sim, gait: LateralBendGait, seconds: float) -> dict:
+    """Drive `sim` with `gait` for `seconds` (whole frames); returns wall times of simulation and gait."""
+    n_frames = int(round(seconds * FRAME_RATE))
+    sim_wall = 0.0
+    gait_wall = 0.0
+    for _ in range(n_frames):  # one Python iteration per 1/30 s frame; the steps run inside one compiled call
+        t0 = time.perf_counter()
+        lengths = gait.desired_lengths(sim.time)
+        t1 = time.perf_counter()
+        sim.advance_frame(lengths)
+        sim_wall += time.perf_counter() - t1
+        gait_wall += t1 - t0
+    return {'frames': n_frames, 'sim_wall_s': sim_wall, 'gait_wall_s': gait_wall}
