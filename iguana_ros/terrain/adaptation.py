@@ -54,15 +54,16 @@ class AdaptationSettings:
     """Cost per rad² of joint rotation-vector change from the plane-fitted pose."""
     lift_weight: float = 0.05
     """Cost per `length_scale`² of root lift."""
-    penetration_weight: float = 300.0
+    penetration_weight: float = 30.0
     """Cost per `length_scale`² of a joint below terrain + clearance."""
     clearance: float = 0.003
-    """m kept between every joint and the terrain (a foot: at most its own residual height)."""
+    """m kept between a joint and the terrain; less for a joint already closer (a foot or the tail tip: at
+    most its residual height), never below the surface."""
     max_root_lift: float = 0.03
     """m the root may be raised or lowered by residual fitting."""
     max_iterations: int = 200
     gradient_tolerance: float = 1e-7
-    function_tolerance: float = 1e-6
+    function_tolerance: float = 1e-5
 
 
 @dataclass
@@ -415,8 +416,8 @@ def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.nda
     stance = np.ones(4, dtype=bool) if stance is None else np.asarray(stance, dtype=bool)
     weights = np.append(np.where(stance, settings.stance_foot_weight, settings.swing_foot_weight),
                         settings.tail_weight)
-    clearance = np.full(skeleton.n_bones, settings.clearance)
-    clearance[skeleton.indices(list(FOOT_BONES))] = np.minimum(settings.clearance, heights[:4])
+    clearance = np.clip(positions[:, 2] - terrain.height(positions[:, :2]), 0.0, settings.clearance)
+    clearance[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE])] = np.minimum(settings.clearance, heights)
     problem = _ResidualProblem(skeleton, terrain, root_position, local_rotations, targets, weights,
                                clearance, settings)
     with _single_threaded_blas():  # a 70-variable L-BFGS-B is slower with BLAS threads than without

@@ -1,0 +1,190 @@
+"""Terrain adaptation (Section VI): plane fitting, residual fitting, flat-ground no-op, warm starts."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from iguana_ros.body.skeleton import forward_kinematics, iguana_skeleton
+from iguana_ros.errors import InputError
+from iguana_ros.geometry import quat_from_rotvec, quat_to_matrix
+from iguana_ros.terrain import adaptation as ad
+from iguana_ros.terrain.heightfield import HeightField
+
+N_FRAMES = 12
+
+
+@pytest.fixture(scope='module')
+def skel():
+    return iguana_skeleton()
+
+
+def _clip_pose(skel, frame, seed=0):
+    """A smooth trot-like clip pose at `frame` (30 Hz): oscillating joints, drooping tail, feet on z >= 0."""
+    rng = np.random.default_rng(seed)
+    amp = rng.normal(scale=0.15, size=(skel.n_bones, 3))
+    amp[0] = 0.0
+    phase = rng.uniform(0, 2 * np.pi, size=(skel.n_bones, 3))
+    t = frame / 30.0
+    rotvec = amp * np.sin(2 * np.pi * 1.5 * t + phase)
+    rotvec[skel.index('tail_1'), 1] -= 0.12
+    local = quat_from_rotvec(rotvec)
+    local[0] = quat_from_rotvec(np.array([0.0, 0.0, 0.3]))
+    root = skel.rest_pose()[0] + np.array([0.3 * t, 0.1 * t, 0.0])
+    positions = forward_kinematics(skel, root, local)[0]
+    root[2] -= positions[skel.indices(list(ad.FOOT_BONES)), 2].min()
+    return root, local
+
+
+def _stance(skel, clip):
+    """Stance flags `(4,)` of a clip pose: feet within 1 cm of the capture floor."""
+    return ad.residual_heights_of(skel, *clip)[0] < 0.01
+
+
+def _check_adapted(skel, terrain, clip, adapted, foot_tol=0.002, depth_tol=1e-4):
+    """Stance feet within `foot_tol` of terrain + residual height; no joint deeper than `depth_tol`."""
+    feet_h, tail_h = ad.residual_heights_of(skel, *clip)
+    p = adapted.joint_positions
+    feet = p[skel.indices(list(ad.FOOT_BONES))]
+    foot_err = (feet[:, 2] - terrain.height(feet[:, :2]) - feet_h)[_stance(skel, clip)]
+    assert foot_err.size and np.max(np.abs(foot_err)) < foot_tol
+    assert np.min(p[:, 2] - terrain.height(p[:, :2])) > -depth_tol
+    np.testing.assert_allclose(forward_kinematics(skel, adapted.root_position, adapted.local_rotations)[0],
+                               p, atol=1e-12)
+
+
+def test_flat_ground_is_an_exact_no_op(skel):
+    root, local = _clip_pose(skel, 5)
+    out = ad.adapt_pose(skel, HeightField.flat(), root, local)
+    assert np.array_equal(out.root_position, root) and np.array_equal(out.local_rotations, local)
+    raised = ad.adapt_pose(skel, HeightField.flat(0.25), root, local)
+    np.testing.assert_allclose(raised.root_position - root, [0.0, 0.0, 0.25], atol=1e-15)
+    assert np.array_equal(raised.local_rotations, local)
+    # the plane fit itself is the identity on flat ground
+    feet_h, _ = ad.residual_heights_of(skel, root, local)
+    fit = ad.plane_fit(skel, HeightField.flat(), root, local, feet_h)
+    np.testing.assert_allclose(fit.rotation, np.eye(3), atol=1e-9)
+    np.testing.assert_allclose(fit.root_position, root, atol=1e-9)
+    np.testing.assert_allclose(fit.local_rotations, local, atol=1e-9)
+
+
+def test_rigid_fit_recovers_transform_rejects_reflection_and_survives_collinear_points():
+    rng = np.random.default_rng(3)
+    src = rng.normal(size=(4, 3))
+    rot = Rotation.random(random_state=4).as_matrix()
+    r, t = ad.rigid_fit(src, src @ rot.T + [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(r, rot, atol=1e-5)  # the identity bias costs ~1e-6
+    np.testing.assert_allclose(t, [1.0, 2.0, 3.0], atol=1e-5)
+    r, _ = ad.rigid_fit(src, src * [1.0, 1.0, -1.0])  # a mirror image: best proper rotation only
+    assert np.linalg.det(r) == pytest.approx(1.0)
+    line = np.outer([0.0, 0.1, 0.2, 0.3], [1.0, 0.0, 0.0])
+    target = np.outer([0.0, 0.1, 0.2, 0.3], [np.cos(0.2), 0.0, np.sin(0.2)])
+    r, t = ad.rigid_fit(line, target)
+    assert np.all(np.isfinite(r)) and np.linalg.det(r) == pytest.approx(1.0)
+    np.testing.assert_allclose(line @ r.T + t, target, atol=1e-6)
+    np.testing.assert_allclose(Rotation.from_matrix(r).magnitude(), 0.2, atol=1e-5)  # no spurious roll
+
+
+@pytest.mark.parametrize('slope_deg', [12.0, -15.0])
+def test_tilted_plane_feet_on_targets_and_body_tilted(skel, slope_deg):
+    terrain = HeightField.tilted_plane(slope_deg, direction=(1.0, 0.3))
+    state = ad.AdaptationState()
+    up = np.array([0.0, 0.0, 1.0])
+    normal = terrain.normal(np.zeros(2))
+    for frame in range(0, N_FRAMES, 3):
+        clip = _clip_pose(skel, frame)
+        out = ad.adapt_pose(skel, terrain, *clip, stance=_stance(skel, clip), state=state)
+        _check_adapted(skel, terrain, clip, out)
+        feet_h, _ = ad.residual_heights_of(skel, *clip)
+        fit = ad.plane_fit(skel, terrain, *clip, feet_h)
+        tilted_up = fit.rotation @ up
+        assert np.degrees(np.arccos(tilted_up @ normal)) < 3.0  # plane fit follows the slope
+
+
+def test_hills_feet_tail_and_no_penetration(skel):
+    terrain = HeightField.hills(amplitude=0.03, wavelength=0.9, seed=7, extent=10.0)  # the hills scene
+    state = ad.AdaptationState()
+    tail = skel.index(ad.TAIL_TIP_BONE)
+    for frame in range(N_FRAMES):
+        clip = _clip_pose(skel, frame)
+        stance = _stance(skel, clip)
+        out = ad.adapt_pose(skel, terrain, *clip, stance=stance, state=state)
+        _check_adapted(skel, terrain, clip, out)
+        tip = out.joint_positions[tail]
+        assert abs(tip[2] - terrain.height(tip[:2]) - ad.residual_heights_of(skel, *clip)[1]) < 0.002
+        assert np.linalg.norm(tip - out.tail_target) < 0.005
+        feet = out.joint_positions[skel.indices(list(ad.FOOT_BONES))]
+        np.testing.assert_allclose(feet[stance], out.foot_targets[stance], atol=0.002)
+
+
+def test_residual_fit_lifts_a_penetrating_tail_and_respects_joint_limits(skel):
+    terrain = HeightField.hills(amplitude=0.06, wavelength=0.6, seed=1, extent=5.0)
+    root, local = _clip_pose(skel, 0, seed=2)
+    local[skel.index('tail_2')] = quat_from_rotvec(np.array([0.0, -0.35, 0.0]))  # tail dug into the ground
+    feet_h, tail_h = ad.residual_heights_of(skel, root, local)
+    fit = ad.plane_fit(skel, terrain, root, local, feet_h)
+    before = forward_kinematics(skel, fit.root_position, fit.local_rotations)[0]
+    assert np.min(before[:, 2] - terrain.height(before[:, :2])) < -0.01
+    out = ad.residual_fit(skel, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
+                          stance=_stance(skel, (root, local)))
+    _check_adapted(skel, terrain, (root, local), out)
+    moved = ad.ik_bones(skel)
+    rotvec = Rotation.from_quat(out.local_rotations[moved]).as_rotvec()
+    start = Rotation.from_quat(fit.local_rotations[moved]).as_rotvec()
+    lo = np.minimum(skel.limits[moved, :, 0], start) - 1e-9
+    hi = np.maximum(skel.limits[moved, :, 1], start) + 1e-9
+    assert np.all((rotvec >= lo) & (rotvec <= hi))
+    untouched = np.setdiff1d(np.arange(1, skel.n_bones), moved)
+    np.testing.assert_array_equal(out.local_rotations[untouched], fit.local_rotations[untouched])
+
+
+def test_warm_start_needs_fewer_evaluations(skel):
+    """A pose slid slowly over hills (the paper's Figure 10) converges faster from last frame's solution."""
+    terrain = HeightField.hills(amplitude=0.03, wavelength=0.9, seed=7, extent=10.0)
+    root, local = _clip_pose(skel, 4)
+    warm_state, warm, cold = ad.AdaptationState(), 0, 0
+    for frame in range(N_FRAMES):
+        clip = (root + np.array([0.005, 0.002, 0.0]) * frame, local)
+        ad.adapt_pose(skel, terrain, *clip, state=warm_state)
+        cold_state = ad.AdaptationState()
+        ad.adapt_pose(skel, terrain, *clip, state=cold_state)
+        if frame:
+            warm += warm_state.evaluations
+            cold += cold_state.evaluations
+    assert warm < 0.7 * cold
+
+
+def test_objective_gradient_matches_finite_differences(skel):
+    terrain = HeightField.hills(amplitude=0.05, wavelength=0.6, seed=2, extent=5.0)
+    root, local = _clip_pose(skel, 3)
+    targets = np.random.default_rng(0).normal(scale=0.02, size=(5, 3)) + \
+        forward_kinematics(skel, root, local)[0][skel.indices(list(ad.FOOT_BONES) + [ad.TAIL_TIP_BONE])]
+    problem = ad._ResidualProblem(skel, terrain, root, local, targets, np.ones(5),
+                                  np.full(skel.n_bones, 0.05), ad.AdaptationSettings())
+    x = problem.x_ref + np.random.default_rng(1).normal(scale=0.1, size=problem.x_ref.shape)
+    f, grad = problem(x)
+    assert f > 0 and np.max(np.abs(grad)) > 1.0
+    eps = 1e-6
+    numeric = np.array([(problem(x + eps * e)[0] - problem(x - eps * e)[0]) / (2 * eps)
+                        for e in np.eye(len(x))])
+    np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-4 * np.max(np.abs(grad)))
+    problem(x)
+    np.testing.assert_allclose(problem.positions, forward_kinematics(skel, *problem.pose(x, root, local))[0],
+                               atol=1e-12)
+
+
+def test_compiled_kinematics_match_skeleton_fk(skel):
+    root, local = _clip_pose(skel, 7)
+    p, q = ad.pose_kinematics(skel, root, local)
+    p_ref, q_ref = forward_kinematics(skel, root, local)
+    np.testing.assert_allclose(p, p_ref, atol=1e-14)
+    np.testing.assert_allclose(quat_to_matrix(q), quat_to_matrix(q_ref), atol=1e-14)
+
+
+def test_bad_input_raises_input_error(skel):
+    root, local = _clip_pose(skel, 0)
+    terrain = HeightField.tilted_plane(10.0)
+    with pytest.raises(InputError, match='local_rotations'):
+        ad.adapt_pose(skel, terrain, root, local[:5])
+    with pytest.raises(InputError, match='NaN'):
+        ad.adapt_pose(skel, terrain, root * np.nan, local)
+    with pytest.raises(InputError, match='foot_residual_heights'):
+        ad.adapt_pose(skel, terrain, root, local, foot_residual_heights=np.zeros(3))
