@@ -50,6 +50,7 @@ setup(
         'imageio-ffmpeg>=0.4.9',
         'tqdm>=4.60',
         'psutil>=5.9',
+        'threadpoolctl>=3.1',
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
