@@ -1,7 +1,8 @@
 """Full-body IK (Section IV): sparse markers -> root pose and active joint angles for every frame.
 
 One nonlinear least-squares problem over the whole take, solved with L-BFGS-B (the paper's L-BFGS, with the
-joint limits as bounds): marker misfit of the visible markers (a gap, NaN, simply drops out), a temporal
+joint limits as bounds): marker misfit of the visible markers (a gap, NaN, drops out; foot-marker gaps are
+bridged in world space at a lower weight, a planted foot stays put), a temporal
 smoothness prior on joint accelerations, and a weak pull toward the rest pose. The gradient is analytic
 (`BodyModel.gradient`), the forward kinematics vectorised over frames.
 
@@ -19,6 +20,8 @@ from scipy.optimize import minimize
 from iguana_ros.errors import InputError
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, marker_model
 
+FOOT_MARKERS = ('FOOT_FL', 'FOOT_FR', 'FOOT_HL', 'FOOT_HR')
+"""End-effector markers whose gaps are bridged in world space before the fit."""
 TRUNK_MARKERS = ('BACK_1', 'BACK_2', 'BACK_3', 'SIDE_FL', 'SIDE_HL', 'SIDE_FR', 'SIDE_HR')
 """Markers of the rigid trunk fit that starts the IK."""
 
@@ -36,6 +39,10 @@ class IKSettings:
     max_iterations: int = 300
     frame_iterations: int = 25
     """Levenberg-Marquardt iterations of the per-frame start."""
+    fill_feet: bool = True
+    """Bridge foot-marker gaps by interpolating the marker in the world (a planted foot stays put), weighted
+    as a sample `filled_std_factor` times less certain."""
+    filled_std_factor: float = 3.0
 
 
 @dataclass(frozen=True)
@@ -105,6 +112,31 @@ def initial_guess(model: BodyModel, observed: np.ndarray) -> np.ndarray:
     return theta
 
 
+def _bridge_gaps(track: np.ndarray) -> tuple:
+    """Marker track `(F, 3)` with inner NaN runs linearly interpolated, and the `(F,)` mask of filled samples."""
+    seen = ~np.isnan(track).any(axis=-1)
+    if seen.sum() < 2:
+        return track, np.zeros(len(track), dtype=bool)
+    frames = np.arange(len(track))
+    inner = (frames > frames[seen][0]) & (frames < frames[seen][-1]) & ~seen
+    out = track.copy()
+    for k in range(3):
+        out[inner, k] = np.interp(frames[inner], frames[seen], track[seen, k])
+    return out, inner
+
+
+def observation_weights(model: BodyModel, observed: np.ndarray, settings: IKSettings) -> tuple:
+    """(targets `(F, n_markers, 3)` without NaN, weights `(F, n_markers)` in 1/m^2; 0 = not observed)."""
+    target = np.array(observed, dtype=float, copy=True)
+    weight = (~np.isnan(target).any(axis=-1)) / settings.marker_std ** 2
+    if settings.fill_feet:
+        for label in FOOT_MARKERS:
+            m = model.markers.index(label)
+            target[:, m], filled = _bridge_gaps(target[:, m])
+            weight[filled, m] = 1.0 / (settings.filled_std_factor * settings.marker_std) ** 2
+    return np.nan_to_num(target), weight
+
+
 def _influence(model: BodyModel) -> np.ndarray:
     """`(n_dof, n_markers)` True where a DOF moves a marker."""
     moves = np.einsum('bkd,bm->dm', np.abs(model.dofs.basis), model.mask) > 0
@@ -122,11 +154,13 @@ def fill_unobserved(model: BodyModel, theta: np.ndarray, visible: np.ndarray) ->
     return out
 
 
-def fit_frames(model: BodyModel, observed: np.ndarray, theta: np.ndarray, settings: IKSettings) -> np.ndarray:
-    """Per-frame bounded Levenberg-Marquardt fit `(F, n_dof)` of markers `observed (F, n_markers, 3)`."""
+def fit_frames(model: BodyModel, target: np.ndarray, weight: np.ndarray, theta: np.ndarray,
+               settings: IKSettings) -> np.ndarray:
+    """Per-frame bounded Levenberg-Marquardt fit `(F, n_dof)` of marker targets `(F, n_markers, 3)` with
+    weights `(F, n_markers)` (see `observation_weights`)."""
     d = model.dofs
-    visible = ~np.isnan(observed).any(axis=-1)
-    target = np.nan_to_num(observed)
+    visible = weight > 0
+    root_w = np.sqrt(weight)
     w_rest = np.ones(d.n_dof) / settings.rest_std ** 2
     w_rest[:6] = 0.0
     n_frames = len(theta)
@@ -134,16 +168,16 @@ def fit_frames(model: BodyModel, observed: np.ndarray, theta: np.ndarray, settin
     def cost(th: np.ndarray) -> tuple:
         state = model.state(th)
         pos = marker_model(state, model.markers)
-        diff = np.where(visible[..., None], pos - target, 0.0)
-        value = 0.5 * (np.sum(diff ** 2, axis=(1, 2)) / settings.marker_std ** 2 + np.sum(w_rest * th ** 2, axis=1))
+        diff = root_w[..., None] * (pos - target)
+        value = 0.5 * (np.sum(diff ** 2, axis=(1, 2)) + np.sum(w_rest * th ** 2, axis=1))
         return value, state, pos, diff
 
     damping = np.full(n_frames, 1e-3)
     current, state, pos, diff = cost(theta)
     for _ in range(settings.frame_iterations):
-        jac = (model.jacobian(state, pos) * visible[..., None, None]).reshape(n_frames, -1, d.n_dof)
-        hess = np.einsum('fri,frj->fij', jac, jac) / settings.marker_std ** 2 + np.diag(w_rest)
-        grad = np.einsum('fri,fr->fi', jac, diff.reshape(n_frames, -1)) / settings.marker_std ** 2 + w_rest * theta
+        jac = (model.jacobian(state, pos) * root_w[..., None, None]).reshape(n_frames, -1, d.n_dof)
+        hess = np.einsum('fri,frj->fij', jac, jac) + np.diag(w_rest)
+        grad = np.einsum('fri,fr->fi', jac, diff.reshape(n_frames, -1)) + w_rest * theta
         diag = np.einsum('fii->fi', hess)
         system = hess + damping[:, None, None] * np.eye(d.n_dof) * (diag[:, None, :] + 1e-9)
         step = np.linalg.solve(system, -grad[..., None])[..., 0]
@@ -181,15 +215,14 @@ def solve_ik(observed: np.ndarray, model: BodyModel | None = None, settings: IKS
         raise InputError(f'IK needs markers of shape (frames, {len(model.markers.labels)}, 3), '
                          f'got {observed.shape}')
     n_frames = observed.shape[0]
-    visible = ~np.isnan(observed).any(axis=-1)
-    target = np.nan_to_num(observed)
+    target, weight = observation_weights(model, observed, settings)
     if init is None:
-        theta0 = fit_frames(model, observed, initial_guess(model, observed), settings)
+        theta0 = fit_frames(model, target, weight, initial_guess(model, observed), settings)
     else:
         theta0 = np.asarray(init, dtype=float)
     joints = np.ones(d.n_dof, dtype=bool)
     joints[:6] = False
-    w_marker = visible[..., None] / settings.marker_std ** 2
+    w_marker = weight[..., None]
     w_accel = 1.0 / (settings.accel_std * d.scale) ** 2
     w_rest = joints / settings.rest_std ** 2
 

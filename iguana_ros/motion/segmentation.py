@@ -1,0 +1,59 @@
+"""Stride segmentation (Section IV): foot contacts from marker height and speed, and stride boundaries at
+the touchdown of a diagonal foot pair."""
+from __future__ import annotations
+
+import numpy as np
+
+CONTACT_HEIGHT = 0.010
+"""A foot marker within this height (m) of its lowest level may be in contact."""
+CONTACT_SPEED = 0.12
+"""A foot marker slower than this (m/s) may be in contact."""
+MIN_RUN = 3
+"""Contact or swing phases shorter than this many frames are merged into their neighbours."""
+BOUNDARY_PAIR = (0, 3)
+"""The diagonal pair whose touchdown starts a stride: FL and HR (foot order fl, fr, hl, hr)."""
+
+
+def _debounce(flags: np.ndarray, min_run: int) -> np.ndarray:
+    """`(F,)` bool with runs shorter than `min_run` flipped (inner runs only, gaps first then contacts)."""
+    out = flags.copy()
+    for value in (False, True):
+        edges = np.flatnonzero(np.diff(np.concatenate([[not value], out == value, [not value]]).astype(int)))
+        for start, stop in zip(edges[::2], edges[1::2]):
+            if stop - start < min_run and start > 0 and stop < len(out):
+                out[start:stop] = not value
+    return out
+
+
+def detect_contacts(feet: np.ndarray, frame_rate: float, height: float = CONTACT_HEIGHT,
+                    speed: float = CONTACT_SPEED, min_run: int = MIN_RUN) -> np.ndarray:
+    """Contacts `(F, 4)` of foot marker tracks `feet (F, 4, 3)` (m): low, slow, debounced.
+
+    The speed of a frame is the smaller of its backward and forward one-sided speeds, so a foot counts as
+    stopped on the frame it lands and on the frame it lifts off.
+    """
+    feet = np.asarray(feet, dtype=float)
+    level = np.percentile(feet[..., 2], 5.0, axis=0)
+    low = feet[..., 2] - level < height
+    step = np.linalg.norm(np.diff(feet, axis=0), axis=-1) * frame_rate  # (F-1, 4)
+    backward = np.concatenate([step[:1], step])
+    forward = np.concatenate([step, step[-1:]])
+    slow = np.minimum(backward, forward) < speed
+    contacts = low & slow
+    return np.stack([_debounce(contacts[:, i], min_run) for i in range(contacts.shape[1])], axis=1)
+
+
+def touchdowns(contact: np.ndarray) -> np.ndarray:
+    """Frames `(k,)` where a contact track `(F,)` switches from swing to stance."""
+    contact = np.asarray(contact, dtype=bool)
+    return np.flatnonzero(contact[1:] & ~contact[:-1]) + 1
+
+
+def stride_boundaries(contacts: np.ndarray, pair: tuple = BOUNDARY_PAIR, tolerance: int = 3) -> np.ndarray:
+    """Frames `(k,)` at which the diagonal `pair` touches down together (within `tolerance` frames)."""
+    first, second = touchdowns(contacts[:, pair[0]]), touchdowns(contacts[:, pair[1]])
+    if first.size == 0 or second.size == 0:
+        return np.zeros(0, dtype=int)
+    nearest = second[np.abs(second[None, :] - first[:, None]).argmin(axis=1)]
+    together = np.abs(nearest - first) <= tolerance
+    return np.minimum(first, nearest)[together]
