@@ -357,11 +357,11 @@ class _ResidualProblem:
         self.lift_scale = settings.length_scale
         self.bounds = self._bounds(skeleton.limits[self.var_bones], settings.max_root_lift / self.lift_scale)
 
-    def _bounds(self, limits: np.ndarray, max_lift: float) -> list:
-        """Joint-limit box `(n_x, 2)` widened to contain the plane-fitted pose itself, plus the lift range."""
+    def _bounds(self, limits: np.ndarray, max_lift: float) -> tuple:
+        """Joint-limit box (lo, hi) `(n_x,)` widened to contain the plane-fitted pose itself, plus the lift."""
         lo = np.minimum(limits[..., 0].ravel(), self.x_ref[:-1])
         hi = np.maximum(limits[..., 1].ravel(), self.x_ref[:-1])
-        return list(zip(np.append(lo, -max_lift), np.append(hi, max_lift)))
+        return np.append(lo, -max_lift), np.append(hi, max_lift)
 
     def __call__(self, x: np.ndarray) -> tuple:
         """Objective and gradient at `x (n_x,)`."""
@@ -371,8 +371,7 @@ class _ResidualProblem:
         """Warm start: the plane-fitted pose plus last frame's correction, clipped into the bounds."""
         if correction is None or correction.shape != self.x_ref.shape:
             return self.x_ref.copy()
-        lo, hi = np.array(self.bounds).T
-        return np.clip(self.x_ref + correction, lo, hi)
+        return np.clip(self.x_ref + correction, *self.bounds)
 
     def pose(self, x: np.ndarray, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
         """(root `(3,)`, local rotations `(n_bones, 4)`) of solution `x`."""
@@ -404,7 +403,7 @@ def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.nda
 
     `foot_residual_heights (4,)`, `stance (4,)` bool (None: all stance); `state` is updated for warm starts.
     """
-    from scipy.optimize import minimize
+    from scipy.optimize import Bounds, minimize
 
     settings = settings or AdaptationSettings()
     state = state if state is not None else AdaptationState()
@@ -422,7 +421,7 @@ def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.nda
                                clearance, settings)
     with _single_threaded_blas():  # a 70-variable L-BFGS-B is slower with BLAS threads than without
         result = minimize(problem, problem.start(state.correction), jac=True, method='L-BFGS-B',
-                          bounds=problem.bounds,
+                          bounds=Bounds(*problem.bounds),
                           options={'maxiter': settings.max_iterations, 'gtol': settings.gradient_tolerance,
                                    'ftol': settings.function_tolerance})
     if not np.all(np.isfinite(result.x)):
