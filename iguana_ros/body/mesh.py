@@ -35,20 +35,22 @@ class MeshParams:
     main_axial: float      # station spacing / sqrt(ry rz) on the main body
     main_ring: float       # ring point spacing / station spacing on the main body
     main_min_ring: int     # fewest points on a main-body ring
-    inner_ratio: float     # add an interior ring where min(ry, rz) > inner_ratio * station spacing
     limb_ring: int         # points per limb ring
     limb_axial: float      # limb station spacing / limb radius
     max_spacing: float     # upper bound of the station spacing, m
     min_spacing: float     # lower bound of the station spacing, m
+    chord_tolerance: float = 0.15  # carving: how far (x edge length) an edge midpoint may lie outside
+    repair_iterations: int = 40  # sliver/topology repair attempts (perturb + re-triangulate)
+    fill_rounds: int = 0   # carving: rounds of putting back tets around non-manifold boundary edges
 
 
 RESOLUTIONS = {
-    'coarse': MeshParams(main_axial=3.0, main_ring=1.1, main_min_ring=3, inner_ratio=1.2,
-                         limb_ring=3, limb_axial=3.2, max_spacing=0.045, min_spacing=0.012),
-    'medium': MeshParams(main_axial=2.0, main_ring=1.0, main_min_ring=4, inner_ratio=1.0,
-                         limb_ring=4, limb_axial=2.2, max_spacing=0.03, min_spacing=0.007),
-    'fine': MeshParams(main_axial=1.2, main_ring=1.0, main_min_ring=5, inner_ratio=0.9,
-                       limb_ring=6, limb_axial=1.3, max_spacing=0.016, min_spacing=0.004),
+    'coarse': MeshParams(main_axial=3.5, main_ring=1.1, main_min_ring=3, limb_ring=4, limb_axial=3.5,
+                         max_spacing=0.045, min_spacing=0.012, chord_tolerance=0.3, fill_rounds=3),
+    'medium': MeshParams(main_axial=2.0, main_ring=1.0, main_min_ring=4, limb_ring=4, limb_axial=2.2,
+                         max_spacing=0.03, min_spacing=0.007),
+    'fine': MeshParams(main_axial=1.2, main_ring=1.0, main_min_ring=5, limb_ring=6, limb_axial=1.3,
+                       max_spacing=0.016, min_spacing=0.004, fill_rounds=3),
 }
 """Named resolutions: roughly 150, 400 and 1,200 nodes."""
 
@@ -92,10 +94,14 @@ def main_samples(shape: BodyShape, prm: MeshParams) -> Samples:
     for k, x in enumerate(xs):
         perimeter = np.pi * (3 * (ry[k] + rz[k]) - np.sqrt((3 * ry[k] + rz[k]) * (ry[k] + 3 * rz[k])))
         m = max(prm.main_min_ring, int(round(perimeter / (prm.main_ring * h[k]))))
-        cs = _ring(m, 0.5 * (k % 2))
+        cs = _ring(m, 0.0)
         ring = np.column_stack([np.full(m, x), ry[k] * cs[:, 0], zc[k] + rz[k] * cs[:, 1]])
         pts.append(ring), spc.append(np.full(m, h[k])), surf.append(np.ones(m, bool))
-        inner = _inner_points(x, zc[k], ry[k], rz[k], h[k], k, prm)
+    # interior nodes half-way between stations (a body-centred arrangement: no cospherical rings)
+    xm = 0.5 * (xs[1:] + xs[:-1])
+    zm, _, _ = main_cross_section(shape, xm)
+    for k, x in enumerate(xm):
+        inner = _inner_points(x, zm[k])
         pts.append(inner), spc.append(np.full(len(inner), h[k])), surf.append(np.zeros(len(inner), bool))
     x0, x1 = shape.x_range
     for x in (x0, x1):  # cap tips on the axis
@@ -107,20 +113,9 @@ def main_samples(shape: BodyShape, prm: MeshParams) -> Samples:
     return Samples(points, np.concatenate(spc), np.full(len(points), PART_MAIN), np.concatenate(surf))
 
 
-def _inner_points(x: float, zc: float, ry: float, rz: float, h: float, k: int,
-                  prm: MeshParams) -> np.ndarray:
-    """Interior candidate nodes `(n, 3)` of one main-body cross-section (an inner ring or none)."""
-    r = min(ry, rz)
-    if r <= prm.inner_ratio * h:
-        return np.array([[x, 0.0, zc]]) if r > 0.8 * prm.min_spacing else np.zeros((0, 3))
-    scale = 0.5
-    perimeter = 2 * np.pi * scale * np.sqrt(0.5 * (ry ** 2 + rz ** 2))
-    m = max(3, int(round(perimeter / (prm.main_ring * h))))
-    cs = _ring(m, 0.25 + 0.5 * (k % 2))
-    ring = np.column_stack([np.full(m, x), scale * ry * cs[:, 0], zc + scale * rz * cs[:, 1]])
-    if r > 2.6 * prm.inner_ratio * h:
-        ring = np.vstack([ring, [[x, 0.0, zc]]])
-    return ring
+def _inner_points(x: float, zc: float) -> np.ndarray:
+    """Interior candidate node `(1, 3)` on the main body axis at station x."""
+    return np.array([[x, 0.0, zc]])
 
 
 def limb_samples(shape: BodyShape, prm: MeshParams, index: int) -> Samples:
@@ -141,14 +136,15 @@ def limb_samples(shape: BodyShape, prm: MeshParams, index: int) -> Samples:
     d, lat, up = segment_frames(centre - tangent, centre)
     pts, spc = [], []
     for k in range(len(s) - 1):
-        cs = _ring(prm.limb_ring, 0.5 * (k % 2))
+        cs = _ring(prm.limb_ring, 0.0)
         pts.append(centre[k] + ry[k] * cs[:, :1] * lat[k] + rz[k] * cs[:, 1:] * up[k])
         spc.append(np.full(prm.limb_ring, min(prm.limb_axial * np.sqrt(ry[k] * rz[k]),
                                               2 * np.pi * min(ry[k], rz[k]) / prm.limb_ring)))
     tip = centre[-1] + d[-1] * min(ry[-1], rz[-1])
     pts.append(tip[None]), spc.append(np.array([min(ry[-1], rz[-1])]))
     n_surface = sum(len(p) for p in pts)
-    pts.append(centre[1:-1]), spc.append(np.sqrt(ry * rz)[1:-1])
+    mid = 0.5 * (centre[1:-1] + centre[:-2])  # axis nodes half-way between rings
+    pts.append(mid), spc.append(np.sqrt(ry * rz)[1:-1])
     points = np.vstack(pts)
     n = len(points)
     surface = np.arange(n) < n_surface
@@ -291,21 +287,39 @@ def is_sphere_surface(tets: np.ndarray) -> bool:
     return topo['nonmanifold_edges'] == 0 and topo['euler'] == 2
 
 
-def carve(shape: BodyShape, points: np.ndarray, chord_tolerance: float = 0.15) -> np.ndarray:
+def carve(shape: BodyShape, points: np.ndarray, chord_tolerance: float = 0.15,
+          fill_rounds: int = 0) -> np.ndarray:
     """Delaunay tets `(n_tets, 4)` (positive) inside the body, largest face-connected piece.
 
     A tet is kept when its centroid is inside and no edge midpoint is outside by more than
-    `chord_tolerance` times that edge's length (so tets bridging concave gaps are dropped).
+    `chord_tolerance` times that edge's length (so tets bridging concave gaps are dropped). Carved tets
+    around a boundary edge shared by more than two boundary triangles are put back (`fill_rounds`).
     """
     tets = orient_positive(points, Delaunay(points).simplices.astype(np.int64))
+    tets = tets[tet_volumes(points, tets) > 0]
     ends = points[tets[:, TET_EDGES]]                                       # (n, 6, 2, 3)
     mids = 0.5 * (ends[:, :, 0] + ends[:, :, 1])
     length = np.linalg.norm(ends[:, :, 1] - ends[:, :, 0], axis=-1)
     f_mid = body_field(shape, mids.reshape(-1, 3)).reshape(-1, 6)
-    inside = (body_field(shape, points[tets].mean(axis=1)) < 0) & np.all(
-        f_mid < chord_tolerance * length, axis=1)
-    tets = tets[inside & (tet_volumes(points, tets) > 0)]
-    return tets[largest_component(tets)]
+    keep = (body_field(shape, points[tets].mean(axis=1)) < 0) & np.all(f_mid < chord_tolerance * length, axis=1)
+    for _ in range(fill_rounds):
+        part = np.flatnonzero(keep)[largest_component(tets[keep])]
+        bad = _nonmanifold_edges(tets[part])
+        if len(bad) == 0:
+            break
+        has = np.zeros(len(tets), bool)
+        for a, b in bad:
+            has |= np.any(tets == a, axis=1) & np.any(tets == b, axis=1)
+        keep |= has
+    return tets[np.flatnonzero(keep)[largest_component(tets[keep])]]
+
+
+def _nonmanifold_edges(tets: np.ndarray) -> np.ndarray:
+    """Boundary edges `(n, 2)` not shared by exactly two boundary triangles."""
+    tris = boundary_triangles(tets)
+    edges = np.sort(tris[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    return uniq[count != 2]
 
 
 def _peelable(tets: np.ndarray, candidates: np.ndarray) -> np.ndarray:
@@ -381,23 +395,30 @@ def _jitter(shape: BodyShape, samples: Samples, points: np.ndarray, idx: np.ndar
 
 
 def _sliver_score(points: np.ndarray, tets: np.ndarray, n_nodes: int, threshold: float) -> tuple:
-    """(score, per-tet min dihedral): lost nodes, non-manifold nodes and sliver deficit, lower is better."""
+    """(score, per-tet min dihedral): lost nodes, surface defects, sliver deficit; lower is better."""
     worst = dihedral_angles(points, tets).min(axis=1)
     lost = n_nodes - len(np.unique(tets))
     deficit = float(np.sum(np.maximum(threshold - worst, 0.0) ** 2))
-    return (0 if is_sphere_surface(tets) else 1, lost, deficit), worst
+    topo = surface_topology(tets)
+    return (lost, topo['nonmanifold_edges'] + abs(topo['euler'] - 2), deficit), worst
 
 
-def tetrahedralize(shape: BodyShape, samples: Samples, threshold_deg: float = 10.0,
+def nonmanifold_edge_nodes(tets: np.ndarray) -> np.ndarray:
+    """Nodes of boundary edges not shared by exactly two boundary triangles."""
+    return np.unique(_nonmanifold_edges(tets))
+
+
+def tetrahedralize(shape: BodyShape, samples: Samples, chord_tolerance: float = 0.15, fill_rounds: int = 0,
+                   threshold_deg: float = 10.0,
                    max_iterations: int = 25, seed: int = 0) -> TetMesh:
     """Carved Delaunay mesh of the sampled nodes with slivers repaired by peeling and perturbation."""
     rng = np.random.default_rng(seed)
     thr = np.radians(threshold_deg)
     n = len(samples.points)
-    points = _jitter(shape, samples, samples.points, np.arange(n), 0.1, rng)
+    points = samples.points.copy()
 
     def attempt(pts: np.ndarray) -> tuple:
-        tets = peel_boundary_slivers(pts, carve(shape, pts), thr)
+        tets = peel_boundary_slivers(pts, carve(shape, pts, chord_tolerance, fill_rounds), thr)
         score, worst = _sliver_score(pts, tets, n, thr)
         return tets, score, worst
 

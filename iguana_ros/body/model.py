@@ -33,8 +33,8 @@ from iguana_ros.errors import InputError
 
 FORMAT_VERSION = 1
 """Version of the cached geometry layout; bump it when the arrays change meaning."""
-FOOT_CONTACT_HEIGHT = 0.0015
-"""Limb nodes of a foot lower than this (m) form its sole, the contact/friction region."""
+FOOT_CONTACT_HEIGHT = 0.004
+"""Limb nodes lower than this (m) form the foot sole: the contact/friction region (soles lie on z = 0)."""
 FLANK_FRACTION = 0.35
 """Trunk surface nodes with |y| above this fraction of the local half-width are flank (push) nodes."""
 _SOURCES = ('shape.py', 'mesh.py', 'springs.py', 'skinning_weights.py', 'model.py', 'skeleton.py',
@@ -178,7 +178,9 @@ def build_geometry(resolution: str) -> dict:
     """Build every stiffness-independent array of the model at `resolution` (no cache)."""
     start = time.perf_counter()
     shape = iguana_shape()
-    tet_mesh = tetrahedralize(shape, candidate_nodes(shape, RESOLUTIONS[resolution]))
+    prm = RESOLUTIONS[resolution]
+    tet_mesh = tetrahedralize(shape, candidate_nodes(shape, prm), prm.chord_tolerance,
+                              prm.fill_rounds, max_iterations=prm.repair_iterations)
     points, tets = tet_mesh.points, tet_mesh.tets
     springs = tet_springs(tets)
     bones, weights = skin_weights(shape, points, tet_mesh.part)
