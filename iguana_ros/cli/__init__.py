@@ -12,6 +12,8 @@ SUBCOMMANDS = (
     ('topics', 'iguana_ros.cli.topics'),
     ('bag', 'iguana_ros.cli.bag'),
     ('goal', 'iguana_ros.cli.goal'),
+    ('motion', 'iguana_ros.cli.motion'),
+    ('model', 'iguana_ros.cli.model'),
 )
 
 
