@@ -215,11 +215,12 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, idx):
 
 # ----------------------------------------------------------------------------------------------- contact
 @numba.njit(cache=True)
-def contact_forces(x, v, mass, friction, heights, ox, oy, spacing, kn, cn, kt, ct,
+def contact_forces(x, v, contact_mass, friction, heights, ox, oy, spacing, kn, cn, kt, ct,
                    anchors, state, forces, diag_k, diag_c):
     """Penalty contact on the height field: normal k·d + c·ḋ (≥ 0), Coulomb friction via stick anchors.
 
-    Per node: `kn, kt` stiffness per kg (1/s²), `cn, ct` damping per kg (1/s); `friction (n,)` μ; `anchors (n, 3)`
+    Per node: `kn, kt` stiffness and `cn, ct` damping per kg of `contact_mass (n,)` (1/s², 1/s);
+    `friction (n,)` μ; `anchors (n, 3)`
     and `state (n,)` (CONTACT_*) persist between steps. Adds forces, writes stiffness `diag_k (n, 3, 3)` (N/m) and
     damping `diag_c (n, 3, 3)` (N s/m) of each node's own block.
     Returns `(nodes in contact, deepest node, its depth in m)`.
@@ -243,7 +244,7 @@ def contact_forces(x, v, mass, friction, heights, ox, oy, spacing, kn, cn, kt, c
         if depth > max_depth:
             max_depth = depth
             deepest = i
-        m = mass[i]
+        m = contact_mass[i]
         vn = v[i, 0] * n0 + v[i, 1] * n1 + v[i, 2] * n2
         fn = m * (kn * depth - cn * vn)
         if state[i] == CONTACT_NONE:                 # touch-down: anchor at the surface point below the node
@@ -291,6 +292,12 @@ def _friction(x, v, i, n0, n1, n2, kt, ct, limit, anchors, forces, diag_k, diag_
     forces[i, 0] += s * f0
     forces[i, 1] += s * f1
     forces[i, 2] += s * f2
+    speed = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)       # sliding: the capped force's damping derivative
+    c_slip = min(ct, limit / speed) if speed > 0.0 else ct
+    n = (n0, n1, n2)
+    for p in range(3):
+        for q in range(3):
+            diag_c[i, p, q] += c_slip * ((1.0 if p == q else 0.0) - n[p] * n[q])
     elen = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
     if elen > 0.0:                                   # slide the anchor so its spring alone carries μ f_n
         keep = min(1.0, limit / (kt * elen))

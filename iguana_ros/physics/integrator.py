@@ -41,8 +41,8 @@ STATUS_SOLVER = 4
 def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info):
     """Forces, (maybe) the system matrix, and the right-hand side of one step; returns (status, refreshed)."""
     (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
-     row_ptr, cols, diag, tet_blocks, spring_blocks) = model
-    (x, v, dv, quats, anchors, contact, blocks, dextra, pinv, forces, rhs, work, diag_k, diag_c) = state
+     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass) = model
+    (x, v, dv, quats, anchors, contact, blocks, dextra, pinv, forces, rhs, work, diag_k, diag_c, in_a) = state
     h = fp[FP_DT]
     alpha = fp[FP_ALPHA]
     refresh = counters[C_STEP] % ip[IP_JACOBIAN_EVERY] == 0
@@ -60,7 +60,7 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     spring_forces(x, springs, spring_k, desired_lengths, forces, blocks, spring_blocks, scale)
     if ip[IP_HAS_GROUND]:
         n_contact, deepest, depth = contact_forces(
-            x, v, mass, friction, heights, terrain[0], terrain[1], terrain[2], fp[FP_KN], fp[FP_CN],
+            x, v, contact_mass, friction, heights, terrain[0], terrain[1], terrain[2], fp[FP_KN], fp[FP_CN],
             fp[FP_KT], fp[FP_CT], anchors, contact, forces, diag_k, diag_c)
         counters[C_CONTACTS] = n_contact
         if depth > fp[FP_MAX_DEPTH]:
@@ -68,8 +68,10 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
             info[1] = depth
             return STATUS_PENETRATION, refresh
     if refresh:
-        _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, h, alpha, ip[IP_HAS_GROUND] != 0)
+        _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha, ip[IP_HAS_GROUND] != 0)
         counters[C_REFRESHES] += 1
+    elif ip[IP_HAS_GROUND]:
+        _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha)
     ap = work[3]
     block_matvec(row_ptr, cols, blocks, v, ap)          # ap = A v; (A − dextra) v is the stiffness part
     for i in range(n):
@@ -81,18 +83,46 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
 
 
 @numba.njit(cache=True)
-def _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, h, alpha, has_ground):
+def _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha, has_ground):
     """Add the diagonal terms M(1 + hα) + h C_c + h² K_c and invert the diagonal blocks for the preconditioner."""
     h2 = h * h
     for i in range(mass.shape[0]):
         blk = blocks[diag[i]]
         d = dextra[i]
+        c = in_a[i]
         for p in range(3):
             for q in range(3):
                 d[p, q] = h * diag_c[i, p, q] if has_ground else 0.0
-                blk[p, q] += d[p, q] + (h2 * diag_k[i, p, q] if has_ground else 0.0)
+                c[p, q] = d[p, q] + (h2 * diag_k[i, p, q] if has_ground else 0.0)
+                blk[p, q] += c[p, q]
             d[p, p] += mass[i] * (1.0 + h * alpha)
             blk[p, p] += mass[i] * (1.0 + h * alpha)
+        invert_3x3(blk, pinv[i])
+
+
+@numba.njit(cache=True)
+def _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha):
+    """Between Jacobian refreshes keep the contact terms h C_c + h² K_c of the diagonal blocks current."""
+    h2 = h * h
+    for i in range(mass.shape[0]):
+        c = in_a[i]
+        changed = False
+        for p in range(3):
+            for q in range(3):
+                new = h * diag_c[i, p, q] + h2 * diag_k[i, p, q]
+                if new != c[p, q]:
+                    changed = True
+        if not changed:
+            continue
+        blk = blocks[diag[i]]
+        d = dextra[i]
+        for p in range(3):
+            for q in range(3):
+                new = h * diag_c[i, p, q] + h2 * diag_k[i, p, q]
+                blk[p, q] += new - c[p, q]
+                c[p, q] = new
+                d[p, q] = h * diag_c[i, p, q]
+            d[p, p] += mass[i] * (1.0 + h * alpha)
         invert_3x3(blk, pinv[i])
 
 

@@ -46,14 +46,15 @@ class SoftBodySimulator:
     """Tetrahedral soft body with springs, corotated FEM, Rayleigh damping and height-field ground contact.
 
     `terrain` is a `HeightField` (None = no ground). `fidelity` is a preset name or `Fidelity`; `overrides`
-    replace its fields (dt, solver, cg_tol, cg_max_iter, jacobian_every, polar_iters).
+    replace its fields (dt, solver, cg_tol, cg_max_iter, jacobian_every, polar_iters). With `cg_fallback`, a step
+    whose CG solve fails (not converged within cg_max_iter, or breakdown) is solved directly instead.
     """
 
     def __init__(self, model, terrain=None, fidelity='balanced', *, friction=None, gravity: float = GRAVITY,
                  rayleigh_alpha: float = RAYLEIGH_ALPHA, rayleigh_beta: float = RAYLEIGH_BETA,
                  contact_stiffness: float = CONTACT_STIFFNESS, contact_damping_ratio: float = CONTACT_DAMPING_RATIO,
                  friction_stiffness: float = FRICTION_STIFFNESS, max_speed: float = MAX_NODE_SPEED,
-                 max_penetration: float = MAX_PENETRATION, **overrides) -> None:
+                 max_penetration: float = MAX_PENETRATION, cg_fallback: bool = True, **overrides) -> None:
         self.model = model
         self.terrain = terrain
         self.fidelity: Fidelity = get_fidelity(fidelity, **overrides)
@@ -62,6 +63,7 @@ class SoftBodySimulator:
                            friction_stiffness, max_speed, max_penetration)
         self._build_state()
         self._direct = DirectSolver(self.pattern) if self.fidelity.solver == 'direct' else None
+        self._fallback = DirectSolver(self.pattern) if cg_fallback else None
         self.reset()
 
     # ------------------------------------------------------------------------------------------ building
@@ -90,7 +92,8 @@ class SoftBodySimulator:
                        np.ascontiguousarray(np.broadcast_to(model.spring_stiffness, (len(springs),)),
                                             dtype=np.float64),
                        self.friction, heights, np.array([ox, oy, spacing]), self.pattern.row_ptr,
-                       self.pattern.cols, self.pattern.diag, self.pattern.tet_blocks, self.pattern.spring_blocks)
+                       self.pattern.cols, self.pattern.diag, self.pattern.tet_blocks, self.pattern.spring_blocks,
+                       np.maximum(mass, mass.mean()))      # contact mass: light (sliver) nodes get the mean
 
     def _build_params(self, gravity, alpha, beta, kn, zeta, kt, max_speed, max_depth) -> None:
         """Float/int parameter vectors of the compiled kernels."""
@@ -123,7 +126,7 @@ class SoftBodySimulator:
         self._state = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n_tets, 4)),
                        np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros((nb, 3, 3)), np.zeros((n, 3, 3)),
                        np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((4, n, 3)),
-                       np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
+                       np.zeros((n, 3, 3)), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
         self._counters = np.zeros(itg.N_COUNTERS, dtype=np.int64)
         self._info = np.zeros(2)
         self._zero_external = np.zeros((n, 3))
@@ -139,6 +142,7 @@ class SoftBodySimulator:
         contact[:] = CONTACT_NONE
         quats[:] = (0.0, 0.0, 0.0, 1.0)
         self._counters[:] = 0
+        self._fallback_steps = 0
         self.time = 0.0
         self._diverged = None
         m = self._model
@@ -179,7 +183,8 @@ class SoftBodySimulator:
         steps = int(c[itg.C_STEP])
         return {'steps': steps, 'cg_iterations': int(c[itg.C_CG_ITERS]),
                 'cg_iterations_per_step': float(c[itg.C_CG_ITERS]) / max(steps, 1),
-                'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS])}
+                'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS]),
+                'direct_fallback_steps': self._fallback_steps}
 
     # -------------------------------------------------------------------------------------------- stepping
     def advance_frame(self, desired_lengths=None, external_forces=None, n_steps: int | None = None) -> None:
@@ -194,8 +199,7 @@ class SoftBodySimulator:
         ext = self._zero_external if external_forces is None else self._checked(external_forces, 'external_forces')
         n_steps = self.steps_per_frame if n_steps is None else int(n_steps)
         if self._direct is None:
-            status, done = itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters,
-                                            ld, ext, n_steps, self._info)
+            status, done = self._run_cg(ld, ext, n_steps)
         else:
             status, done = self._run_direct(ld, ext, n_steps)
         self.time = self._counters[itg.C_STEP] * self.fidelity.dt
@@ -206,6 +210,26 @@ class SoftBodySimulator:
     def advance(self, duration: float, desired_lengths=None, external_forces=None) -> None:
         """Advance by `duration` s (rounded to whole steps) with fixed inputs."""
         self.advance_frame(desired_lengths, external_forces, int(round(duration / self.fidelity.dt)))
+
+    def _run_cg(self, ld, ext, n_steps) -> tuple:
+        """Steps in one compiled call; a step whose CG fails is solved by sparse LU (if `cg_fallback`)."""
+        done_total = 0
+        while True:
+            status, done = itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters,
+                                            ld, ext, n_steps - done_total, self._info)
+            done_total += done
+            if status != itg.STATUS_SOLVER or self._fallback is None:
+                return status, done_total
+            try:                                     # the failed step is prepared: matrix and rhs are current
+                self._fallback.factorize(self._state[6])
+            except RuntimeError:
+                return itg.STATUS_SOLVER, done_total
+            self._fallback.solve(self._state[10], self._state[2])
+            self._fallback_steps += 1
+            status = itg.finish_step(self._state, self._fp, self._counters, self._info)
+            done_total += 1
+            if status != itg.STATUS_OK or done_total >= n_steps:
+                return status, done_total
 
     def _run_direct(self, ld, ext, n_steps) -> tuple:
         """Step loop around scipy's sparse LU (refactorised when the Jacobian is refreshed)."""

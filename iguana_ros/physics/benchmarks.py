@@ -1,0 +1,222 @@
+"""Simulator benchmarks: speed of the gait scene, where a step's time goes, and the speed–accuracy trade."""
+from __future__ import annotations
+
+import os
+import platform
+import resource
+import time
+
+import numpy as np
+
+from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.physics.scenes import bench_model, gait_for, place_on_terrain, run_gait
+from iguana_ros.physics.simulator import SoftBodySimulator
+from iguana_ros.terrain.heightfield import HeightField
+
+HILLS = dict(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
+"""The benchmark terrain: ±3 cm hills of ~0.6 m wavelength."""
+
+
+def cpu_model() -> str:
+    """The CPU model name from /proc/cpuinfo (or the platform's processor string)."""
+    try:
+        with open('/proc/cpuinfo', encoding='utf-8') as fh:
+            for line in fh:
+                if line.startswith('model name'):
+                    return line.split(':', 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or 'unknown'
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process, MB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def make_scene(resolution: str = 'medium', preset='balanced', **overrides) -> tuple:
+    """(simulator placed on the benchmark hills, gait, model name, model build seconds)."""
+    t0 = time.perf_counter()
+    model, name = bench_model(resolution)
+    build_s = time.perf_counter() - t0
+    terrain = HeightField.hills(**HILLS)
+    sim = SoftBodySimulator(model, terrain, preset, **overrides)
+    sim.reset(place_on_terrain(sim.rest_positions, terrain))
+    return sim, gait_for(model), name, build_s
+
+
+def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced', profile: bool = False,
+              **overrides) -> dict:
+    """Run the gait scene for `seconds` of simulated time; speed, sizes, memory and compile time."""
+    sim, gait, name, build_s = make_scene(resolution, preset, **overrides)
+    start = sim.positions
+    t0 = time.perf_counter()
+    sim.advance_frame(gait.desired_lengths(0.0), n_steps=1)          # JIT compile or cache load
+    compile_s = time.perf_counter() - t0
+    sim.reset(start)
+    cpu0 = time.process_time()
+    timing = run_gait(sim, gait, seconds)
+    cpu_s = time.process_time() - cpu0
+    steps = sim.stats['steps']
+    fid = sim.fidelity
+    result = {
+        'model': name, 'nodes': len(sim.rest_positions), 'tets': len(sim.model.tets),
+        'springs': len(sim.desired_lengths_rest), 'preset': preset if isinstance(preset, str) else 'custom',
+        'dt': fid.dt, 'solver': fid.solver, 'cg_tol': fid.cg_tol, 'jacobian_every': fid.jacobian_every,
+        'simulated_s': sim.time, 'steps': steps,
+        'realtime_factor': sim.time / timing['sim_wall_s'],
+        'realtime_factor_cpu': sim.time / max(cpu_s - timing['gait_wall_s'], 1e-12),
+        'ms_per_step': 1e3 * timing['sim_wall_s'] / steps,
+        'gait_ms_per_frame': 1e3 * timing['gait_wall_s'] / max(timing['frames'], 1),
+        'cg_iterations_per_step': sim.stats['cg_iterations_per_step'],
+        'nodes_in_contact': sim.stats['nodes_in_contact'],
+        'com_travel_m': float(np.linalg.norm(sim.center_of_mass()[:2] - (sim.model.node_mass @ start[:, :2])
+                                             / sim.model.node_mass.sum())),
+        'compile_s': compile_s, 'model_build_s': build_s, 'peak_rss_mb': peak_rss_mb(),
+        'cpu_model': cpu_model(), 'cpus_available': len(os.sched_getaffinity(0)), 'threads': 1,
+    }
+    if profile:
+        result['profile_us'] = profile_step(sim)
+    return result
+
+
+def profile_step(sim, repeats: int = 100) -> dict:
+    """Microseconds per call of each part of a step, on copies of the simulator's current state."""
+    from iguana_ros.physics import integrator as itg
+    from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
+    from iguana_ros.physics.solver import block_jacobi_pcg
+
+    (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
+     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass) = sim._model
+    state = tuple(a.copy() for a in sim._state)
+    x, v, dv, quats, anchors, contact, blocks = state[:7]
+    forces, rhs, work, diag_k, diag_c = state[9], state[10], state[11], state[12], state[13]
+    ld = sim.desired_lengths_rest
+    fp, ip = sim._fp, sim._ip
+    scale = fp[itg.FP_DT] ** 2
+    parts = {
+        'elastic_forces': lambda: corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, ip[2], forces,
+                                                           blocks, tet_blocks, 0.0),
+        'elastic_forces_and_stiffness': lambda: corotated_elastic_forces(
+            x, tets, grads, volume, mu, lam, quats, ip[2], forces, blocks, tet_blocks, scale),
+        'spring_forces': lambda: spring_forces(x, springs, spring_k, ld, forces, blocks, spring_blocks, 0.0),
+        'spring_forces_and_stiffness': lambda: spring_forces(x, springs, spring_k, ld, forces, blocks,
+                                                             spring_blocks, scale),
+        'contact_forces': lambda: contact_forces(x, v, contact_mass, friction, heights, terrain[0], terrain[1], terrain[2],
+                                                 fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT],
+                                                 anchors, contact, forces, diag_k, diag_c),
+    }
+    out = {name: _time_us(fn, repeats) for name, fn in parts.items()}
+    solution = np.zeros_like(dv)
+
+    def ten_cg_iterations():
+        solution[:] = 0.0
+        block_jacobi_pcg(row_ptr, cols, sim._state[6], sim._state[8], sim._state[10], solution, 0.0, 0.0, 10, work)
+
+    out['cg_iteration'] = _time_us(ten_cg_iterations, max(repeats // 10, 5)) / 10.0
+    out['cg_per_step'] = out['cg_iteration'] * sim.stats['cg_iterations_per_step']
+    return out
+
+
+def _time_us(fn, repeats: int) -> float:
+    """Median over 5 batches of the CPU microseconds per call of `fn`."""
+    fn()
+    batches = []
+    for _ in range(5):
+        t0 = time.process_time()
+        for _ in range(repeats):
+            fn()
+        batches.append((time.process_time() - t0) / repeats * 1e6)
+    return float(np.median(batches))
+
+
+TRADEOFF_SETTINGS = (
+    # (group, label, fidelity overrides); each compared with the finest run of the same mesh
+    [('dt', f'dt=1/{n}', dict(dt=1.0 / n, cg_tol=1e-6)) for n in (4800, 2400, 1200, 600, 300, 120)]
+    + [('cg_tol', f'cg_tol={tol:g}', dict(cg_tol=tol)) for tol in (1e-2, 1e-3, 1e-4, 1e-6)]
+    + [('solver', 'direct', dict(solver='direct'))]
+    + [('jacobian_every', f'jacobian_every={k}', dict(cg_tol=1e-6, jacobian_every=k)) for k in (2, 4, 10, 40)]
+    + [('preset', name, dict(preset=name)) for name in ('fast', 'balanced', 'accurate')]
+)
+REFERENCE = dict(dt=1.0 / 4800.0, cg_tol=1e-8, cg_max_iter=1000)
+"""The finest run every other run is compared with."""
+
+
+def _run(resolution: str, seconds: float, settings: dict) -> dict:
+    """One gait-scene run; final positions, centre of mass, speed, or the divergence."""
+    settings = dict(settings)
+    preset = settings.pop('preset', 'balanced')
+    sim, gait, _, _ = make_scene(resolution, preset, **settings)
+    sim.advance_frame(gait.desired_lengths(0.0), n_steps=1)         # compile outside the timing
+    sim.reset(place_on_terrain(sim.rest_positions, sim.terrain))
+    try:
+        timing = run_gait(sim, gait, seconds)
+    except SimulationDiverged as exc:
+        return {'diverged': exc.cause, 'message': str(exc)}
+    return {'positions': sim.positions, 'com': sim.center_of_mass(), 'nodes': len(sim.rest_positions),
+            'realtime_factor': sim.time / timing['sim_wall_s'], 'ms_per_step': 1e3 * timing['sim_wall_s'] /
+            sim.stats['steps'], 'cg_iterations_per_step': sim.stats['cg_iterations_per_step']}
+
+
+def tradeoff(resolution: str = 'medium', seconds: float = 2.0, meshes=('coarse', 'medium', 'fine'),
+             progress=None) -> list:
+    """Speed and error (node RMS and COM difference after `seconds`, against the finest run) per setting."""
+    ref = _run(resolution, seconds, REFERENCE)
+    if 'diverged' in ref:
+        raise SimulationDiverged(ref['diverged'], 'tradeoff reference run: ' + ref['message'])
+    rows = []
+    for group, label, settings in TRADEOFF_SETTINGS:
+        run = _run(resolution, seconds, settings)
+        rows.append(_row(group, label, resolution, run, ref))
+        if progress:
+            progress(rows[-1])
+    finest = meshes[-1]
+    mesh_ref = _run(finest, seconds, REFERENCE)
+    for mesh in meshes:
+        run = _run(mesh, seconds, {'preset': 'balanced'})
+        rows.append(_row('mesh', f'mesh={mesh}', mesh, run, mesh_ref, nodes_comparable=False))
+        if progress:
+            progress(rows[-1])
+    return rows
+
+
+def _row(group: str, label: str, mesh: str, run: dict, ref: dict, nodes_comparable: bool = True) -> dict:
+    """A table row; errors are None when the run diverged (or node RMS when meshes differ)."""
+    row = {'group': group, 'label': label, 'mesh': mesh, 'diverged': run.get('diverged')}
+    if row['diverged']:
+        return {**row, 'realtime_factor': None, 'ms_per_step': None, 'node_rms_m': None, 'com_error_m': None,
+                'cg_iterations_per_step': None}
+    rms = (float(np.sqrt(np.mean(np.sum((run['positions'] - ref['positions']) ** 2, axis=1))))
+           if nodes_comparable and 'positions' in ref else None)
+    return {**row, 'realtime_factor': run['realtime_factor'], 'ms_per_step': run['ms_per_step'],
+            'cg_iterations_per_step': run['cg_iterations_per_step'], 'node_rms_m': rms,
+            'com_error_m': float(np.linalg.norm(run['com'] - ref['com']))}
+
+
+def plot_tradeoff(rows: list, path) -> None:
+    """Error against realtime factor (log axes), one marker per group, saved to `path` (PNG)."""
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
+    for group in dict.fromkeys(r['group'] for r in rows):
+        pts = [r for r in rows if r['group'] == group and r['realtime_factor']]
+        err = [(r['node_rms_m'] if r['node_rms_m'] is not None else r['com_error_m']) for r in pts]
+        ok = [(p, e) for p, e in zip(pts, err) if e and e > 0]
+        if not ok:
+            continue
+        ax.scatter([p['realtime_factor'] for p, _ in ok], [e for _, e in ok], label=group)
+        for p, e in ok:
+            ax.annotate(p['label'].split('=')[-1], (p['realtime_factor'], e), fontsize=7, xytext=(3, 3),
+                        textcoords='offset points')
+    ax.set_xscale('log')
+    ax.set_yscale('log')
+    ax.set_xlabel('realtime factor (simulated s per wall s)')
+    ax.set_ylabel('error after run (node RMS; COM for mesh), m')
+    ax.grid(True, which='both', alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
