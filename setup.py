@@ -33,7 +33,7 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'benchmarks']),
-    package_data={PACKAGE: ['data/*']},
+    package_data={PACKAGE: ['data/*', 'data/capture/*']},
     data_files=_data_files(),
     python_requires='>=3.10',
     install_requires=[

@@ -1,0 +1,88 @@
+"""`iguana motion`: inspect the clip library, export BVH, rebuild capture -> IK -> clips from a seed."""
+from __future__ import annotations
+
+import argparse
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `motion` sub-command and its actions."""
+    parser = subparsers.add_parser('motion', help='motion data: clip table, BVH export, rebuild from a seed')
+    actions = parser.add_subparsers(dest='action', metavar='ACTION', required=True)
+    inspect = actions.add_parser('inspect', help='print the clip table (and per-take IK residuals)')
+    inspect.add_argument('--library', help='clip library .npz (default: the shipped one)')
+    inspect.set_defaults(func=run_inspect)
+    export = actions.add_parser('export-bvh', help='write a clip or a whole take as BVH (Blender-viewable)')
+    export.add_argument('name', metavar='CLIP|TAKE')
+    export.add_argument('-o', '--output', required=True, help='output .bvh file')
+    export.add_argument('--repeat', type=int, default=1, help='play a clip this many strides in a row')
+    export.add_argument('--library', help='clip library .npz (default: the shipped one)')
+    export.set_defaults(func=run_export)
+    build = actions.add_parser('build', help='regenerate synthetic C3D captures, IK and the clip library')
+    build.add_argument('--seed', type=int, default=None, help='capture noise seed (default 2018)')
+    build.add_argument('--capture-dir', help='where to write the .c3d takes (default: package data)')
+    build.add_argument('--library', help='where to write clips.npz (default: next to the captures)')
+    build.set_defaults(func=run_build)
+
+
+def run_inspect(args: argparse.Namespace) -> int:
+    """Print one line per clip and per take."""
+    import numpy as np
+
+    from iguana_ros.motion.clips import default_library_path, load_clip_library
+
+    library = load_clip_library(args.library)
+    print(f'{"clip":12s} {"frames":>6s} {"stride m":>8s} {"turn deg":>8s} {"duty":>5s}  source')
+    for clip in library.values():
+        print(f'{clip.name:12s} {clip.n_frames:6d} {clip.stride_length:8.3f} '
+              f'{np.degrees(clip.heading_change):8.1f} {clip.duty_factor:5.2f}  {clip.source} '
+              f'frames {clip.metadata.get("start_frame")}..{clip.metadata.get("end_frame")}')
+    with np.load(args.library or default_library_path()) as data:
+        takes = sorted({key.split('/')[1] for key in data.files if key.startswith('take/')})
+        if takes:
+            print(f'\n{"take":18s} {"frames":>6s} {"missing":>8s} {"IK mm RMS":>9s}')
+        for take in takes:
+            print(f'{take:18s} {len(data[f"take/{take}/theta"]):6d} '
+                  f'{100 * float(data[f"take/{take}/missing_fraction"]):7.1f}% '
+                  f'{float(data[f"take/{take}/marker_rms_mm"]):9.2f}')
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    """Write the named clip (repeated) or take as BVH."""
+    import numpy as np
+
+    from iguana_ros.body.skeleton import iguana_skeleton
+    from iguana_ros.constants import FRAME_RATE
+    from iguana_ros.errors import InputError
+    from iguana_ros.motion.bvh import write_bvh
+    from iguana_ros.motion.clips import load_clip_library, load_take_motions, planar_transform
+    from iguana_ros.motion.dofs import iguana_active_dofs, local_rotations, root_positions
+
+    dofs = iguana_active_dofs()
+    library = load_clip_library(args.library)
+    if args.name in library:
+        theta = library[args.name].theta
+        parts = [theta]
+        for _ in range(max(args.repeat, 1) - 1):
+            parts.append(planar_transform(parts[-1][1:], theta[0], parts[-1][-1], dofs))
+        theta = np.concatenate(parts)
+    else:
+        takes = load_take_motions(args.library)
+        if args.name not in takes:
+            raise InputError(f'no clip or take named {args.name!r}; clips: {", ".join(library)}; '
+                             f'takes: {", ".join(takes)}')
+        theta = takes[args.name]
+    write_bvh(args.output, iguana_skeleton(), root_positions(dofs, theta), local_rotations(dofs, theta),
+              FRAME_RATE)
+    print(f'wrote {args.output}: {len(theta)} frames')
+    return 0
+
+
+def run_build(args: argparse.Namespace) -> int:
+    """Regenerate the capture, IK and clip library."""
+    from iguana_ros.motion.library import DEFAULT_SEED, build_library
+
+    clips, _ = build_library(seed=DEFAULT_SEED if args.seed is None else args.seed,
+                             capture_dir=args.capture_dir, library_path=args.library)
+    print(f'built {len(clips)} clips: {", ".join(clips)}')
+    return 0
