@@ -14,6 +14,7 @@ SUBCOMMANDS = (
     ('goal', 'iguana_ros.cli.goal'),
     ('motion', 'iguana_ros.cli.motion'),
     ('model', 'iguana_ros.cli.model'),
+    ('bench', 'iguana_ros.cli.bench'),
 )
 
 

@@ -1,0 +1,124 @@
+"""`iguana bench sim|tradeoff|stability`: simulator speed, speed–accuracy trade and stability at the extremes."""
+from __future__ import annotations
+
+import argparse
+import json
+from fractions import Fraction
+
+
+def _time_step(text: str) -> float:
+    """A time step given as seconds or a fraction such as 1/1200."""
+    try:
+        value = float(Fraction(text))
+    except (ValueError, ZeroDivisionError):
+        raise argparse.ArgumentTypeError(f'time step must be seconds or a fraction like 1/1200, got {text!r}')
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f'time step must be positive, got {text!r}')
+    return value
+
+
+def register(subparsers) -> None:
+    """Add `bench` with its `sim`, `tradeoff` and `stability` sub-commands."""
+    parser = subparsers.add_parser('bench', help='simulator benchmarks (speed, speed-accuracy trade, stability)')
+    sub = parser.add_subparsers(dest='bench', metavar='BENCH', required=True)
+    sim = sub.add_parser('sim', help='simulate the iguana walking (lateral-bend gait) on hills; report speed')
+    sim.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
+    sim.add_argument('--dt', type=_time_step, default=None, help='time step, e.g. 1/1200 (default: the preset)')
+    sim.add_argument('--seconds', type=float, default=5.0, help='simulated seconds (default 5)')
+    sim.add_argument('--preset', choices=('fast', 'balanced', 'accurate'), default='balanced')
+    sim.add_argument('--solver', choices=('cg', 'direct'), default=None)
+    sim.add_argument('--cg-tol', type=float, default=None)
+    sim.add_argument('--jacobian-every', type=int, default=None)
+    sim.add_argument('--profile', action='store_true', help='also time each part of a step')
+    sim.add_argument('--json', action='store_true', help='print one JSON object')
+    sim.set_defaults(func=run_sim)
+    trade = sub.add_parser('tradeoff', help='sweep dt, solver settings and mesh; error against the finest run')
+    trade.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
+    trade.add_argument('--seconds', type=float, default=2.0, help='simulated seconds per run (default 2)')
+    trade.add_argument('--plot', default=None, help='write error-vs-speed plot to this PNG')
+    trade.add_argument('--json', action='store_true')
+    trade.set_defaults(func=run_tradeoff)
+    stab = sub.add_parser('stability', help='extreme stiffness, E, dt, pushes, drops, slopes, inverted start')
+    stab.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='coarse')
+    stab.add_argument('--seconds', type=float, default=1.5)
+    stab.add_argument('--json', action='store_true')
+    stab.set_defaults(func=run_stability)
+
+
+def run_sim(args) -> int:
+    """`iguana bench sim`."""
+    from iguana_ros.physics.benchmarks import bench_sim
+
+    result = bench_sim(args.mesh, seconds=args.seconds, preset=args.preset, profile=args.profile, dt=args.dt,
+                       solver=args.solver, cg_tol=args.cg_tol, jacobian_every=args.jacobian_every)
+    if args.json:
+        print(json.dumps(result, indent=1))
+        return 0
+    print(f"{result['model']}: {result['nodes']} nodes, {result['tets']} tets, {result['springs']} springs; "
+          f"preset {result['preset']} (dt {result['dt']:.6g} s, {result['solver']}, cg_tol {result['cg_tol']:g}, "
+          f"jacobian every {result['jacobian_every']})")
+    print(f"realtime factor {result['realtime_factor']:.2f} (wall), {result['realtime_factor_cpu']:.2f} (CPU time); "
+          f"{result['ms_per_step']:.3f} ms/step; {result['cg_iterations_per_step']:.1f} CG iterations/step")
+    print(f"compile/cache load {result['compile_s']:.2f} s; model build {result['model_build_s']:.2f} s; "
+          f"peak RSS {result['peak_rss_mb']:.0f} MB; CPU {result['cpu_model']}")
+    for name, us in result.get('profile_us', {}).items():
+        print(f'  {name:32s} {us:9.1f} us')
+    return 0
+
+
+def run_tradeoff(args) -> int:
+    """`iguana bench tradeoff`."""
+    import sys
+
+    from iguana_ros.physics.benchmarks import plot_tradeoff, tradeoff
+
+    def show(row):
+        if not args.json:
+            print(_format_row(row), flush=True)
+
+    if not args.json:
+        print(f"{'setting':22s} {'mesh':7s} {'RTF':>7s} {'ms/step':>8s} {'CG/step':>7s} {'node RMS m':>11s} "
+              f"{'COM err m':>10s}", file=sys.stdout)
+    rows = tradeoff(args.mesh, seconds=args.seconds, progress=show)
+    if args.plot:
+        plot_tradeoff(rows, args.plot)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    return 0
+
+
+def _format_row(row: dict) -> str:
+    """One line of the tradeoff table."""
+    if row['diverged']:
+        return f"{row['label']:22s} {row['mesh']:7s} diverged ({row['diverged']})"
+
+    def num(v, fmt):
+        return format(v, fmt) if v is not None else '-'
+    return (f"{row['label']:22s} {row['mesh']:7s} {num(row['realtime_factor'], '7.2f')} "
+            f"{num(row['ms_per_step'], '8.3f')} {num(row['cg_iterations_per_step'], '7.1f')} "
+            f"{num(row['node_rms_m'], '11.2e')} {num(row['com_error_m'], '10.2e')}")
+
+
+def run_stability(args) -> int:
+    """`iguana bench stability`."""
+    from iguana_ros.physics.scenes import bench_model
+    from iguana_ros.physics.stability import stability_table
+
+    model, name = bench_model(args.mesh)
+
+    def show(r):
+        if args.json:
+            return
+        if r['outcome'] == 'stable':
+            print(f"{r['scenario']:40s} stable    max speed {r['max_speed']:6.2f} m/s, end depth "
+                  f"{1e3 * r['final_max_depth']:5.1f} mm, inverted tets {r['inverted_tets_at_start']}"
+                  f" -> {r['inverted_tets_at_end']}", flush=True)
+        else:
+            print(f"{r['scenario']:40s} DIVERGED  ({r['cause']}) {r['message']}", flush=True)
+
+    if not args.json:
+        print(f'{name}, {args.seconds:g} s per scenario')
+    rows = stability_table(model, seconds=args.seconds, progress=show)
+    if args.json:
+        print(json.dumps({'model': name, 'rows': rows}, indent=1))
+    return 0
