@@ -41,10 +41,21 @@ class PlannerStage:
         self.clip: AlignedClip | None = None
         self.clip_start = 0
         self.history: list[tuple[int, str]] = []
+        self._scheduled: list[tuple[float, int, np.ndarray]] = []
 
     def set_goal(self, goal_xy: np.ndarray | None) -> None:
         """Set the goal `(2,)` (world x, y) used from the next stride on; None = stop."""
         self.goal = None if goal_xy is None else np.asarray(goal_xy, float)[:2].copy()
+
+    def schedule_goal(self, goal_xy: np.ndarray, at: float = 0.0) -> None:
+        """Make `goal_xy (2,)` the goal once simulated time reaches `at` s (0 = at the next frame)."""
+        entry = (float(at), len(self._scheduled), np.asarray(goal_xy, float)[:2].copy())
+        self._scheduled = sorted(self._scheduled + [entry], key=lambda e: (e[0], e[1]))
+
+    def activate_due_goals(self, time: float) -> None:
+        """Apply, in time order, every scheduled goal due at simulated `time` s."""
+        while self._scheduled and self._scheduled[0][0] <= time + 1e-9:
+            self.set_goal(self._scheduled.pop(0)[2])
 
     def stride_ends_at(self, frame: int) -> bool:
         """Whether a new clip must be chosen at `frame` (no clip yet, or the current one is used up)."""
@@ -52,6 +63,7 @@ class PlannerStage:
 
     def update(self, frame: int, root_position: np.ndarray, root_orientation: np.ndarray) -> AlignedClip | None:
         """At a stride end, choose and align the next clip from the body's root pose; else None."""
+        self.activate_due_goals(frame / FRAME_RATE)
         if not self.stride_ends_at(frame):
             return None
         heading = float(yaw_of(root_orientation))
@@ -166,9 +178,12 @@ class SimulatorStage:
         """(root position (3,), orientation xyzw (4,)) of the body now."""
         return self.tracker.root_pose(self.sim.positions)
 
-    def advance(self, desired_lengths: np.ndarray) -> None:
-        """Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` and any active push."""
+    def advance(self, desired_lengths: np.ndarray | None, extra_forces: np.ndarray | None = None) -> None:
+        """Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` (None = rest lengths), the
+        scene's active pushes and optional extra forces `(n_nodes, 3)` N."""
         forces = push_forces(self.model, self.pushes, self.time) if self.pushes else None
+        if extra_forces is not None:
+            forces = extra_forces if forces is None else forces + extra_forces
         self.sim.advance_frame(desired_lengths, forces)
         self.frame += 1
 
@@ -195,18 +210,8 @@ class Pipeline:
     simulator: SimulatorStage
     frame: int = 0
 
-    def apply_goals(self) -> None:
-        """Give the planner every scene goal whose time has come."""
-        t = self.frame / FRAME_RATE
-        due = [g for g in self.scene.goals if g.at <= t + 1e-9]
-        if due:
-            goal = due[-1]
-            if self.planner.goal is None or not np.allclose(self.planner.goal, [goal.x, goal.y]):
-                self.planner.set_goal(np.array([goal.x, goal.y]))
-
     def step(self) -> tuple:
         """One frame; returns (root position, orientation, adapted joint positions)."""
-        self.apply_goals()
         root, quat = self.simulator.root_pose()
         self.planner.update(self.frame, root, quat)
         ref_root, ref_local = clip_pose(self.planner.clip, self.frame - self.planner.clip_start)
@@ -226,9 +231,12 @@ def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict |
         library = load_clip_library()
     graph = MotionGraph(library)
     use_adaptation = scene.adaptation if adaptation is None else adaptation
+    planner = PlannerStage(graph, PolicyParams(goal_radius=scene.goal_radius))
+    for goal in scene.goals:
+        planner.schedule_goal(np.array([goal.x, goal.y]), goal.at)
     return Pipeline(
         scene=scene,
-        planner=PlannerStage(graph, PolicyParams(goal_radius=scene.goal_radius)),
+        planner=planner,
         adaptation=AdaptationStage(model.skeleton, terrain, enabled=use_adaptation),
         springs=SpringLengthComputer(model),
         simulator=SimulatorStage(model, terrain, scene.fidelity, scene.pushes if scene.needs_pushes else (),

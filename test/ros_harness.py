@@ -3,14 +3,13 @@ from __future__ import annotations
 
 import base64
 import json
-import os
-import signal
-import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+
+from iguana_ros.nodes.process import NodeProcess as _PackageNodeProcess
+from iguana_ros.nodes.process import wait_for  # noqa: F401 (re-exported for tests)
 
 REPO = Path(__file__).resolve().parent.parent
 HELPERS = Path(__file__).resolve().parent / 'helpers'
@@ -38,94 +37,12 @@ def spin_until(executor_or_node, predicate: Callable[[], bool], timeout: float =
             executor.shutdown()
 
 
-def wait_for(predicate: Callable[[], bool], timeout: float = 10.0, period: float = 0.02) -> bool:
-    """Poll `predicate()` without spinning; False if `timeout` s pass first."""
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(period)
-    return True
-
-
-class NodeProcess:
-    """A command run as a separate process group with stdout/stderr captured to files.
-
-    `start(ready=...)` waits for a line in its output; `stop()` sends SIGINT, then SIGTERM, then
-    SIGKILL, and returns the exit status; `output` holds everything it printed.
-    """
+class NodeProcess(_PackageNodeProcess):
+    """The package's NodeProcess, run from the repository root."""
 
     def __init__(self, args: list[str], name: str = 'proc', log_dir: str | Path | None = None,
                  env: dict | None = None) -> None:
-        self.args, self.name = [str(a) for a in args], name
-        self.log_dir = Path(log_dir or tempfile.mkdtemp(prefix='iguana_proc_'))
-        self.env = dict(os.environ, PYTHONUNBUFFERED='1', **(env or {}))
-        self.proc: subprocess.Popen | None = None
-        self.out_path = self.log_dir / f'{name}.out'
-
-    def start(self, ready: str | None = None, timeout: float = 20.0) -> 'NodeProcess':
-        """Start the process; if `ready` is given, wait until that text appears in its output."""
-        self._out = open(self.out_path, 'wb')
-        self.proc = subprocess.Popen(self.args, stdout=self._out, stderr=subprocess.STDOUT,
-                                     cwd=REPO, env=self.env, start_new_session=True)
-        if ready is not None and not self.wait_for_output(ready, timeout):
-            self.stop()
-            raise AssertionError(f'{self.name} did not print {ready!r} within {timeout} s; '
-                                 f'output:\n{self.output}')
-        return self
-
-    @property
-    def output(self) -> str:
-        """Everything the process printed so far (stdout and stderr interleaved)."""
-        return self.out_path.read_text(errors='replace') if self.out_path.exists() else ''
-
-    def wait_for_output(self, text: str, timeout: float = 20.0) -> bool:
-        """True once `text` appears in the output; False on timeout or if the process exits first."""
-        def seen_or_dead() -> bool:
-            return text in self.output or self.proc.poll() is not None
-        wait_for(seen_or_dead, timeout, period=0.05)
-        return text in self.output
-
-    def wait(self, timeout: float = 30.0) -> int:
-        """Wait for the process to exit by itself; kill it and raise if it takes longer than `timeout`."""
-        try:
-            return self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.kill()
-            raise AssertionError(f'{self.name} still running after {timeout} s; output:\n{self.output}')
-
-    def _signal(self, sig: int) -> None:
-        try:
-            os.killpg(self.proc.pid, sig)
-        except ProcessLookupError:
-            pass
-
-    def stop(self, timeout: float = 10.0) -> int:
-        """SIGINT, then SIGTERM, then SIGKILL (each after `timeout` s); returns the exit status."""
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
-            if self.proc.poll() is not None:
-                break
-            self._signal(sig)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                continue
-        self._out.close()
-        return self.proc.wait()
-
-    def kill(self) -> int:
-        """SIGKILL the process group at once (a crash); returns the exit status."""
-        self._signal(signal.SIGKILL)
-        rc = self.proc.wait()
-        self._out.close()
-        return rc
-
-    def __enter__(self) -> 'NodeProcess':
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.proc is not None and self.proc.poll() is None:
-            self.stop(timeout=3.0)
+        super().__init__(args, name, log_dir, env, cwd=REPO)
 
 
 def helper(script: str, *args) -> list[str]:

@@ -70,9 +70,11 @@ def test_place_on_terrain_turns_moves_and_lifts():
 def test_scene_goal_schedule(coarse_scene):
     scene = dataclasses.replace(coarse_scene, goals=parse_scene(
         {'goals': [{'x': 1.0, 'y': 0.0, 'at': 0.0}, {'x': 0.0, 'y': 2.0, 'at': 0.1}]}).goals)
-    pipe = pipeline.build_pipeline(scene, library=_synthetic_library())
-    pipe.apply_goals()
-    assert np.allclose(pipe.planner.goal, [1.0, 0.0])
-    pipe.frame = 3
-    pipe.apply_goals()
-    assert np.allclose(pipe.planner.goal, [0.0, 2.0])
+    planner = pipeline.build_pipeline(scene, library=_synthetic_library()).planner
+    planner.activate_due_goals(0.0)
+    assert np.allclose(planner.goal, [1.0, 0.0])
+    planner.activate_due_goals(3 / 30)
+    assert np.allclose(planner.goal, [0.0, 2.0])
+    planner.schedule_goal(np.array([5.0, 5.0]), at=0.0)  # interactive goal: due at once
+    planner.activate_due_goals(3 / 30)
+    assert np.allclose(planner.goal, [5.0, 5.0])

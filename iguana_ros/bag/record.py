@@ -23,6 +23,10 @@ DISCOVERY_PERIOD_S = 0.5
 """How often the graph is polled for publishers of wanted topics that are not recorded yet."""
 
 
+RECORDER_NODE_NAME = 'iguana_bag_recorder'
+"""ROS node name of the recorder (the simulator can wait for it to subscribe)."""
+
+
 def absolute_name(name: str) -> str:
     """Topic name with a leading slash (the recorder's node lives in the root namespace)."""
     return name if name.startswith('/') else '/' + name
@@ -106,7 +110,7 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
-        node = rclpy.create_node('iguana_bag_recorder', context=context)
+        node = rclpy.create_node(RECORDER_NODE_NAME, context=context)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))

@@ -15,6 +15,8 @@ SUBCOMMANDS = (
     ('motion', 'iguana_ros.cli.motion'),
     ('model', 'iguana_ros.cli.model'),
     ('bench', 'iguana_ros.cli.bench'),
+    ('simulate', 'iguana_ros.cli.simulate'),
+    ('run', 'iguana_ros.cli.run'),
 )
 
 

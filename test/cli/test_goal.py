@@ -44,4 +44,6 @@ def test_goal_reaches_a_real_subscriber(tmp_path, make_node, executor):
     pos, quat = pose_stamped_to_numpy(received[0])
     np.testing.assert_allclose(pos, [1.5, -2.0, 0.0])
     np.testing.assert_allclose(quat, [0, 0, math.sqrt(0.5), math.sqrt(0.5)])
-    assert received[0].header.frame_id == 'map' and received[0].header.stamp.sec > 0
+    assert received[0].header.frame_id == 'map'
+    stamp = received[0].header.stamp
+    assert stamp.sec == 0 and stamp.nanosec == 0  # 0 = adopt at once (--at schedules in sim time)

@@ -1,0 +1,43 @@
+"""`iguana run [SCENE]`: the four nodes as processes, the scene's goals, every topic recorded to MCAP."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `run` sub-command."""
+    parser = subparsers.add_parser('run', help='run a scene with the four ROS 2 nodes and record a bag')
+    parser.add_argument('scene', nargs='?', default='hills',
+                        help='scene name under msg_configs/scenes/ or a scene YAML path (default: hills)')
+    parser.add_argument('--mode', choices=('lockstep', 'realtime'), default='lockstep',
+                        help='lockstep: deterministic, as fast as possible; realtime: paced to the wall clock')
+    parser.add_argument('--record', type=Path, default=None, metavar='DIR',
+                        help='bag directory (default: bags/<scene>_<date>_<time>)')
+    parser.add_argument('--single-process', action='store_true',
+                        help='run the four nodes in one process with one executor')
+    parser.add_argument('--timeout', type=float, default=None, metavar='S',
+                        help='wall-clock limit of the run (default: 120 s + 30 x the scene duration)')
+    parser.add_argument('--duration', type=float, default=None, metavar='S',
+                        help="simulated seconds to run (default: the scene's duration)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the scene and print the summary; exit status 1 if any node failed."""
+    from iguana_ros.errors import InputError
+    from iguana_ros.nodes.launch import RunOptions, run_scene
+
+    if args.duration is not None and not args.duration > 0:
+        raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
+    extra = {} if args.duration is None else {'duration': float(args.duration)}
+    summary = run_scene(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
+                                   single_process=args.single_process, timeout=args.timeout,
+                                   extra_params=extra))
+    for line in summary.lines():
+        print(line, flush=True)
+    if summary.exit_code != 0:
+        from iguana_ros.errors import IguanaError
+        raise IguanaError(f'the simulator exited with status {summary.exit_code}; bag kept at {summary.bag}:\n'
+                          f'{summary.message}')
+    return 0

@@ -1,0 +1,51 @@
+"""`iguana simulate SCENE`: the ROS-free frame loop (pipeline.run) with a progress bar, trajectories to .npz."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `simulate` sub-command."""
+    parser = subparsers.add_parser('simulate', help='run a scene without ROS (library frame loop)')
+    parser.add_argument('scene', nargs='?', default='hills', help='scene name or YAML path (default: hills)')
+    parser.add_argument('--no-adaptation', action='store_true', help='do not adapt the reference pose to terrain')
+    parser.add_argument('-o', '--output', type=Path, default=None, metavar='FILE.npz',
+                        help='write trajectories (nodes, root, contacts, clips) to this file')
+    parser.add_argument('--duration', type=float, default=None, metavar='S', help='simulated seconds')
+    parser.add_argument('--json', action='store_true', help='print the metrics as JSON')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run, print locomotion metrics, optionally save trajectories."""
+    import dataclasses
+
+    from tqdm import tqdm
+
+    from iguana_ros.constants import FRAME_RATE
+    from iguana_ros.errors import InputError
+    from iguana_ros.pipeline import run as run_pipeline
+    from iguana_ros.run_metrics import metrics_of_run
+    from iguana_ros.scene import load_scene
+
+    scene = load_scene(args.scene)
+    if args.duration is not None:
+        if not args.duration > 0:
+            raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
+        scene = dataclasses.replace(scene, duration=float(args.duration))
+    adaptation = False if args.no_adaptation else None
+    total = int(round(scene.duration * FRAME_RATE))
+    with tqdm(total=total, unit='frame', desc=scene.name, disable=args.json) as bar:
+        result = run_pipeline(scene, adaptation=adaptation, progress=lambda done, _n: bar.update(1))
+    metrics = metrics_of_run(result, scene).as_dict()
+    metrics['realtime_factor'] = scene.duration / result.wall_seconds if result.wall_seconds else 0.0
+    if args.output is not None:
+        metrics['output'] = str(result.save(args.output))
+    if args.json:
+        print(json.dumps(metrics, indent=2))
+    else:
+        for key, value in metrics.items():
+            print(f'{key:32s} {value:.4g}' if isinstance(value, float) else f'{key:32s} {value}')
+    return 0

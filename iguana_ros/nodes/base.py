@@ -1,0 +1,116 @@
+"""What every iguana_ros node shares: declared parameters, topics from the table, frame stamps, main()."""
+from __future__ import annotations
+
+import sys
+from typing import Callable
+
+import rclpy
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.errors import IguanaError
+from iguana_ros.nodes.conversions import time_from_msg, time_to_msg
+from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.parameters import ParamSpec, node_parameters
+from iguana_ros.scene import Scene, load_scene
+
+_PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterType.PARAMETER_DOUBLE,
+                'integer': ParameterType.PARAMETER_INTEGER, 'bool': ParameterType.PARAMETER_BOOL}
+
+
+def descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """ParameterDescriptor with the declared description, type and range."""
+    desc = ParameterDescriptor(name=spec.name, type=_PARAM_TYPES[spec.type], read_only=True,
+                               description=spec.description)
+    if spec.choices:
+        desc.additional_constraints = 'one of: ' + ', '.join(spec.choices)
+    if spec.range is not None and spec.type == 'double':
+        desc.floating_point_range = [FloatingPointRange(from_value=float(spec.range[0]),
+                                                        to_value=float(spec.range[1]), step=0.0)]
+    if spec.range is not None and spec.type == 'integer':
+        desc.integer_range = [IntegerRange(from_value=int(spec.range[0]), to_value=int(spec.range[1]), step=0)]
+    return desc
+
+
+def frame_stamp(frame: int):
+    """builtin_interfaces/Time of the start of frame `frame` (1/30 s frames of simulated time)."""
+    return time_to_msg(frame / FRAME_RATE)
+
+
+def stamp_frame(stamp) -> int:
+    """Frame index of a stamp produced by `frame_stamp`."""
+    return int(round(time_from_msg(stamp) * FRAME_RATE))
+
+
+class IguanaNode(Node):
+    """A node whose parameters come from msg_configs/parameters.yaml and topics from topics.yaml.
+
+    Subclasses set KIND (their entry in parameters.yaml and default node name).
+    """
+
+    KIND = ''
+    exit_code = 0
+
+    def __init__(self, **kwargs) -> None:
+        """Create the node and declare its parameters (read-only, with ranges); load its scene."""
+        super().__init__(self.KIND, **kwargs)
+        self._specs = node_parameters(self.KIND)
+        for spec in self._specs.values():
+            self.declare_parameter(spec.name, spec.default, descriptor(spec))
+        self.scene: Scene = load_scene(self.param('scene'))
+
+    def param(self, name: str):
+        """Value of declared parameter `name`, checked against its declaration."""
+        return self._specs[name].check(self.get_parameter(name).value)
+
+    def publisher(self, key: str):
+        """Publisher for topic `key` of the topic table."""
+        name, cls, qos = resolve(key)
+        return self.create_publisher(cls, name, qos)
+
+    def subscription(self, key: str, callback: Callable, raw: bool = False):
+        """Subscription to topic `key` of the topic table."""
+        name, cls, qos = resolve(key)
+        return self.create_subscription(cls, name, callback, qos, raw=raw)
+
+    def guarded(self, what: str, callback: Callable) -> Callable:
+        """Wrap a callback so bad input is logged and rejected instead of killing the node."""
+        def wrapper(msg):
+            try:
+                callback(msg)
+            except IguanaError as exc:
+                self.get_logger().error(f'rejected {what}: {exc}')
+        return wrapper
+
+
+def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None) -> int:
+    """Create nodes from `factories` in one process and spin them with one executor until shutdown."""
+    rclpy.init(args=args)
+    nodes: list[Node] = []
+    code = 0
+    try:
+        nodes = [factory() for factory in factories]
+        executor = SingleThreadedExecutor()
+        for node in nodes:
+            executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except IguanaError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        code = 1
+    finally:
+        code = max(code, max((getattr(n, 'exit_code', 0) for n in nodes), default=0))
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+def node_main(cls: type) -> Callable[[], None]:
+    """A console-script main() for node class `cls`."""
+    def main(args: list[str] | None = None) -> None:
+        sys.exit(run_nodes([cls], args if args is not None else sys.argv))
+    return main

@@ -1,0 +1,76 @@
+"""Planner node (Section IV): goal_pose + iguana_state in, one motion_clip per stride out."""
+from __future__ import annotations
+
+import numpy as np
+
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.errors import InputError
+from iguana_ros.motion.motion_graph import MotionGraph, PolicyParams
+from iguana_ros.nodes.base import IguanaNode, node_main
+from iguana_ros.nodes.conversions import pose_stamped_to_numpy, time_from_msg, validate_array
+from iguana_ros.nodes.messages import check_frame_id, clip_to_msg, state_from_msg
+from iguana_ros.pipeline import PlannerStage
+
+
+MAX_SCHEDULE_AHEAD = 3600.0
+"""A goal stamped further ahead of simulated time than this (s) is taken as a wall-clock stamp: adopted now."""
+
+
+class PlannerNode(IguanaNode):
+    """Chooses the next stride clip toward the goal at each stride end, aligned to the simulated root."""
+
+    KIND = 'planner_node'
+
+    def __init__(self, library: dict | None = None, **kwargs) -> None:
+        """Build the motion graph over the clip library (or `library`)."""
+        super().__init__(**kwargs)
+        from iguana_ros.body.skeleton import iguana_skeleton
+        if library is None:
+            from iguana_ros.motion.clips import load_clip_library
+            library = load_clip_library()
+        radius = self.param('goal_radius') or self.scene.goal_radius
+        graph = MotionGraph(library, blend_frames=self.param('blend_frames'))
+        self.stage = PlannerStage(graph, PolicyParams(goal_radius=radius))
+        self.skeleton = iguana_skeleton()
+        self.half_extent = self.scene.terrain.extent / 2.0
+        self.last_frame = -1
+        self.clip_pub = self.publisher('motion_clip')
+        self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
+        self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
+        self.get_logger().info(f'planner ready: {len(library)} clips, goal radius {radius:.2f} m')
+
+    def on_goal(self, msg) -> None:
+        """Schedule a goal (applied at its stamp in simulated time; stamp 0 = at the next stride)."""
+        check_frame_id('goal_pose', msg.header.frame_id)
+        position, _ = pose_stamped_to_numpy(msg)
+        xy = validate_array('goal position', position, (3,))[:2]
+        if np.any(np.abs(xy) > self.half_extent):
+            raise InputError(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) is off the terrain '
+                             f'(|x|, |y| <= {self.half_extent:g} m)')
+        at = time_from_msg(msg.header.stamp)
+        now = max(self.last_frame, 0) / FRAME_RATE
+        if at > now + MAX_SCHEDULE_AHEAD:
+            self.get_logger().info(f'goal stamp {at:.0f} s is not simulated time (wall clock?); adopting it now')
+            at = 0.0
+        self.stage.schedule_goal(xy, at)
+        self.get_logger().info(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) scheduled for t={at:.3f} s')
+
+    def on_state(self, msg) -> None:
+        """At a stride end, publish the next clip aligned to the body's root."""
+        frame, root, orientation = state_from_msg(msg)
+        if frame <= self.last_frame:
+            if frame < self.last_frame:
+                self.get_logger().warning(f'ignored stale iguana_state for frame {frame} '
+                                          f'(already at {self.last_frame})')
+            return
+        self.last_frame = frame
+        clip = self.stage.update(frame, root, orientation)
+        if clip is not None:
+            self.clip_pub.publish(clip_to_msg(clip, self.skeleton, frame))
+            self.get_logger().info(f'frame {frame}: clip {clip.name!r} ({len(clip.root_positions)} frames)')
+
+
+main = node_main(PlannerNode)
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,245 @@
+"""Simulator node (Section V): spring_rest_lengths + push in; mesh_marker, scene_markers, iguana_state,
+/clock out. `lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the wall
+clock with the latest lengths.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from rclpy.clock import Clock, ClockType
+from rosgraph_msgs.msg import Clock as ClockMsg
+from visualization_msgs.msg import Marker
+
+from iguana_ros.bag.record import RECORDER_NODE_NAME
+from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
+from iguana_ros.errors import InputError
+from iguana_ros.nodes.base import IguanaNode, frame_stamp, node_main
+from iguana_ros.nodes.conversions import (marker_array_msg, pose_stamped_to_numpy, triangle_list_marker,
+                                          triangle_list_marker_cdr, validate_array)
+from iguana_ros.nodes.messages import check_frame_id, lengths_from_msg, state_to_msg
+from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.pipeline import SimulatorStage, push_forces
+from iguana_ros.scene import PushSpec
+from iguana_ros.visuals import body_colors, terrain_mesh
+
+WATCHDOG_PERIOD = 0.1
+"""Wall seconds between lockstep timeout checks."""
+
+GOAL_MARKER_RADIUS = 0.05
+"""Radius of the goal sphere in scene_markers, m."""
+
+
+def root_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarray) -> tuple:
+    """Linear `(3,)` and angular `(3,)` velocity of a node group (mass-weighted, about its centre)."""
+    m = mass / mass.sum()
+    com, vcom = m @ positions, m @ velocities
+    r, v = positions - com, velocities - vcom
+    momentum = (mass[:, None] * np.cross(r, v)).sum(axis=0)
+    inertia = np.einsum('i,ij,ik->jk', mass, r, r)
+    inertia = np.trace(inertia) * np.eye(3) - inertia
+    omega = np.linalg.lstsq(inertia, momentum, rcond=None)[0]
+    return vcom, omega
+
+
+class SimulatorNode(IguanaNode):
+    """Runs the soft body and publishes what it does."""
+
+    KIND = 'simulator_node'
+
+    def __init__(self, **kwargs) -> None:
+        """Build the model, terrain and simulator the scene names; wait for peers in lockstep mode."""
+        super().__init__(**kwargs)
+        from iguana_ros.body.model import build_model
+        from iguana_ros.terrain.from_scene import terrain_from_spec
+
+        scene = self.scene
+        fidelity = scene.fidelity if self.param('fidelity') == 'scene' else self.param('fidelity')
+        self.model = build_model(scene.model.resolution, scene.model.stiffness)
+        self.terrain = terrain_from_spec(scene.terrain)
+        self.stage = SimulatorStage(self.model, self.terrain, fidelity,
+                                    scene.pushes if scene.needs_pushes else (),
+                                    (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg))
+        self.mode = self.param('mode')
+        duration = self.param('duration') or scene.duration
+        self.end_frame = int(round(duration * FRAME_RATE))
+        self.n_springs = len(self.model.springs)
+        self.latest_lengths: np.ndarray | None = None
+        self.live_pushes: list[PushSpec] = []
+        self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals]
+        self.started = False
+        self.goals_received = 0
+        self.timeouts = 0
+        self.wait_since = time.monotonic()
+        self.wall_start = time.monotonic()
+        self._make_io()
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        period = WATCHDOG_PERIOD if self.mode == 'lockstep' else 1.0 / FRAME_RATE
+        self.timer = self.create_timer(period, self.on_timer, clock=steady)
+        self.get_logger().info(
+            f'simulator ready: {self.model.n_nodes} nodes, {len(self.model.tets)} tets, {self.n_springs} springs, '
+            f'{fidelity} fidelity, {self.mode} mode, {duration:g} s')
+
+    def _make_io(self) -> None:
+        """Publishers and subscriptions."""
+        self.state_pub = self.publisher('iguana_state')
+        self.clock_pub = self.publisher('clock')
+        self.mesh_pub = self.publisher('mesh_marker')
+        self.scene_pub = self.publisher('scene_markers')
+        self.subscription('spring_rest_lengths', self.guarded('spring_rest_lengths', self.on_lengths))
+        self.subscription('push', self.guarded('push', self.on_push))
+        self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
+        self.publish_scene_markers()
+
+    # ------------------------------------------------------------------------------------------ inputs
+    def on_lengths(self, msg) -> None:
+        """Lockstep: advance when the current frame's lengths arrive. Realtime: keep the latest."""
+        frame, lengths = lengths_from_msg(msg, self.n_springs)
+        if self.mode == 'realtime':
+            self.latest_lengths = lengths
+            return
+        if frame != self.stage.frame:
+            if frame < self.stage.frame:
+                self.get_logger().warning(f'ignored stale spring_rest_lengths for frame {frame} '
+                                          f'(simulating frame {self.stage.frame})')
+            else:
+                self.get_logger().error(f'ignored spring_rest_lengths for future frame {frame} '
+                                        f'(simulating frame {self.stage.frame})')
+            return
+        self.advance(lengths)
+
+    def on_push(self, msg) -> None:
+        """Apply a push (world-frame force on the tagged region named by header.frame_id) from the next frame."""
+        force = validate_array('push force', [msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z], (3,))
+        region = msg.header.frame_id or 'trunk_left'
+        if region not in self.model.node_tags and region != 'all':
+            raise InputError(f'push region {region!r} is not a node tag; tags: {", ".join(self.model.node_tags)}')
+        push = PushSpec(at=self.stage.time, force=tuple(force), duration=self.param('push_duration'),
+                        region=region)
+        self.live_pushes = [p for p in self.live_pushes if p.at + p.duration > self.stage.time] + [push]
+        self.get_logger().info(f'push {force.tolist()} N on {region} for {push.duration:g} s')
+
+    def on_goal(self, msg) -> None:
+        """Show a new goal in scene_markers."""
+        check_frame_id('goal_pose', msg.header.frame_id)
+        position, _ = pose_stamped_to_numpy(msg)
+        xy = validate_array('goal position', position, (3,))[:2]
+        self.goals_received += 1
+        if not any(np.allclose(xy, g) for g in self.goals):
+            self.goals.append(xy)
+            self.publish_scene_markers()
+
+    # ------------------------------------------------------------------------------------------ stepping
+    def on_timer(self) -> None:
+        """Start when peers are connected; lockstep watchdog; realtime pacing."""
+        if not self.started:
+            self.try_start()
+            return
+        if self.mode == 'realtime':
+            self.advance(self.latest_lengths)
+            return
+        waited = time.monotonic() - self.wait_since
+        if waited > self.param('lockstep_timeout'):
+            self.on_lockstep_timeout(waited)
+
+    def try_start(self) -> None:
+        """Begin once the planner, adaptation and spring-length nodes are connected (or fail at start_timeout)."""
+        if self.mode == 'realtime' or self.peers_ready():
+            self.started = True
+            self.wall_start = self.wait_since = time.monotonic()
+            self.publish_state()
+            return
+        if time.monotonic() - self.wall_start > self.param('start_timeout'):
+            self.fail(f'no planner/adaptation/spring-length nodes connected within '
+                      f'{self.param("start_timeout"):g} s; start them with the same ROS_DOMAIN_ID')
+
+    def peers_ready(self) -> bool:
+        """Planner and adaptation listen, spring lengths are offered, goals and recorder as asked."""
+        state_name = resolve('iguana_state')[0]
+        if self.count_subscribers(state_name) < 2 or self.count_publishers(resolve('spring_rest_lengths')[0]) < 1:
+            return False
+        if self.goals_received < self.param('wait_for_goals'):
+            return False
+        return not self.param('wait_for_recorder') or all(
+            any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(resolve(k)[0]))
+            for k in ('iguana_state', 'mesh_marker', 'clock'))
+
+    def on_lockstep_timeout(self, waited: float) -> None:
+        """Log, re-send the state (a peer may have missed it), give up after lockstep_max_timeouts."""
+        self.timeouts += 1
+        limit = self.param('lockstep_max_timeouts')
+        self.get_logger().error(f'lockstep: no spring_rest_lengths for frame {self.stage.frame} within '
+                                f'{waited:.1f} s ({self.timeouts}/{limit}); is spring_length_node running?')
+        if self.timeouts >= limit:
+            self.fail(f'lockstep timed out {limit} times waiting for frame {self.stage.frame}')
+            return
+        self.wait_since = time.monotonic()
+        self.publish_state()
+
+    def advance(self, lengths: np.ndarray | None) -> None:
+        """Simulate one frame, publish the new state; finish at the scene's end."""
+        extra = push_forces(self.model, tuple(self.live_pushes), self.stage.time) if self.live_pushes else None
+        try:
+            self.stage.advance(lengths, extra)
+        except SimulationDiverged as exc:
+            self.fail(str(exc))
+            return
+        self.timeouts = 0
+        self.wait_since = time.monotonic()
+        self.publish_state()
+        if self.stage.frame >= self.end_frame:
+            wall = time.monotonic() - self.wall_start
+            self.get_logger().info(f'scene finished: {self.stage.time:.2f} s simulated in {wall:.2f} s wall '
+                                   f'(realtime factor {self.stage.time / max(wall, 1e-9):.2f})')
+            self.finish(0)
+
+    def fail(self, reason: str) -> None:
+        """Log an error and stop the node with exit status 1."""
+        self.get_logger().error(reason)
+        self.finish(1)
+
+    def finish(self, code: int) -> None:
+        """Stop publishing and end the process's spin."""
+        import rclpy
+        self.exit_code = code
+        self.timer.cancel()
+        rclpy.try_shutdown(context=self.context)
+
+    # ------------------------------------------------------------------------------------------ outputs
+    def publish_state(self) -> None:
+        """iguana_state, /clock and (every n frames) the mesh marker of the current frame."""
+        frame = self.stage.frame
+        root, orientation = self.stage.root_pose()
+        nodes = self.stage.tracker.nodes
+        linear, angular = root_velocity(self.stage.sim.positions[nodes], self.stage.sim.velocities[nodes],
+                                        self.model.node_mass[nodes])
+        self.clock_pub.publish(ClockMsg(clock=frame_stamp(frame)))
+        self.state_pub.publish(state_to_msg(root, orientation, linear, angular, frame))
+        if frame % self.param('mesh_every_n_frames') == 0:
+            self.mesh_pub.publish(triangle_list_marker_cdr(
+                self.stage.sim.positions, self.model.surface_triangles,
+                body_colors(self.model.n_nodes, self.stage.sim.in_contact), stamp=frame_stamp(frame),
+                frame_id=WORLD_FRAME, ns='iguana'))
+
+    def publish_scene_markers(self) -> None:
+        """Terrain mesh and goal spheres (latched)."""
+        vertices, triangles, colors = terrain_mesh(self.terrain, (self.scene.start.x, self.scene.start.y),
+                                                   self.scene.terrain.extent / 2.0)
+        markers = [triangle_list_marker(vertices, triangles, colors, ns='terrain')]
+        for i, goal in enumerate(self.goals):
+            sphere = Marker(ns='goal', id=i, type=Marker.SPHERE, action=Marker.ADD)
+            sphere.header.frame_id = WORLD_FRAME
+            sphere.pose.position.x, sphere.pose.position.y = float(goal[0]), float(goal[1])
+            sphere.pose.position.z = float(self.terrain.height(goal[None])[0]) + GOAL_MARKER_RADIUS
+            sphere.pose.orientation.w = 1.0
+            sphere.scale.x = sphere.scale.y = sphere.scale.z = 2 * GOAL_MARKER_RADIUS
+            sphere.color.r, sphere.color.g, sphere.color.b, sphere.color.a = 0.2, 0.4, 1.0, 1.0
+            markers.append(sphere)
+        self.scene_pub.publish(marker_array_msg(markers))
+
+
+main = node_main(SimulatorNode)
+
+if __name__ == '__main__':
+    main()

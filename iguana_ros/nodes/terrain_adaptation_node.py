@@ -1,0 +1,87 @@
+"""Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out each frame."""
+from __future__ import annotations
+
+from iguana_ros.nodes.base import IguanaNode, node_main
+from iguana_ros.nodes.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
+from iguana_ros.pipeline import AdaptationStage, clip_pose
+
+MAX_CLIPS = 4
+"""Placed clips kept (by start frame) for frames that arrive late."""
+
+
+class TerrainAdaptationNode(IguanaNode):
+    """Samples the current clip at each state's frame, adapts it to the terrain, publishes bone frames."""
+
+    KIND = 'terrain_adaptation_node'
+
+    def __init__(self, **kwargs) -> None:
+        """Build the terrain only when the scene (or the parameter) asks for adaptation."""
+        super().__init__(**kwargs)
+        from iguana_ros.body.skeleton import iguana_skeleton
+        from iguana_ros.terrain.from_scene import terrain_from_spec
+        from iguana_ros.terrain.heightfield import HeightField
+
+        choice = self.param('adaptation')
+        enabled = self.scene.adaptation if choice == 'scene' else choice == 'on'
+        needed = enabled and self.scene.terrain.kind != 'flat'
+        terrain = terrain_from_spec(self.scene.terrain) if needed else HeightField.flat()
+        self.skeleton = iguana_skeleton()
+        self.stage = AdaptationStage(self.skeleton, terrain, enabled=needed)
+        self.clips: dict[int, object] = {}
+        self.pending: int | None = None
+        self.last_frame = -1
+        self.last_msg = None
+        self.pose_pub = self.publisher('reference_pose')
+        self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip))
+        self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
+        self.get_logger().info(f'terrain adaptation ready ({"on" if needed else "off"})')
+
+    def on_clip(self, msg) -> None:
+        """Keep a placed clip by its start frame, then serve a frame that was waiting for it."""
+        start, clip = clip_from_msg(msg, self.skeleton)
+        self.clips[start] = clip
+        for old in sorted(self.clips)[:-MAX_CLIPS]:
+            del self.clips[old]
+        self._serve_pending()
+
+    def on_state(self, msg) -> None:
+        """Publish the reference pose of the state's frame (re-send it for a repeated frame)."""
+        frame, _root, _orientation = state_from_msg(msg)
+        if frame == self.last_frame and self.last_msg is not None:
+            self.pose_pub.publish(self.last_msg)
+            return
+        if frame < self.last_frame:
+            self.get_logger().warning(f'ignored stale iguana_state for frame {frame} (at {self.last_frame})')
+            return
+        self.pending = frame
+        self._serve_pending()
+
+    def _clip_for(self, frame: int):
+        """(clip, start) whose stride covers `frame`, or None while the planner's next clip is due."""
+        starts = [s for s in self.clips if s <= frame]
+        if not starts:
+            return None
+        start = max(starts)
+        clip = self.clips[start]
+        return (clip, start) if frame < start + len(clip.root_positions) - 1 or start == frame else None
+
+    def _serve_pending(self) -> None:
+        """Adapt and publish the waiting frame once its clip is known."""
+        if self.pending is None:
+            return
+        found = self._clip_for(self.pending)
+        if found is None:
+            return
+        clip, start = found
+        frame, self.pending = self.pending, None
+        root, local = clip_pose(clip, frame - start)
+        joints, rotations = self.stage.reference_pose(root, local)
+        self.last_msg = reference_pose_to_msg(joints, rotations, frame)
+        self.last_frame = frame
+        self.pose_pub.publish(self.last_msg)
+
+
+main = node_main(TerrainAdaptationNode)
+
+if __name__ == '__main__':
+    main()
