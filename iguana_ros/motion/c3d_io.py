@@ -5,6 +5,7 @@ metres with NaN for a missing sample. `read_capture` checks the labels against t
 """
 from __future__ import annotations
 
+import struct
 import warnings
 from pathlib import Path
 
@@ -55,7 +56,7 @@ def read_c3d(path: str | Path) -> tuple:
             labels = tuple(str(label).strip() for label in reader.point_labels)
             rate = float(reader.point_rate)
             frames = [points[:, :4].copy() for _, points, _ in reader.read_frames(copy=True)]
-    except (ValueError, KeyError, EOFError, OSError, AttributeError, TypeError) as exc:
+    except (AssertionError, ValueError, KeyError, EOFError, OSError, AttributeError, TypeError, struct.error) as exc:
         raise InputError(f'{path} is not a readable C3D file ({exc})') from None
     if not frames:
         raise InputError(f'C3D file {path} has no frames')
