@@ -15,6 +15,7 @@ SUBCOMMANDS = (
     ('motion', 'iguana_ros.cli.motion'),
     ('model', 'iguana_ros.cli.model'),
     ('bench', 'iguana_ros.cli.bench'),
+    ('bench-adaptation', 'iguana_ros.cli.bench_adaptation'),
     ('simulate', 'iguana_ros.cli.simulate'),
     ('run', 'iguana_ros.cli.run'),
 )

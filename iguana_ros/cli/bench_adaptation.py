@@ -1,0 +1,108 @@
+"""`iguana bench-adaptation`: median ms per frame of plane fitting, residual fitting, and DQS + spring lengths.
+
+The poses are the synthetic straight trot (the motion room's generator), played over the hills scene's
+terrain and over a 12-degree tilted plane, warm-started frame to frame as in a run; the mesh is the chosen
+model resolution. The first frame (compilation, cold caches) is not counted.
+"""
+from __future__ import annotations
+
+import argparse
+
+HILLS = {'amplitude': 0.03, 'wavelength': 0.9, 'seed': 7, 'extent': 10.0}
+"""Terrain of msg_configs/scenes/hills.yaml."""
+TILT_DEG = 12.0
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `bench-adaptation` sub-command."""
+    parser = subparsers.add_parser('bench-adaptation',
+                                   help='time terrain adaptation and DQS spring lengths per frame')
+    parser.add_argument('--frames', type=int, default=150, help='frames of the trot per terrain (default 150)')
+    parser.add_argument('--resolution', '-r', default='medium', help='coarse | medium (default) | fine')
+    parser.add_argument('--json', action='store_true', help='print the figures as JSON')
+    parser.set_defaults(func=run)
+
+
+def _trot(n_frames: int) -> tuple:
+    """Root positions `(F, 3)`, local rotations `(F, n_bones, 4)`, contacts `(F, 4)` of the synthetic trot."""
+    from iguana_ros.motion.dofs import iguana_body_model, local_rotations, root_positions
+    from iguana_ros.motion.gait import SYNTHETIC_TAKES, generate_take
+
+    take = generate_take(SYNTHETIC_TAKES[0])
+    dofs = iguana_body_model().dofs
+    n = min(n_frames + 1, take.n_frames)
+    return root_positions(dofs, take.theta)[:n], local_rotations(dofs, take.theta)[:n], take.contacts[:n]
+
+
+def _terrain_figures(skeleton, terrain, poses, computer) -> dict:
+    """Per-frame timings (medians, ms) and accuracy of adaptation + spring lengths on one terrain."""
+    import time
+
+    import numpy as np
+
+    from iguana_ros.terrain import adaptation as ad
+
+    roots, locals_, contacts = poses
+    state = ad.AdaptationState()
+    rows = []
+    for k in range(len(roots)):
+        feet_h, tail_h = ad.residual_heights_of(skeleton, roots[k], locals_[k])
+        t0 = time.perf_counter()
+        fit = ad.plane_fit(skeleton, terrain, roots[k], locals_[k], feet_h)
+        t1 = time.perf_counter()
+        out = ad.residual_fit(skeleton, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
+                              stance=contacts[k], state=state)
+        t2 = time.perf_counter()
+        computer.lengths_from_bones(out.joint_rotations, out.joint_positions)
+        t3 = time.perf_counter()
+        p = out.joint_positions
+        feet = p[skeleton.indices(list(ad.FOOT_BONES))]
+        foot_err = np.abs(feet[:, 2] - terrain.height(feet[:, :2]) - feet_h)[contacts[k]]
+        rows.append((t1 - t0, t2 - t1, t3 - t2, state.evaluations, foot_err.max(initial=0.0),
+                     np.min(p[:, 2] - terrain.height(p[:, :2]))))
+    a = np.array(rows[1:])
+    return {'plane_fit_ms': 1e3 * np.median(a[:, 0]), 'residual_fit_ms': 1e3 * np.median(a[:, 1]),
+            'residual_fit_p90_ms': 1e3 * np.percentile(a[:, 1], 90),
+            'dqs_spring_lengths_ms': 1e3 * np.median(a[:, 2]),
+            'frame_ms': 1e3 * np.median(a[:, :3].sum(axis=1)),
+            'evaluations_median': float(np.median(a[:, 3])), 'evaluations_max': int(a[:, 3].max()),
+            'stance_foot_error_max_mm': 1e3 * a[:, 4].max(), 'min_joint_clearance_mm': 1e3 * a[:, 5].min()}
+
+
+def benchmark_adaptation(frames: int = 150, resolution: str = 'medium') -> dict:
+    """Figures of `iguana bench-adaptation` as a dict (also callable from other benchmarks)."""
+    from iguana_ros.body.model import build_model
+    from iguana_ros.body.spring_lengths import SpringLengthComputer
+    from iguana_ros.errors import InputError
+    from iguana_ros.terrain.heightfield import HeightField
+
+    if frames < 2:
+        raise InputError(f'--frames must be at least 2, got {frames}')
+    model = build_model(resolution, 'normal')
+    computer = SpringLengthComputer(model)
+    poses = _trot(frames)
+    terrains = {'hills': HeightField.hills(**HILLS), f'tilted_{TILT_DEG:g}deg': HeightField.tilted_plane(TILT_DEG)}
+    result = {'resolution': resolution, 'n_nodes': int(model.n_nodes), 'n_springs': int(computer.n_springs),
+              'frames': int(len(poses[0]) - 1)}
+    for name, terrain in terrains.items():
+        result[name] = _terrain_figures(model.skeleton, terrain, poses, computer)
+    return result
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark and print a table or JSON."""
+    result = benchmark_adaptation(args.frames, args.resolution)
+    if args.json:
+        import json
+        print(json.dumps(result, indent=2))
+        return 0
+    print(f'{result["resolution"]} model: {result["n_nodes"]} nodes, {result["n_springs"]} springs; '
+          f'{result["frames"]} trot frames per terrain; medians, ms per frame')
+    for name, fig in result.items():
+        if isinstance(fig, dict):
+            print(f'{name:14s} plane fit {fig["plane_fit_ms"]:6.2f}  residual fit {fig["residual_fit_ms"]:6.2f} '
+                  f'(p90 {fig["residual_fit_p90_ms"]:5.1f}, {fig["evaluations_median"]:.0f} evals)  '
+                  f'DQS+lengths {fig["dqs_spring_lengths_ms"]:5.2f}  frame {fig["frame_ms"]:6.2f}  '
+                  f'stance foot err max {fig["stance_foot_error_max_mm"]:.2f} mm  '
+                  f'min clearance {fig["min_joint_clearance_mm"]:.3f} mm')
+    return 0
