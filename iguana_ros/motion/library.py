@@ -12,7 +12,7 @@ from iguana_ros.constants import TROT_STRIDE_FREQUENCY
 from iguana_ros.errors import IguanaError
 from iguana_ros.motion.c3d_io import read_capture, write_c3d
 from iguana_ros.motion.capture import CaptureQuality, synthesize_capture
-from iguana_ros.motion.clips import Clip, cut_clip, save_clip_library
+from iguana_ros.motion.clips import cut_clip, save_clip_library
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model
 from iguana_ros.motion.gait import SYNTHETIC_TAKES, GaitParameters, generate_take
 from iguana_ros.motion.ik import IKResult, IKSettings, solve_ik

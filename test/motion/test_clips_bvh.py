@@ -6,10 +6,9 @@ from iguana_ros.body.skeleton import forward_kinematics, iguana_skeleton
 from iguana_ros.cli import main
 from iguana_ros.constants import TROT_DUTY_FACTOR, TROT_STRIDE_LENGTH
 from iguana_ros.errors import InputError
-from iguana_ros.geometry import quat_rotate
 from iguana_ros.motion.bvh import read_bvh_positions, write_bvh
 from iguana_ros.motion.clips import REQUIRED_CLIPS, cut_clip, load_clip_library, planar_transform
-from iguana_ros.motion.dofs import iguana_body_model, local_rotations
+from iguana_ros.motion.dofs import iguana_body_model
 from iguana_ros.motion.gait import SYNTHETIC_TAKES, generate_take
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
 
