@@ -9,6 +9,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from iguana_ros.errors import IguanaError
+
 
 def wait_for(predicate: Callable[[], bool], timeout: float = 10.0, period: float = 0.02) -> bool:
     """Poll `predicate()`; False if `timeout` s pass first."""
@@ -45,7 +47,7 @@ class NodeProcess:
                                      env=self.env, start_new_session=True)
         if ready is not None and not self.wait_for_output(ready, timeout):
             self.stop()
-            raise RuntimeError(f'{self.name} did not print {ready!r} within {timeout} s; '
+            raise IguanaError(f'{self.name} did not print {ready!r} within {timeout} s; '
                                f'output:\n{self.tail()}')
         return self
 
@@ -74,7 +76,7 @@ class NodeProcess:
             return self.proc.wait(timeout)
         except subprocess.TimeoutExpired:
             self.kill()
-            raise RuntimeError(f'{self.name} still running after {timeout} s; output:\n{self.tail()}') from None
+            raise IguanaError(f'{self.name} still running after {timeout} s; output:\n{self.tail()}') from None
 
     def _signal(self, sig: int) -> None:
         """Send `sig` to the process group."""

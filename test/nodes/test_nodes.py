@@ -1,0 +1,202 @@
+"""Each node as a real process on an isolated DDS domain: feed it inputs, check its outputs and its
+handling of bad input (a clear log line, the input rejected, the node still running)."""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+import yaml
+from ros_harness import NodeProcess, spin_until
+
+from iguana_ros.body.model import build_model
+from iguana_ros.body.skeleton import iguana_skeleton
+from iguana_ros.geometry import quat_from_yaw, yaw_of
+from iguana_ros.motion.clips import load_clip_library
+from iguana_ros.motion.motion_graph import MotionGraph
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
+
+
+def _scene(tmp_path, **fields):
+    """A small scene file (coarse model) with `fields` overriding the defaults."""
+    raw = {'model': {'resolution': 'coarse'}, 'terrain': {'kind': 'flat'}, 'duration': 2.0, **fields}
+    path = tmp_path / 'scene.yaml'
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def _node(kind, scene, tmp_path, **params):
+    """A node process started with `scene` and extra parameters, waiting for its ready line."""
+    args = [sys.executable, '-m', f'iguana_ros.nodes.{kind}', '--ros-args', '-p', f'scene:={scene}']
+    for key, value in params.items():
+        args += ['-p', f'{key}:={value}']
+    ready = {'planner_node': 'planner ready', 'terrain_adaptation_node': 'terrain adaptation ready',
+             'spring_length_node': 'spring lengths ready', 'simulator_node': 'simulator ready'}[kind]
+    return NodeProcess(args, kind, tmp_path).start(ready=ready, timeout=90)
+
+
+class Probe:
+    """Publishers and collecting subscriptions on topic-table keys, on one test node."""
+
+    def __init__(self, node, executor):
+        from iguana_ros.nodes.ros_topics import resolve
+        self.node, self.executor, self.resolve = node, executor, resolve
+        self.got: dict[str, list] = {}
+        self.pubs = {}
+        executor.add_node(node)
+
+    def listen(self, key, copies=1):
+        name, cls, qos = self.resolve(key)
+        self.got[key] = []
+        for _ in range(copies):
+            self.node.create_subscription(cls, name, self.got[key].append, qos)
+
+    def pub(self, key):
+        name, cls, qos = self.resolve(key)
+        self.pubs[key] = self.node.create_publisher(cls, name, qos)
+        return self.pubs[key]
+
+    def wait_matched(self, key, count=1, timeout=30.0):
+        assert spin_until(self.executor, lambda: self.pubs[key].get_subscription_count() >= count, timeout)
+
+    def wait(self, key, n=1, timeout=30.0):
+        assert spin_until(self.executor, lambda: len(self.got[key]) >= n, timeout), f'no {key} message'
+        return self.got[key]
+
+    def spin(self, seconds):
+        spin_until(self.executor, lambda: False, seconds)
+
+
+def _state(frame, xy=(0.0, 0.0), yaw=0.0):
+    from iguana_ros.nodes.messages import state_to_msg
+    root = np.array([xy[0], xy[1], 0.075])
+    return state_to_msg(root, quat_from_yaw(yaw), np.zeros(3), np.zeros(3), frame)
+
+
+def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
+    from iguana_ros.nodes.goal_sender import goal_message
+    from iguana_ros.nodes.messages import clip_from_msg
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('motion_clip')
+    goal_pub, state_pub = probe.pub('goal_pose'), probe.pub('iguana_state')
+    with _node('planner_node', _scene(tmp_path), tmp_path) as planner:
+        probe.wait_matched('goal_pose')
+        probe.wait_matched('iguana_state')
+        bad = goal_message(0.0, 1.0)
+        bad.pose.position.x = float('nan')  # a user's broken goal: the node must reject it
+        goal_pub.publish(bad)
+        wrong_frame = goal_message(1.0, 1.0, frame_id='map')
+        goal_pub.publish(wrong_frame)
+        goal_pub.publish(goal_message(0.3, 2.0))
+        probe.spin(0.5)
+        state_pub.publish(_state(0))
+        clip_msg = probe.wait('motion_clip')[0]
+        assert planner.running
+    start, clip = clip_from_msg(clip_msg, iguana_skeleton())
+    assert start == 0
+    turn = yaw_of(clip.local_rotations[-1, 0]) - yaw_of(clip.local_rotations[0, 0])
+    assert turn > 0.1, f'expected a left turn, heading change {turn:.3f} rad'
+    assert 'rejected goal_pose' in planner.output and 'non-finite' in planner.output
+    assert "frame_id 'map'" in planner.output
+
+
+def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, executor):
+    from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.terrain.adaptation import FOOT_BONES, residual_heights_of
+    from iguana_ros.terrain.from_scene import terrain_from_spec
+    from iguana_ros.scene import load_scene
+    scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 12.0, 'direction_deg': 30.0})
+    skeleton = iguana_skeleton()
+    graph = MotionGraph(load_clip_library())
+    clip = graph.align('forward', np.array([0.0, 0.0]), 0.0)
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('reference_pose')
+    clip_pub, state_pub = probe.pub('motion_clip'), probe.pub('iguana_state')
+    with _node('terrain_adaptation_node', scene_file, tmp_path) as node:
+        probe.wait_matched('motion_clip')
+        probe.wait_matched('iguana_state')
+        clip_pub.publish(clip_to_msg(clip, skeleton, 0))
+        state_pub.publish(_state(0))
+        msg = probe.wait('reference_pose')[0]
+        assert node.running
+    frame, joints, _ = reference_pose_from_msg(msg, skeleton.n_bones)
+    assert frame == 0
+    terrain = terrain_from_spec(load_scene(str(scene_file)).terrain)
+    feet_h, _ = residual_heights_of(skeleton, clip.root_positions[0], clip.local_rotations[0])
+    feet = joints[skeleton.indices(list(FOOT_BONES))]
+    height_above = feet[:, 2] - terrain.height(feet[:, :2])
+    stance = feet_h < 0.006
+    assert stance.any()
+    assert np.all(np.abs(height_above[stance] - feet_h[stance]) < 0.002)
+    assert np.all(joints[:, 2] - terrain.height(joints[:, :2]) > -1e-3)
+
+
+def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
+    from iguana_ros.body.spring_lengths import SpringLengthComputer
+    from iguana_ros.nodes.messages import lengths_from_msg, reference_pose_to_msg
+    from iguana_ros.terrain.adaptation import pose_kinematics
+    model = build_model('coarse')
+    skeleton = model.skeleton
+    clip = MotionGraph(load_clip_library()).align('turn_left', np.array([0.4, -0.2]), 0.3)
+    joints, rotations = pose_kinematics(skeleton, clip.root_positions[5], clip.local_rotations[5])
+    expected = SpringLengthComputer(model).lengths_from_bones(rotations, joints)
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('spring_rest_lengths')
+    pose_pub = probe.pub('reference_pose')
+    with _node('spring_length_node', _scene(tmp_path), tmp_path) as node:
+        probe.wait_matched('reference_pose')
+        wrong = reference_pose_to_msg(joints[:5], rotations[:5], 3)  # too few bones
+        pose_pub.publish(wrong)
+        pose_pub.publish(reference_pose_to_msg(joints, rotations, 4))
+        msg = probe.wait('spring_rest_lengths')[0]
+        assert node.running
+    frame, lengths = lengths_from_msg(msg, len(expected))
+    assert frame == 4
+    assert np.array_equal(lengths, expected)
+    assert 'rejected reference_pose' in node.output
+
+
+def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make_node, executor):
+    from iguana_ros.nodes.conversions import triangle_list_from_marker
+    from iguana_ros.nodes.messages import lengths_to_msg
+    from visualization_msgs.msg import Marker
+    model = build_model('coarse')
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
+    probe.listen('mesh_marker')
+    probe.listen('scene_markers')
+    lengths_pub = probe.pub('spring_rest_lengths')
+    scene_file = _scene(tmp_path, terrain={'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0})
+    with _node('simulator_node', scene_file, tmp_path, lockstep_timeout=1.0, lockstep_max_timeouts=50) as sim:
+        probe.wait('iguana_state', 1, timeout=60)
+        lengths_pub.publish(lengths_to_msg(np.ones(7), 0))  # wrong length: rejected, still waiting
+        lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 5))  # future frame
+        probe.spin(0.3)
+        lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
+        markers = probe.wait('mesh_marker', 2)
+        scene = probe.wait('scene_markers')[0]
+        assert sim.running
+    marker = markers[-1]
+    assert marker.type == Marker.TRIANGLE_LIST and marker.color.a == 1.0
+    points, colors = triangle_list_from_marker(marker)
+    assert len(points) == 3 * len(model.surface_triangles) == len(colors)
+    assert np.all(np.isfinite(points)) and np.all(colors[:, 3] == 1.0)
+    from iguana_ros.scene import load_scene
+    from iguana_ros.terrain.from_scene import terrain_from_spec
+    terrain = terrain_from_spec(load_scene(str(scene_file)).terrain)
+    assert np.all(points[:, 2] - terrain.height(points[:, :2]) > -0.01)
+    assert [m.ns for m in scene.markers] == ['terrain']
+    assert 'rejected spring_rest_lengths' in sim.output and 'future frame 5' in sim.output
+
+
+def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('iguana_state', copies=2)
+    probe.pub('spring_rest_lengths')
+    with _node('simulator_node', _scene(tmp_path), tmp_path, lockstep_timeout=0.5,
+               lockstep_max_timeouts=2) as sim:
+        probe.wait('iguana_state', 2, timeout=60)  # the state is re-sent after a timeout
+        assert sim.wait(30) == 1
+    assert 'lockstep: no spring_rest_lengths for frame 0' in sim.output
+    assert 'lockstep timed out 2 times' in sim.output
