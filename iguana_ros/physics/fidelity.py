@@ -7,12 +7,14 @@ from iguana_ros.constants import SIM_DT
 from iguana_ros.errors import InputError
 
 SOLVERS = ('cg', 'direct')
+PRECONDITIONERS = ('jacobi', 'ssor')
 RESOLUTIONS = ('coarse', 'medium', 'fine')
 
 
 @dataclass(frozen=True)
 class Fidelity:
-    """Integration settings: time step (s), linear solver, CG tolerance/iterations, Jacobian refresh interval.
+    """Integration settings: time step (s), linear solver and CG preconditioner, CG tolerance/iterations,
+    Jacobian refresh interval (steps), rotation-extraction iterations per step.
 
     `resolution` is the mesh resolution a scene or benchmark builds the model at (the simulator itself
     simulates whatever model it is given).
@@ -20,6 +22,7 @@ class Fidelity:
 
     dt: float = SIM_DT
     solver: str = 'cg'
+    preconditioner: str = 'jacobi'
     cg_tol: float = 1e-4
     cg_max_iter: int = 100
     jacobian_every: int = 1
@@ -31,6 +34,7 @@ class Fidelity:
         checks = [
             (0 < self.dt <= 0.05, 'dt', 'a time step in (0, 0.05] s'),
             (self.solver in SOLVERS, 'solver', f'one of {SOLVERS}'),
+            (self.preconditioner in PRECONDITIONERS, 'preconditioner', f'one of {PRECONDITIONERS}'),
             (0 < self.cg_tol < 1, 'cg_tol', 'a relative tolerance in (0, 1)'),
             (int(self.cg_max_iter) >= 1, 'cg_max_iter', 'an integer >= 1'),
             (int(self.jacobian_every) >= 1, 'jacobian_every', 'an integer >= 1 (steps between refreshes)'),
@@ -44,7 +48,7 @@ class Fidelity:
 
 
 PRESETS = {
-    'fast': Fidelity(dt=SIM_DT, cg_tol=1e-2, cg_max_iter=100, jacobian_every=4, polar_iters=4),
+    'fast': Fidelity(dt=1.0 / 600.0, cg_tol=1e-2, cg_max_iter=100, jacobian_every=1, polar_iters=4),
     'balanced': Fidelity(dt=SIM_DT, cg_tol=1e-3, cg_max_iter=200, jacobian_every=1, polar_iters=8),
     'accurate': Fidelity(dt=1.0 / 2400.0, cg_tol=1e-6, cg_max_iter=500, jacobian_every=1, polar_iters=20),
 }

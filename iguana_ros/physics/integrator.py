@@ -24,8 +24,8 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
     FP_MAX_SPEED, FP_MAX_DEPTH, FP_CG_FAIL = range(15)
 N_FP = 15
 # indices of the integer parameter vector `ip`
-IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND = range(4)
-N_IP = 4
+IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_SSOR = range(5)
+N_IP = 5
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS = range(4)
 N_COUNTERS = 4
@@ -162,7 +162,7 @@ def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_st
         if status != STATUS_OK:
             return status, step
         iters, res, threshold = block_jacobi_pcg(row_ptr, cols, blocks, pinv, rhs, dv, fp[FP_CG_TOL],
-                                                 fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], work)
+                                                 fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], work, ip[IP_SSOR] != 0)
         counters[C_CG_ITERS] += abs(iters)
         if iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold:
             info[0] = iters

@@ -118,6 +118,7 @@ class SoftBodySimulator:
         ip[itg.IP_JACOBIAN_EVERY] = fid.jacobian_every
         ip[itg.IP_POLAR_ITERS] = fid.polar_iters
         ip[itg.IP_HAS_GROUND] = self.terrain is not None
+        ip[itg.IP_SSOR] = fid.preconditioner == 'ssor'
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
