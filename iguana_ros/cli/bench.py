@@ -72,13 +72,13 @@ def run_tradeoff(args) -> int:
 
     from iguana_ros.physics.benchmarks import plot_tradeoff, tradeoff
 
-    def show(row):
-        if not args.json:
-            print(_format_row(row), flush=True)
+    out = sys.stderr if args.json else sys.stdout      # with --json the progress table goes to stderr
 
-    if not args.json:
-        print(f"{'setting':22s} {'mesh':7s} {'RTF':>7s} {'ms/step':>8s} {'CG/step':>7s} {'node RMS m':>11s} "
-              f"{'COM err m':>10s}", file=sys.stdout)
+    def show(row):
+        print(_format_row(row), file=out, flush=True)
+
+    print(f"{'setting':22s} {'mesh':7s} {'RTF':>7s} {'RTF cpu':>7s} {'ms/step':>8s} {'CG/step':>7s} "
+          f"{'node RMS m':>11s} {'COM err m':>10s}", file=out)
     rows = tradeoff(args.mesh, seconds=args.seconds, progress=show)
     if args.plot:
         plot_tradeoff(rows, args.plot)
@@ -95,6 +95,7 @@ def _format_row(row: dict) -> str:
     def num(v, fmt):
         return format(v, fmt) if v is not None else '-'
     return (f"{row['label']:22s} {row['mesh']:7s} {num(row['realtime_factor'], '7.2f')} "
+            f"{num(row['realtime_factor_cpu'], '7.2f')} "
             f"{num(row['ms_per_step'], '8.3f')} {num(row['cg_iterations_per_step'], '7.1f')} "
             f"{num(row['node_rms_m'], '11.2e')} {num(row['com_error_m'], '10.2e')}")
 

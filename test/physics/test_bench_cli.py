@@ -1,0 +1,22 @@
+"""`iguana bench sim` reports the promised JSON keys with sane values; bad arguments fail clearly."""
+import json
+
+import pytest
+
+from iguana_ros.cli import main
+
+
+def test_bench_sim_json_keys(capsys):
+    assert main(['bench', 'sim', '--mesh', 'coarse', '--seconds', '0.2', '--dt', '1/1200', '--json']) == 0
+    result = json.loads(capsys.readouterr().out)
+    for key in ('realtime_factor', 'ms_per_step', 'nodes', 'tets', 'springs', 'peak_rss_mb', 'compile_s'):
+        assert key in result
+    assert result['steps'] == 240 and result['dt'] == pytest.approx(1 / 1200)
+    assert result['realtime_factor'] > 0 and result['ms_per_step'] > 0 and 0 < result['peak_rss_mb'] < 2000
+    assert result['nodes'] > 50 and result['tets'] > result['nodes'] / 2 and result['springs'] > result['nodes']
+
+
+def test_bench_sim_rejects_bad_time_step(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(['bench', 'sim', '--dt', '1/0'])
+    assert exc.value.code == 2 and 'time step' in capsys.readouterr().err
