@@ -1,11 +1,13 @@
 """Tetrahedral mesh of the iguana body: radius-adapted node sampling, Delaunay, carving, sliver repair.
 
-Nodes are rings of surface points on cross-sections along the main body (snout to tail tip) and along each
-limb, spaced in proportion to the local body radius, plus interior rings where the body is thick. Every
-surface node is projected onto the implicit surface of `shape.py` (soles land on z = 0). A Delaunay
-tetrahedralisation is carved to the tets inside the body, reduced to one face-connected piece with a
-manifold boundary, and slivers are repaired by removing boundary slivers and re-triangulating after a
-small deterministic tangential jitter of sliver nodes; the best mesh found is kept.
+Nodes are rings of surface points on cross-sections along the main body (snout to tail tip) and along
+each limb, spaced in proportion to the local body radius, with one axis node half-way between
+consecutive rings (a body-centred arrangement: aligned rings plus mid-axis nodes tetrahedralise into
+fat tets, where staggered rings give cospherical slivers). Every surface node is projected onto the
+implicit surface of `shape.py` (soles land on z = 0). The Delaunay tetrahedralisation is carved to the
+tets inside the body and reduced to one face-connected piece; boundary slivers are peeled where the
+surface stays manifold, and remaining slivers or surface defects are repaired by small deterministic
+random moves of their nodes and re-triangulation, keeping the best mesh found.
 """
 from __future__ import annotations
 
