@@ -12,6 +12,7 @@ SUBCOMMANDS = (
     ('topics', 'iguana_ros.cli.topics'),
     ('bag', 'iguana_ros.cli.bag'),
     ('goal', 'iguana_ros.cli.goal'),
+    ('render', 'iguana_ros.cli.render'),
     ('motion', 'iguana_ros.cli.motion'),
     ('model', 'iguana_ros.cli.model'),
     ('bench', 'iguana_ros.cli.bench'),

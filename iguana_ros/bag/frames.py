@@ -1,0 +1,368 @@
+"""Bag -> `RecordedRun`: per-frame iguana surface triangles, root poses, terrain and goals as numpy arrays.
+
+Reads the topics `mesh_marker` (Marker TRIANGLE_LIST, fast CDR path), `iguana_state` (Odometry, optional) and
+`scene_markers` (MarkerArray: namespace 'terrain' TRIANGLE_LIST, namespace 'goal' spheres; optional) of
+msg_configs/topics.yaml, recorded under their absolute name or inside a namespace.
+
+Times are seconds from the first mesh frame, taken from the header stamps (simulated time), or from the
+receive times when the stamps do not advance (an unstamped publisher). Frames are subsampled while reading
+(`fps`), restricted to a window (`start`, `end`), or reduced to the single frame nearest to `at`
+(`math.inf`: the last one), so a long run never has to be held in memory in full.
+"""
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from iguana_ros.bag.storage import BagReader, summarize
+from iguana_ros.errors import InputError
+from iguana_ros.render.run import GoalSet, RecordedRun
+from iguana_ros.topics import topic
+
+NS = 1_000_000_000
+TERRAIN_NS, GOAL_NS = 'terrain', 'goal'
+"""Marker namespaces of the terrain mesh and of the goal markers in scene_markers."""
+
+_TRIANGLE_LIST, _ADD, _DELETEALL = 11, 0, 3
+"""visualization_msgs/Marker type and action codes used here."""
+
+FPS_TOLERANCE = 0.3
+"""A frame is kept when it is at most this fraction of a frame period early for its slot."""
+
+DEFAULT_MESH_RGBA = (0.36, 0.62, 0.30, 1.0)
+"""Iguana colour when a mesh marker carries no per-vertex colours."""
+
+
+def match_topic(recorded: list[str], name: str) -> str | None:
+    """The recorded topic for table name `name`: its absolute form, else the first namespaced '.../name'."""
+    absolute = name if name.startswith('/') else '/' + name
+    if absolute in recorded:
+        return absolute
+    namespaced = sorted(r for r in recorded if r.endswith('/' + name.lstrip('/')))
+    return namespaced[0] if namespaced else None
+
+
+def _stamp_ns(data: bytes) -> int:
+    """header.stamp (ns) of a serialized stamped message (the stamp opens the CDR payload)."""
+    sec, nsec = struct.unpack_from('<iI', data, 4)
+    return sec * NS + nsec
+
+
+def _array_stamp_ns(data: bytes) -> int:
+    """header.stamp (ns) of the first marker of a serialized MarkerArray (0 for an empty array)."""
+    (count,) = struct.unpack_from('<I', data, 4)
+    return _stamp_ns(data[4:]) if count else 0
+
+
+@dataclass
+class _Selection:
+    """Which mesh frames to keep: a time window and a frame rate, or the one nearest to `at`."""
+
+    start: float = 0.0
+    end: float = math.inf
+    fps: float | None = None
+    at: float | None = None
+    next_due: float = -math.inf
+
+    def wants(self, t: float, best: float | None) -> bool:
+        """Whether the frame at `t` s is kept (for `at`: whether it beats the current `best` time)."""
+        if self.at is not None:
+            return best is None or abs(t - self.at) <= abs(best - self.at)
+        if not self.start <= t <= self.end:
+            return False
+        if self.fps is None:
+            return True
+        period = 1.0 / self.fps
+        if t < self.next_due - FPS_TOLERANCE * period:
+            return False
+        if self.next_due == -math.inf:
+            self.next_due = t
+        self.next_due = max(self.next_due + period, t + (1.0 - FPS_TOLERANCE) * period)
+        return True
+
+
+@dataclass
+class _Collector:
+    """Accumulates the messages of one pass over the bag."""
+
+    selection: _Selection
+    stamps: list = field(default_factory=list)          # (stamp_ns, log_ns, data) of the first mesh message
+    base: str | None = None                              # 'stamp' or 'log'
+    t0_ns: int = 0
+    times: list = field(default_factory=list)
+    points: list = field(default_factory=list)
+    colors: list = field(default_factory=list)
+    centroid_times: list = field(default_factory=list)
+    centroids: list = field(default_factory=list)
+    odometry: list = field(default_factory=list)        # (stamp_ns, log_ns, data)
+    scenes: list = field(default_factory=list)          # (stamp_ns, log_ns, data)
+    last_t: float = -math.inf
+    mesh_count: int = 0
+
+    def add_mesh(self, data: bytes, log_ns: int) -> None:
+        """Take one serialized mesh Marker; the time base is fixed by the first two messages."""
+        self.mesh_count += 1
+        stamp = _stamp_ns(data)
+        if self.base is None:
+            if not self.stamps:
+                self.stamps.append((stamp, log_ns, data))
+                return
+            first = self.stamps.pop()
+            self.base = 'stamp' if stamp != first[0] else 'log'
+            self.t0_ns = first[0] if self.base == 'stamp' else first[1]
+            self._accept(first[0] if self.base == 'stamp' else first[1], first[2])
+        self._accept(stamp if self.base == 'stamp' else log_ns, data)
+
+    def finish(self) -> None:
+        """Flush a lone first mesh message (a one-frame bag)."""
+        if self.base is None and self.stamps:
+            stamp, _, data = self.stamps.pop()
+            self.base, self.t0_ns = 'stamp', stamp
+            self._accept(stamp, data)
+
+    def _accept(self, time_ns: int, data: bytes) -> None:
+        """Record the centroid of a mesh frame and keep its arrays if the selection wants it."""
+        from iguana_ros.nodes.conversions import triangle_list_from_cdr
+
+        t = (time_ns - self.t0_ns) / NS
+        self.last_t = max(self.last_t, t)
+        sel = self.selection
+        if sel.at is None and t > sel.end:
+            return
+        points, colors = triangle_list_from_cdr(data)
+        if len(points) < 3 or not np.isfinite(points).all():
+            return
+        self.centroid_times.append(t)
+        self.centroids.append(points.mean(axis=0))
+        if not sel.wants(t, self.times[-1] if self.times else None):
+            return
+        if len(colors) != len(points):
+            colors = np.tile(DEFAULT_MESH_RGBA, (len(points), 1))
+        if sel.at is not None:
+            self.times, self.points, self.colors = [], [], []
+        self.times.append(t)
+        self.points.append(points.astype(np.float32))
+        self.colors.append(colors.astype(np.float32))
+
+    def time_of(self, stamp_ns: int, log_ns: int) -> float:
+        """Seconds from the first mesh frame of a (stamp, receive time) pair in the mesh's time base."""
+        return ((stamp_ns if self.base == 'stamp' else log_ns) - self.t0_ns) / NS
+
+
+def _role_topics(path: str | Path) -> tuple[dict[str, str], int]:
+    """{recorded topic name: role} for mesh/state/scene, and the bag's message count; errors name the bag."""
+    summary = summarize(path)
+    recorded = {t.name: t.type for t in summary.topics}
+    roles = {}
+    for role in ('mesh_marker', 'iguana_state', 'scene_markers'):
+        spec = topic(role)
+        name = match_topic(list(recorded), spec.name)
+        if name is None:
+            continue
+        if recorded[name] != spec.type:
+            raise InputError(f'bag {path}: topic {name} has type {recorded[name]}, expected {spec.type}')
+        roles[name] = role
+    if 'mesh_marker' not in roles.values():
+        raise InputError(f'bag {path} has no {topic("mesh_marker").name} topic '
+                         f'(recorded: {", ".join(sorted(recorded)) or "nothing"}); nothing to render')
+    return roles, summary.message_count
+
+
+def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end: float = math.inf,
+             at: float | None = None, progress: Callable[[int, int], None] | None = None) -> RecordedRun:
+    """Read the frames of a bag (see module docstring); `progress(n_read, n_total)` reports the messages read."""
+    roles, total = _role_topics(path)
+    collector = _Collector(_Selection(start=start, end=end, fps=fps, at=at))
+    reader = BagReader(path)
+    for k, msg in enumerate(reader.messages()):
+        role = roles.get(msg.topic)
+        if role == 'mesh_marker':
+            collector.add_mesh(msg.data, msg.log_time)
+        elif role == 'iguana_state':
+            collector.odometry.append((_stamp_ns(msg.data), msg.log_time, msg.data))
+        elif role == 'scene_markers':
+            collector.scenes.append((_array_stamp_ns(msg.data), msg.log_time, msg.data))
+        if progress is not None and k % 64 == 63:
+            progress(k + 1, total)
+    collector.finish()
+    if progress is not None:
+        progress(total, total)
+    return _assemble(collector, path, next(n for n, r in roles.items() if r == 'mesh_marker'))
+
+
+def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:
+    """RecordedRun from a finished collector; InputError when no frame was selected."""
+    sel = c.selection
+    if c.mesh_count == 0:
+        raise InputError(f'bag {path} has no {mesh_topic} messages; nothing to render')
+    if not c.times:
+        raise InputError(f'bag {path}: no {mesh_topic} frames between {sel.start:g} s and {sel.end:g} s '
+                         f'(the run spans 0 to {c.last_t:.2f} s)')
+    times = np.array(c.times)
+    track_t, track_p, yaw_t, yaws = _odometry(c)
+    if track_t is None:
+        track_t, track_p = np.array(c.centroid_times), np.array(c.centroids)
+        order = np.argsort(track_t, kind='stable')
+        track_t, track_p = track_t[order], track_p[order]
+    roots = np.stack([np.interp(times, track_t, track_p[:, k]) for k in range(3)], axis=1)
+    root_yaws = np.interp(times, yaw_t, np.unwrap(yaws)) if yaw_t is not None else None
+    keep = track_t <= times[-1] + 1e-9
+    terrain, goals = _scene(c)
+    return RecordedRun(times=times, mesh_points=c.points, mesh_colors=c.colors, root_positions=roots,
+                       root_yaws=root_yaws, track_times=track_t[keep], track_positions=track_p[keep],
+                       terrain_points=terrain[0], terrain_colors=terrain[1], goals=goals,
+                       mesh_topic=mesh_topic, duration=max(c.last_t, 0.0))
+
+
+def _odometry(c: _Collector) -> tuple:
+    """(times, positions (k, 3), times, yaws (k,)) of the recorded odometry, or four Nones without any."""
+    if not c.odometry:
+        return None, None, None, None
+    from rclpy.serialization import deserialize_message
+
+    from iguana_ros.nodes.conversions import odometry_to_numpy
+    from iguana_ros.nodes.ros_topics import message_class
+    cls = message_class(topic('iguana_state').type)
+    rows = []
+    for stamp, log_ns, data in c.odometry:
+        pos, quat, _, _ = odometry_to_numpy(deserialize_message(data, cls))
+        if np.isfinite(pos).all() and np.isfinite(quat).all():
+            rows.append((c.time_of(stamp, log_ns), *pos, _yaw(quat)))
+    if not rows:
+        return None, None, None, None
+    table = np.array(sorted(rows, key=lambda r: r[0]))
+    return table[:, 0], table[:, 1:4], table[:, 0], table[:, 4]
+
+
+def _yaw(quat: np.ndarray) -> float:
+    """Heading (rad) about +z of a quaternion xyzw."""
+    x, y, z, w = quat
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
+    """((terrain corners, colours) or (None, None), goal sets by time) from the scene_markers messages."""
+    terrain: tuple = (None, None)
+    goals: list[GoalSet] = []
+    for stamp, log_ns, data in sorted(c.scenes, key=lambda s: s[1]):
+        markers = marker_array_from_cdr(data)
+        if any(m.action == _DELETEALL for m in markers):
+            goals.append(GoalSet(c.time_of(stamp, log_ns), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))))
+        for m in markers:
+            if m.ns == TERRAIN_NS and m.type == _TRIANGLE_LIST and m.action == _ADD:
+                terrain = _marker_triangles(m)
+        goal = [m for m in markers if m.ns == GOAL_NS and m.action == _ADD]
+        if goal:
+            goals.append(_goal_set(c.time_of(stamp, log_ns), goal))
+    return terrain, goals
+
+
+def _marker_triangles(m: MarkerData) -> tuple[np.ndarray, np.ndarray]:
+    """World corners `(3n, 3)` and RGBA `(3n, 4)` of a TRIANGLE_LIST marker (its pose and scale applied)."""
+    from scipy.spatial.transform import Rotation
+
+    n = len(m.points) - len(m.points) % 3
+    points = m.points[:n] * m.scale
+    if np.any(m.orientation[:3] != 0.0) and np.isfinite(m.orientation).all():
+        points = Rotation.from_quat(m.orientation).apply(points)
+    points = points + m.position
+    colors = m.colors[:n] if len(m.colors) >= n else np.tile(m.color, (n, 1))
+    if not np.isfinite(points).all():
+        raise InputError('scene_markers: the terrain marker has NaN or Inf coordinates')
+    return points, colors
+
+
+def _goal_set(t: float, markers: list[MarkerData]) -> GoalSet:
+    """GoalSet of goal markers (spheres of diameter scale.x at their pose)."""
+    pos = np.array([m.position for m in markers])
+    radii = np.array([0.5 * max(float(m.scale[0]), 1e-3) for m in markers])
+    return GoalSet(t, pos, radii, np.array([m.color for m in markers]))
+
+
+@dataclass
+class MarkerData:
+    """The fields of a visualization_msgs/Marker that rendering uses, as numpy arrays."""
+
+    ns: str
+    type: int
+    action: int
+    position: np.ndarray        # (3,) m
+    orientation: np.ndarray     # (4,) xyzw
+    scale: np.ndarray           # (3,)
+    color: np.ndarray           # (4,) RGBA
+    points: np.ndarray          # (n, 3) m
+    colors: np.ndarray          # (n, 4) RGBA
+
+
+class _CdrCursor:
+    """Little-endian CDR reader; alignment is relative to the payload start (after the 4-byte header)."""
+
+    def __init__(self, data: bytes) -> None:
+        if len(data) < 4 or data[:4] != b'\x00\x01\x00\x00':
+            raise InputError('scene_markers: message bytes are not little-endian CDR')
+        self.data, self.pos = data, 0
+
+    def take(self, fmt: str, align: int) -> tuple:
+        """Unpack `fmt` at the next `align`-aligned offset."""
+        self.pos += (-self.pos) % align
+        values = struct.unpack_from('<' + fmt, self.data, 4 + self.pos)
+        self.pos += struct.calcsize('<' + fmt)
+        return values
+
+    def string(self) -> str:
+        """A CDR string (uint32 length including the NUL, bytes)."""
+        (n,) = self.take('I', 4)
+        text = self.data[4 + self.pos:4 + self.pos + max(n - 1, 0)].decode(errors='replace')
+        self.pos += n
+        return text
+
+    def sequence(self, dtype: str, width: int, align: int) -> np.ndarray:
+        """A sequence of `width`-wide rows of `dtype` as an array `(n, width)`."""
+        (n,) = self.take('I', 4)
+        if n == 0:
+            return np.zeros((0, width))
+        self.pos += (-self.pos) % align
+        values = np.frombuffer(self.data, dtype, n * width, 4 + self.pos).reshape(n, width)
+        self.pos += values.nbytes
+        return values
+
+
+def _read_marker(cur: _CdrCursor) -> MarkerData:
+    """One Marker at the cursor (every field read, so the cursor lands on the next one)."""
+    cur.take('iI', 4)
+    cur.string()                                   # header
+    ns = cur.string()
+    _, kind, action = cur.take('iii', 4)
+    pose = np.array(cur.take('7d', 8))
+    scale = np.array(cur.take('3d', 8))
+    color = np.array(cur.take('4f', 4), dtype=np.float64)
+    cur.take('iI?', 4)                             # lifetime, frame_locked
+    points = cur.sequence('<f8', 3, 8).astype(np.float64)
+    colors = cur.sequence('<f4', 4, 4).astype(np.float64)
+    cur.string()                                   # texture_resource
+    cur.take('iI', 4)
+    cur.string()
+    cur.string()
+    cur.sequence('u1', 1, 1)                       # texture: header, format, data
+    cur.sequence('<f4', 2, 4)                      # uv_coordinates
+    cur.string()
+    cur.string()                                   # text, mesh_resource
+    cur.string()
+    cur.sequence('u1', 1, 1)                       # mesh_file
+    cur.take('?', 1)                               # mesh_use_embedded_materials
+    return MarkerData(ns, kind, action, pose[:3], pose[3:], scale, color, points, colors)
+
+
+def marker_array_from_cdr(data: bytes) -> list[MarkerData]:
+    """The markers of a serialized visualization_msgs/MarkerArray, read with numpy (no per-point objects)."""
+    cur = _CdrCursor(data)
+    try:
+        (n,) = cur.take('I', 4)
+        return [_read_marker(cur) for _ in range(n)]
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'scene_markers: message is truncated or not a MarkerArray: {exc}') from exc

@@ -1,0 +1,83 @@
+"""Image and animation writers: PNG (one frame), GIF (Pillow, adaptive palette) and MP4 (H.264 via imageio-ffmpeg)."""
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from iguana_ros.errors import InputError
+
+EXTENSIONS = ('.png', '.gif', '.mp4')
+"""Output formats of `iguana render`, by file extension."""
+
+MP4_QUALITY = 7
+"""imageio-ffmpeg quality for libx264 (0-10, 10 best)."""
+
+
+def output_kind(path: str | Path) -> str:
+    """'png', 'gif' or 'mp4' from the extension of `path`; InputError naming the file otherwise."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in EXTENSIONS:
+        raise InputError(f'output {path} has extension {suffix or "(none)"!r}; expected one of '
+                         f'{", ".join(EXTENSIONS)}')
+    return suffix[1:]
+
+
+def gif_durations_ms(n_frames: int, fps: float) -> list[int]:
+    """Per-frame GIF delays (ms, multiples of 10) whose running sum tracks frame k at k / fps seconds."""
+    edges = np.round(np.arange(n_frames + 1) * 100.0 / fps) * 10.0
+    return [max(10, int(d)) for d in np.diff(edges)]
+
+
+def write_png(path: str | Path, image: np.ndarray) -> Path:
+    """Write one uint8 RGB image `(H, W, 3)` as PNG; returns the path."""
+    from PIL import Image
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(image).save(path, optimize=True)
+    return path
+
+
+def write_gif(path: str | Path, frames: Iterable[np.ndarray], fps: float) -> int:
+    """Write uint8 RGB frames `(H, W, 3)` as a looping GIF at `fps`; returns the number of frames."""
+    from PIL import Image
+
+    images = [Image.fromarray(f).quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+              for f in frames]
+    if not images:
+        raise InputError(f'no frames to write to {path}')
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    images[0].save(path, save_all=True, append_images=images[1:], loop=0,
+                   duration=gif_durations_ms(len(images), fps), disposal=1, optimize=False)
+    return len(images)
+
+
+def write_mp4(path: str | Path, frames: Iterable[np.ndarray], fps: float) -> int:
+    """Write uint8 RGB frames `(H, W, 3)` (even H and W) as H.264 MP4 at `fps`; returns the number of frames."""
+    import imageio_ffmpeg
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    writer = None
+    count = 0
+    try:
+        for frame in frames:
+            if writer is None:
+                h, w = frame.shape[:2]
+                if h % 2 or w % 2:
+                    raise InputError(f'MP4 frames must have an even width and height, got {w}x{h}')
+                writer = imageio_ffmpeg.write_frames(str(path), (w, h), fps=fps, codec='libx264',
+                                                     pix_fmt_out='yuv420p', quality=MP4_QUALITY,
+                                                     macro_block_size=1, ffmpeg_log_level='error')
+                writer.send(None)
+            writer.send(np.ascontiguousarray(frame))
+            count += 1
+    finally:
+        if writer is not None:
+            writer.close()
+    if count == 0:
+        raise InputError(f'no frames to write to {path}')
+    return count

@@ -1,0 +1,64 @@
+"""A recorded run as plain numpy arrays (ROS-free): what `iguana_ros.bag.frames` reads and `Renderer` draws."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class GoalSet:
+    """Goal markers valid from `time` s on: centres `(g, 3)` m, radii `(g,)` m, RGBA `(g, 4)`."""
+
+    time: float
+    positions: np.ndarray
+    radii: np.ndarray
+    colors: np.ndarray
+
+
+@dataclass
+class RecordedRun:
+    """Frames of a run: times (s from the first mesh frame), surface triangle soups, root poses, scene.
+
+    `mesh_points[i] (3*n_t, 3)` m and `mesh_colors[i] (3*n_t, 4)` are frame i's TRIANGLE_LIST corners;
+    `root_positions (n, 3)` m and `root_yaws (n,)` rad (None without odometry, then the positions are mesh
+    centroids); `track_times (k,)`, `track_positions (k, 3)`: the whole root path for the trail;
+    `terrain_points (3*m, 3)` / `terrain_colors (3*m, 4)`: the terrain TRIANGLE_LIST or None.
+    """
+
+    times: np.ndarray
+    mesh_points: list
+    mesh_colors: list
+    root_positions: np.ndarray
+    root_yaws: np.ndarray | None
+    track_times: np.ndarray
+    track_positions: np.ndarray
+    terrain_points: np.ndarray | None = None
+    terrain_colors: np.ndarray | None = None
+    goals: list = field(default_factory=list)
+    mesh_topic: str = ''
+    duration: float = 0.0
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames."""
+        return len(self.times)
+
+    def goals_at(self, t: float) -> GoalSet | None:
+        """The latest GoalSet whose time is <= `t` (the first one before any), or None without goals."""
+        if not self.goals:
+            return None
+        current = self.goals[0]
+        for g in self.goals:  # a handful of scene snapshots, not per-node work
+            if g.time <= t:
+                current = g
+        return current
+
+    def extent_points(self, max_frames: int = 60) -> np.ndarray:
+        """Points `(m, 3)` a static view must show: mesh corners of up to `max_frames` frames, goal spheres."""
+        step = max(1, self.n_frames // max_frames)
+        parts = [p for p in self.mesh_points[::step]] + [self.mesh_points[-1]]
+        for g in self.goals:
+            for sign in (-1.0, 1.0):
+                parts.append(g.positions + sign * g.radii[:, None])
+        return np.concatenate(parts, axis=0)
