@@ -1,0 +1,68 @@
+"""End to end: a short lockstep run of the four node processes equals `pipeline.run` of the same scene
+bit for bit, and its bag replays to a real subscriber."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from ros_harness import IGUANA, NodeProcess, spin_until
+
+from iguana_ros.bag.trajectory import read_root_trajectory
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.nodes.launch import RunOptions, run_scene
+from iguana_ros.pipeline import run as run_pipeline
+from iguana_ros.scene import load_scene
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
+
+FRAMES = 12
+
+
+@pytest.fixture(scope='module')
+def scene_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp('scene') / 'e2e.yaml'
+    path.write_text(yaml.safe_dump({
+        'name': 'e2e', 'model': {'resolution': 'coarse'},
+        'terrain': {'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0, 'seed': 3},
+        'goals': [{'x': 0.3, 'y': 1.0, 'at': 0.0}], 'duration': FRAMES / FRAME_RATE}))
+    return path
+
+
+@pytest.fixture(scope='module')
+def library_run(scene_file):
+    return run_pipeline(load_scene(str(scene_file)))
+
+
+@pytest.mark.parametrize('single_process', [False, True], ids=['four-processes', 'one-process'])
+def test_lockstep_nodes_equal_library_run(tmp_path, scene_file, library_run, single_process):
+    bag = tmp_path / 'run'
+    summary = run_scene(RunOptions(scene=str(scene_file), record=bag, single_process=single_process,
+                                   timeout=240))
+    assert summary.exit_code == 0, summary.message
+    assert summary.simulated_s == pytest.approx(FRAMES / FRAME_RATE)
+    times, roots = read_root_trajectory(bag)
+    assert np.allclose(times, np.arange(FRAMES + 1) / FRAME_RATE)
+    # iguana_state of frame k is the root after k frames; the library stores it after each frame
+    assert np.array_equal(roots[1:], library_run.root_positions)
+
+
+def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
+    from iguana_ros.nodes.ros_topics import resolve
+    bag = tmp_path / 'run'
+    assert run_scene(RunOptions(scene=str(scene_file), record=bag, timeout=240)).exit_code == 0
+    node = make_node('replay_listener')
+    executor.add_node(node)
+    got = {'iguana_state': [], 'scene_markers': []}
+    for key in got:
+        name, cls, qos = resolve(key)
+        qos.depth = 100  # the listener keeps every replayed message even if it is briefly slow
+        node.create_subscription(cls, name, got[key].append, qos)
+    play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--wait-for-subscribers', '5'],
+                       'play', tmp_path).start()
+    with play:
+        assert spin_until(executor, lambda: len(got['iguana_state']) >= FRAMES + 1, 60), play.output
+        assert spin_until(executor, lambda: len(got['scene_markers']) >= 1, 10), play.output
+        assert play.wait(60) == 0, play.output
+    from iguana_ros.nodes.conversions import odometry_to_numpy
+    replayed = np.array([odometry_to_numpy(m)[0] for m in got['iguana_state']])
+    assert np.array_equal(replayed, read_root_trajectory(bag)[1])
