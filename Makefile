@@ -21,7 +21,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 demo: $(STAMP)
-	$(VENV)/bin/iguana topics
+	$(VENV)/bin/iguana demo
 
 bench: $(STAMP)
 	$(VENV)/bin/iguana bench sim

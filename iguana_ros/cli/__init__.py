@@ -19,6 +19,7 @@ SUBCOMMANDS = (
     ('bench-adaptation', 'iguana_ros.cli.bench_adaptation'),
     ('simulate', 'iguana_ros.cli.simulate'),
     ('run', 'iguana_ros.cli.run'),
+    ('demo', 'iguana_ros.cli.demo'),
 )
 
 
