@@ -6,6 +6,10 @@ from dataclasses import dataclass, fields, replace
 from iguana_ros.constants import SIM_DT
 from iguana_ros.errors import InputError
 
+JACOBIAN_MAX_AGE = 1.0 / 120.0
+"""Longest time (s) a system matrix is reused: `jacobian_every` is capped at this age (at dt = 1/60 s every
+step refreshes). Stale Jacobians at large steps let stiff, rotating elements blow up (measured, README)."""
+
 SOLVERS = ('cg', 'direct')
 PRECONDITIONERS = ('jacobi', 'ssor')
 RESOLUTIONS = ('coarse', 'medium', 'fine')
@@ -29,6 +33,11 @@ class Fidelity:
     polar_iters: int = 8
     resolution: str = 'medium'
 
+    @property
+    def effective_jacobian_every(self) -> int:
+        """`jacobian_every` capped so that a system matrix is never older than JACOBIAN_MAX_AGE."""
+        return max(1, min(int(self.jacobian_every), int(JACOBIAN_MAX_AGE / self.dt + 1e-9)))
+
     def validated(self) -> 'Fidelity':
         """Self, or InputError naming the bad field and what it expects."""
         checks = [
@@ -48,8 +57,8 @@ class Fidelity:
 
 
 PRESETS = {
-    'fast': Fidelity(dt=1.0 / 600.0, cg_tol=1e-2, cg_max_iter=100, jacobian_every=1, polar_iters=4),
-    'balanced': Fidelity(dt=SIM_DT, cg_tol=1e-3, cg_max_iter=200, jacobian_every=1, polar_iters=8),
+    'fast': Fidelity(dt=1.0 / 600.0, cg_tol=1e-2, cg_max_iter=100, jacobian_every=4, polar_iters=4),
+    'balanced': Fidelity(dt=SIM_DT, cg_tol=1e-3, cg_max_iter=200, jacobian_every=10, polar_iters=8),
     'accurate': Fidelity(dt=1.0 / 2400.0, cg_tol=1e-6, cg_max_iter=500, jacobian_every=1, polar_iters=20),
 }
 """Named presets; their measured speed and error are in the README ("Simulator")."""

@@ -115,7 +115,7 @@ class SoftBodySimulator:
         fp[itg.FP_MAX_DEPTH] = max_depth
         ip = np.zeros(itg.N_IP, dtype=np.int64)
         ip[itg.IP_CG_MAX_ITER] = fid.cg_max_iter
-        ip[itg.IP_JACOBIAN_EVERY] = fid.jacobian_every
+        ip[itg.IP_JACOBIAN_EVERY] = fid.effective_jacobian_every
         ip[itg.IP_POLAR_ITERS] = fid.polar_iters
         ip[itg.IP_HAS_GROUND] = self.terrain is not None
         ip[itg.IP_SSOR] = fid.preconditioner == 'ssor'
