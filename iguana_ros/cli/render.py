@@ -59,9 +59,10 @@ def _check_times(args: argparse.Namespace) -> None:
 
 
 def _progress_bar(desc: str, quiet: bool, total: int | None = None, unit: str = 'frame'):
-    """A tqdm bar on stderr (disabled when quiet)."""
+    """A tqdm bar on stderr (disabled when quiet or when stderr is not a terminal)."""
     from tqdm import tqdm
-    return tqdm(total=total, desc=desc, unit=unit, disable=quiet, leave=False, dynamic_ncols=True)
+    return tqdm(total=total, desc=desc, unit=unit, disable=True if quiet else None, leave=False,
+                dynamic_ncols=True)
 
 
 def run(args: argparse.Namespace) -> int:

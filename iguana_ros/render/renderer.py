@@ -118,6 +118,7 @@ class Renderer:
         """Clip, project and rasterize world triangles `(n, 3, 3)` with flat colours `(n, 3)`; pixels written."""
         if len(tris) == 0:
             return 0
+        tris = np.asarray(tris, dtype=np.float64)
         cam, wxy, src = clip_near(camera.to_camera(tris), np.ascontiguousarray(tris[:, :, :2]), camera.near)
         xy, key, q = camera.project(cam, *self.buffer_shape[::-1])
         return rasterize_triangles(color, depth, xy, key, q, np.ascontiguousarray(rgb[src]), wxy,

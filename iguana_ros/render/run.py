@@ -55,9 +55,10 @@ class RecordedRun:
         return current
 
     def extent_points(self, max_frames: int = 60) -> np.ndarray:
-        """Points `(m, 3)` a static view must show: mesh corners of up to `max_frames` frames, goal spheres."""
+        """Points `(m, 3)` a static view must show: mesh corners of up to `max_frames` frames, the root path
+        and the goal spheres."""
         step = max(1, self.n_frames // max_frames)
-        parts = [p for p in self.mesh_points[::step]] + [self.mesh_points[-1]]
+        parts = [p for p in self.mesh_points[::step]] + [self.mesh_points[-1], self.track_positions]
         for g in self.goals:
             for sign in (-1.0, 1.0):
                 parts.append(g.positions + sign * g.radii[:, None])

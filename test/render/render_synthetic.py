@@ -1,0 +1,95 @@
+"""Synthetic bags for the render tests: a box 'iguana' driving along an arc over a wavy terrain."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+BOX = (0.6, 0.2, 0.1)          # length, width, height of the box body (m)
+RATE = 30.0                    # mesh / odometry rate (Hz)
+SPEED = 0.5                    # m/s along the arc
+TURN_RATE = 0.4                # rad/s
+GOAL = (1.6, 1.0, 0.0)
+GOAL_DIAMETER = 0.2
+GOAL_RGBA = (0.9, 0.1, 0.1, 1.0)
+TERRAIN_RGBA = (0.75, 0.70, 0.55, 1.0)
+
+
+def terrain_height(x, y):
+    """Wavy terrain height (m)."""
+    return 0.03 * np.sin(2.0 * x) * np.cos(1.5 * y)
+
+
+def box_mesh():
+    """Vertices (8, 3) centred at the origin and outward triangles (12, 3) of the box."""
+    lx, ly, lz = BOX
+    v = np.array([[x, y, z] for x in (-lx / 2, lx / 2) for y in (-ly / 2, ly / 2) for z in (-lz / 2, lz / 2)])
+    tris = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                     [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return v, tris
+
+
+def root_pose(t):
+    """Root position (3,) and yaw (rad) at time t on the arc (starts at the origin heading +x)."""
+    yaw = TURN_RATE * t
+    r = SPEED / TURN_RATE
+    x, y = r * math.sin(yaw), r * (1.0 - math.cos(yaw))
+    return np.array([x, y, float(terrain_height(x, y)) + BOX[2] / 2]), yaw
+
+
+def terrain_mesh(n=24, half=3.0):
+    """Grid vertices, triangles and colours of the wavy terrain."""
+    axis = np.linspace(-half, half, n)
+    gx, gy = np.meshgrid(axis, axis, indexing='ij')
+    verts = np.stack([gx.ravel(), gy.ravel(), terrain_height(gx, gy).ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    tris = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return verts, tris, np.tile(TERRAIN_RGBA, (len(verts), 1))
+
+
+def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh=True, stamped=True,
+                        t_start=0.0):
+    """Write a bag of the synthetic run; returns the bag directory."""
+    from rclpy.serialization import serialize_message
+    from visualization_msgs.msg import Marker
+
+    from iguana_ros.bag.schema import message_definition
+    from iguana_ros.bag.storage import BagWriter
+    from iguana_ros.nodes.conversions import (marker_array_msg, odometry_msg, triangle_list_marker,
+                                              triangle_list_marker_cdr, yaw_to_quaternion)
+    from iguana_ros.topics import topic
+
+    writer = BagWriter(directory)
+    channels = {}
+    for key in ('mesh_marker', 'iguana_state', 'scene_markers'):
+        spec = topic(key)
+        channels[key] = writer.add_topic('/' + spec.name, spec.type, message_definition(spec.type))
+    base_ns = 1_700_000_000 * 10**9
+    if scene:
+        tv, tt, tc = terrain_mesh()
+        terrain = triangle_list_marker(tv, tt, tc, ns='terrain')
+        goal = Marker(ns='goal', id=0, type=Marker.SPHERE, action=Marker.ADD)
+        goal.header.frame_id = 'world'
+        goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = GOAL
+        goal.pose.orientation.w = 1.0
+        goal.scale.x = goal.scale.y = goal.scale.z = GOAL_DIAMETER
+        goal.color.r, goal.color.g, goal.color.b, goal.color.a = GOAL_RGBA
+        writer.write(channels['scene_markers'], serialize_message(marker_array_msg([terrain, goal])), base_ns)
+    verts, tris = box_mesh()
+    colors = np.tile([0.3, 0.6, 0.3, 1.0], (len(verts), 1))
+    for k in range(int(round(duration * RATE)) + 1):
+        t = k / RATE
+        pos, yaw = root_pose(t)
+        c, s = math.cos(yaw), math.sin(yaw)
+        world = verts @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) + pos
+        stamp = t_start + t if stamped else 0.0
+        log_ns = base_ns + int(t * 1e9) + 1000
+        if mesh:
+            writer.write(channels['mesh_marker'], triangle_list_marker_cdr(world, tris, colors, stamp=stamp), log_ns)
+        if odometry:
+            msg = odometry_msg(pos, yaw_to_quaternion(yaw), [SPEED * c, SPEED * s, 0.0], [0.0, 0.0, TURN_RATE],
+                               stamp=stamp)
+            writer.write(channels['iguana_state'], serialize_message(msg), log_ns + 10)
+    writer.close()
+    return directory

@@ -1,0 +1,115 @@
+"""Bag -> RecordedRun: times, subsampling, root poses, terrain, goals and the MarkerArray CDR reader."""
+import math
+
+import numpy as np
+import pytest
+from render_synthetic import (GOAL, GOAL_DIAMETER, GOAL_RGBA, RATE, TERRAIN_RGBA, box_mesh, root_pose,
+                      write_synthetic_bag)
+
+from iguana_ros.bag.frames import marker_array_from_cdr, match_topic, read_run
+from iguana_ros.errors import InputError
+
+
+def _box_corners(t):
+    verts, tris = box_mesh()
+    pos, yaw = root_pose(t)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return (verts @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) + pos)[tris.reshape(-1)]
+
+
+def test_all_frames_with_odometry_terrain_and_goal(synthetic_bag):
+    run = read_run(synthetic_bag)
+    assert run.n_frames == 61 and np.allclose(run.times, np.arange(61) / RATE)
+    assert run.mesh_topic == '/mesh_marker' and run.duration == pytest.approx(2.0)
+    assert np.allclose(run.mesh_points[30], _box_corners(1.0), atol=1e-6)
+    expected = np.array([root_pose(t)[0] for t in run.times])
+    assert np.allclose(run.root_positions, expected) and np.allclose(run.track_positions, expected)
+    assert np.allclose(run.root_yaws, [root_pose(t)[1] for t in run.times])
+    assert run.terrain_points.shape == (23 * 23 * 2 * 3, 3)
+    assert np.allclose(run.terrain_colors, TERRAIN_RGBA)
+    goal = run.goals_at(1.0)
+    assert np.allclose(goal.positions, [GOAL]) and np.allclose(goal.radii, GOAL_DIAMETER / 2)
+    assert np.allclose(goal.colors, [GOAL_RGBA])
+
+
+def test_fps_window_and_nearest_frame(synthetic_bag):
+    assert np.allclose(read_run(synthetic_bag, fps=15).times, np.arange(31) * 2 / RATE)
+    window = read_run(synthetic_bag, fps=10, start=0.5, end=1.5)
+    assert np.allclose(window.times, 0.5 + 0.1 * np.arange(11))
+    assert window.track_times[-1] == pytest.approx(1.5)        # trail ends at the last frame
+    one = read_run(synthetic_bag, at=1.01)
+    assert one.n_frames == 1 and one.times[0] == pytest.approx(1.0)
+    last = read_run(synthetic_bag, at=math.inf)
+    assert last.times[0] == pytest.approx(2.0) and len(last.track_times) == 61
+
+
+def test_without_odometry_or_stamps(tmp_path):
+    bag = write_synthetic_bag(tmp_path / 'plain', duration=1.0, odometry=False, scene=False,
+                              stamped=False)
+    run = read_run(bag)
+    assert np.allclose(run.times, np.arange(31) / RATE, atol=1e-6)   # receive times when stamps stay 0
+    assert run.root_yaws is None and run.terrain_points is None and run.goals_at(0.0) is None
+    centres = np.array([root_pose(t)[0] for t in np.arange(31) / RATE])
+    assert np.allclose(run.root_positions, centres, atol=1e-6)      # box centroid = root
+
+
+def test_sim_time_stamps_are_used_over_receive_times(tmp_path):
+    run = read_run(write_synthetic_bag(tmp_path / 'late', duration=0.5, t_start=100.0))
+    assert np.allclose(run.times, np.arange(16) / RATE)
+
+
+def test_missing_mesh_is_a_clear_error(tmp_path, synthetic_bag):
+    bag = write_synthetic_bag(tmp_path / 'nomesh', duration=0.2, mesh=False)
+    with pytest.raises(InputError, match='has no /mesh_marker messages'):
+        read_run(bag)
+    with pytest.raises(InputError, match=r'no /mesh_marker frames between 5 s and 6 s \(the run spans 0 to 2.00 s\)'):
+        read_run(synthetic_bag, start=5.0, end=6.0)
+    with pytest.raises(InputError, match='no bag at'):
+        read_run(tmp_path / 'absent')
+
+
+def test_match_topic_prefers_absolute_then_namespaced():
+    assert match_topic(['/a/mesh_marker', '/mesh_marker'], 'mesh_marker') == '/mesh_marker'
+    assert match_topic(['/b/mesh_marker', '/a/mesh_marker'], 'mesh_marker') == '/a/mesh_marker'
+    assert match_topic(['/other'], 'mesh_marker') is None
+
+
+def test_marker_array_reader_matches_rclpy():
+    from rclpy.serialization import serialize_message
+    from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate
+
+    from iguana_ros.nodes.conversions import triangle_list_marker
+    tri = triangle_list_marker(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.5]]), np.array([[0, 1, 2]]),
+                               np.array([[1, 0, 0, 1], [0, 1, 0, 1], [0, 0, 1, 1.0]]), ns='terrain')
+    tri.texture_resource = 'file://x.png'
+    tri.texture.format = 'png'
+    tri.texture.data = [1, 2, 3, 4, 5]
+    tri.uv_coordinates = [UVCoordinate(u=0.1, v=0.2)] * 3
+    odd = Marker(ns='goal', id=7, type=Marker.SPHERE, text='hello', mesh_resource='pkg://m.dae')
+    odd.mesh_file.filename = 'm.stl'
+    odd.mesh_file.data = [9] * 7
+    odd.pose.position.x, odd.pose.orientation.w, odd.scale.x = 2.5, 1.0, 0.3
+    odd.color.g = 0.75
+    markers = marker_array_from_cdr(serialize_message(MarkerArray(markers=[tri, odd, Marker(action=3)])))
+    assert [m.ns for m in markers] == ['terrain', 'goal', ''] and [m.action for m in markers] == [0, 0, 3]
+    assert np.allclose(markers[0].points, [[0, 0, 0], [1, 0, 0], [0, 1, 0.5]])
+    assert np.allclose(markers[0].colors[:, :3], np.eye(3))
+    assert markers[1].type == Marker.SPHERE and np.allclose(markers[1].position, [2.5, 0, 0])
+    assert markers[1].scale[0] == pytest.approx(0.3) and markers[1].color[1] == pytest.approx(0.75)
+    assert markers[1].points.shape == (0, 3)
+    with pytest.raises(InputError, match='truncated or not a MarkerArray'):
+        marker_array_from_cdr(serialize_message(MarkerArray(markers=[tri]))[:60])
+
+
+def test_terrain_marker_pose_and_scale_are_applied(tmp_path):
+    from rclpy.serialization import serialize_message
+
+    from iguana_ros.bag.frames import _marker_triangles
+    from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker
+    m = triangle_list_marker(np.array([[1.0, 0, 0], [0, 1, 0], [0, 0, 1]]), np.array([[0, 1, 2]]),
+                             np.ones((3, 4)), ns='terrain')
+    m.scale.x = m.scale.y = m.scale.z = 2.0
+    m.pose.position.x = 10.0
+    m.pose.orientation.z, m.pose.orientation.w = math.sin(math.pi / 4), math.cos(math.pi / 4)  # +90 deg yaw
+    points, _ = _marker_triangles(marker_array_from_cdr(serialize_message(marker_array_msg([m])))[0])
+    assert np.allclose(points, [[10, 2, 0], [8, 0, 0], [10, 0, 2]])
