@@ -53,12 +53,6 @@ def _stamp_ns(data: bytes) -> int:
     return sec * NS + nsec
 
 
-def _array_stamp_ns(data: bytes) -> int:
-    """header.stamp (ns) of the first marker of a serialized MarkerArray (0 for an empty array)."""
-    (count,) = struct.unpack_from('<I', data, 4)
-    return _stamp_ns(data[4:]) if count else 0
-
-
 @dataclass
 class _Selection:
     """Which mesh frames to keep: a time window and a frame rate, or the one nearest to `at`."""
@@ -98,9 +92,10 @@ class _Collector:
     points: list = field(default_factory=list)
     colors: list = field(default_factory=list)
     centroid_times: list = field(default_factory=list)
+    centroid_logs: list = field(default_factory=list)    # receive time (ns) of each centroid's frame
     centroids: list = field(default_factory=list)
     odometry: list = field(default_factory=list)        # (stamp_ns, log_ns, data)
-    scenes: list = field(default_factory=list)          # (stamp_ns, log_ns, data)
+    scenes: list = field(default_factory=list)          # (0, log_ns, data)
     last_t: float = -math.inf
     mesh_count: int = 0
 
@@ -115,17 +110,17 @@ class _Collector:
             first = self.stamps.pop()
             self.base = 'stamp' if stamp != first[0] else 'log'
             self.t0_ns = first[0] if self.base == 'stamp' else first[1]
-            self._accept(first[0] if self.base == 'stamp' else first[1], first[2])
-        self._accept(stamp if self.base == 'stamp' else log_ns, data)
+            self._accept(first[0] if self.base == 'stamp' else first[1], first[1], first[2])
+        self._accept(stamp if self.base == 'stamp' else log_ns, log_ns, data)
 
     def finish(self) -> None:
         """Flush a lone first mesh message (a one-frame bag)."""
         if self.base is None and self.stamps:
-            stamp, _, data = self.stamps.pop()
+            stamp, log_ns, data = self.stamps.pop()
             self.base, self.t0_ns = 'stamp', stamp
-            self._accept(stamp, data)
+            self._accept(stamp, log_ns, data)
 
-    def _accept(self, time_ns: int, data: bytes) -> None:
+    def _accept(self, time_ns: int, log_ns: int, data: bytes) -> None:
         """Record the centroid of a mesh frame and keep its arrays if the selection wants it."""
         from iguana_ros.nodes.conversions import triangle_list_from_cdr
 
@@ -138,6 +133,7 @@ class _Collector:
         if len(points) < 3 or not np.isfinite(points).all():
             return
         self.centroid_times.append(t)
+        self.centroid_logs.append(log_ns)
         self.centroids.append(points.mean(axis=0))
         if not sel.wants(t, self.times[-1] if self.times else None):
             return
@@ -152,6 +148,12 @@ class _Collector:
     def time_of(self, stamp_ns: int, log_ns: int) -> float:
         """Seconds from the first mesh frame of a (stamp, receive time) pair in the mesh's time base."""
         return ((stamp_ns if self.base == 'stamp' else log_ns) - self.t0_ns) / NS
+
+    def receive_time_of(self, log_ns: int) -> float:
+        """Run time (s) of an unstamped message from its receive time, interpolated between mesh frames."""
+        if not self.centroid_logs:
+            return 0.0
+        return float(np.interp(log_ns, self.centroid_logs, self.centroid_times))
 
 
 def _role_topics(path: str | Path) -> tuple[dict[str, str], int]:
@@ -186,7 +188,7 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
         elif role == 'iguana_state':
             collector.odometry.append((_stamp_ns(msg.data), msg.log_time, msg.data))
         elif role == 'scene_markers':
-            collector.scenes.append((_array_stamp_ns(msg.data), msg.log_time, msg.data))
+            collector.scenes.append((0, msg.log_time, msg.data))
         if progress is not None and k % 64 == 63:
             progress(k + 1, total)
     collector.finish()
@@ -249,16 +251,17 @@ def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
     """((terrain corners, colours) or (None, None), goal sets by time) from the scene_markers messages."""
     terrain: tuple = (None, None)
     goals: list[GoalSet] = []
-    for stamp, log_ns, data in sorted(c.scenes, key=lambda s: s[1]):
+    for _, log_ns, data in sorted(c.scenes, key=lambda s: s[1]):
         markers = marker_array_from_cdr(data)
+        t = c.receive_time_of(log_ns)  # a MarkerArray has no header; its markers' stamps are often 0
         if any(m.action == _DELETEALL for m in markers):
-            goals.append(GoalSet(c.time_of(stamp, log_ns), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))))
+            goals.append(GoalSet(t, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))))
         for m in markers:
             if m.ns == TERRAIN_NS and m.type == _TRIANGLE_LIST and m.action == _ADD:
                 terrain = _marker_triangles(m)
         goal = [m for m in markers if m.ns == GOAL_NS and m.action == _ADD]
         if goal:
-            goals.append(_goal_set(c.time_of(stamp, log_ns), goal))
+            goals.append(_goal_set(t, goal))
     return terrain, goals
 
 

@@ -48,16 +48,33 @@ def terrain_mesh(n=24, half=3.0):
     return verts, tris, np.tile(TERRAIN_RGBA, (len(verts), 1))
 
 
-def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh=True, stamped=True,
-                        t_start=0.0):
-    """Write a bag of the synthetic run; returns the bag directory."""
+def _scene_bytes(*goals):
+    """Serialized MarkerArray: the terrain (stamp 0, like the simulator's) and one sphere per goal."""
     from rclpy.serialization import serialize_message
     from visualization_msgs.msg import Marker
 
+    from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker
+    tv, tt, tc = terrain_mesh()
+    markers = [triangle_list_marker(tv, tt, tc, ns='terrain')]
+    for i, position in enumerate(goals):
+        goal = Marker(ns='goal', id=i, type=Marker.SPHERE, action=Marker.ADD)
+        goal.header.frame_id = 'world'
+        goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = position
+        goal.pose.orientation.w = 1.0
+        goal.scale.x = goal.scale.y = goal.scale.z = GOAL_DIAMETER
+        goal.color.r, goal.color.g, goal.color.b, goal.color.a = GOAL_RGBA
+        markers.append(goal)
+    return serialize_message(marker_array_msg(markers))
+
+
+def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh=True, stamped=True,
+                        t_start=0.0, second_goal=None):
+    """Write a bag of the synthetic run; returns the bag directory."""
+    from rclpy.serialization import serialize_message
+
     from iguana_ros.bag.schema import message_definition
     from iguana_ros.bag.storage import BagWriter
-    from iguana_ros.nodes.conversions import (marker_array_msg, odometry_msg, triangle_list_marker,
-                                              triangle_list_marker_cdr, yaw_to_quaternion)
+    from iguana_ros.nodes.conversions import odometry_msg, triangle_list_marker_cdr, yaw_to_quaternion
     from iguana_ros.topics import topic
 
     writer = BagWriter(directory)
@@ -67,15 +84,7 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
         channels[key] = writer.add_topic('/' + spec.name, spec.type, message_definition(spec.type))
     base_ns = 1_700_000_000 * 10**9
     if scene:
-        tv, tt, tc = terrain_mesh()
-        terrain = triangle_list_marker(tv, tt, tc, ns='terrain')
-        goal = Marker(ns='goal', id=0, type=Marker.SPHERE, action=Marker.ADD)
-        goal.header.frame_id = 'world'
-        goal.pose.position.x, goal.pose.position.y, goal.pose.position.z = GOAL
-        goal.pose.orientation.w = 1.0
-        goal.scale.x = goal.scale.y = goal.scale.z = GOAL_DIAMETER
-        goal.color.r, goal.color.g, goal.color.b, goal.color.a = GOAL_RGBA
-        writer.write(channels['scene_markers'], serialize_message(marker_array_msg([terrain, goal])), base_ns)
+        writer.write(channels['scene_markers'], _scene_bytes(GOAL), base_ns)
     verts, tris = box_mesh()
     colors = np.tile([0.3, 0.6, 0.3, 1.0], (len(verts), 1))
     for k in range(int(round(duration * RATE)) + 1):
@@ -87,6 +96,8 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
         log_ns = base_ns + int(t * 1e9) + 1000
         if mesh:
             writer.write(channels['mesh_marker'], triangle_list_marker_cdr(world, tris, colors, stamp=stamp), log_ns)
+        if second_goal is not None and k == int(round(RATE)):   # a new goal arrives at t = 1 s
+            writer.write(channels['scene_markers'], _scene_bytes(GOAL, second_goal), log_ns - 500)
         if odometry:
             msg = odometry_msg(pos, yaw_to_quaternion(yaw), [SPEED * c, SPEED * s, 0.0], [0.0, 0.0, TURN_RATE],
                                stamp=stamp)

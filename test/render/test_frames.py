@@ -58,6 +58,13 @@ def test_sim_time_stamps_are_used_over_receive_times(tmp_path):
     assert np.allclose(run.times, np.arange(16) / RATE)
 
 
+def test_goals_change_when_the_simulator_republishes_the_scene(tmp_path):
+    run = read_run(write_synthetic_bag(tmp_path / 'goals', duration=2.0, second_goal=(-1.0, 0.5, 0.0)))
+    assert np.allclose(run.goals_at(0.9).positions, [GOAL])
+    assert np.allclose(run.goals_at(1.0).positions, [GOAL, (-1.0, 0.5, 0.0)])
+    assert [g.time for g in run.goals] == pytest.approx([0.0, 1.0], abs=1e-3)
+
+
 def test_missing_mesh_is_a_clear_error(tmp_path, synthetic_bag):
     bag = write_synthetic_bag(tmp_path / 'nomesh', duration=0.2, mesh=False)
     with pytest.raises(InputError, match='has no /mesh_marker messages'):
