@@ -39,6 +39,7 @@ MIN_VIEW_HEIGHT = 0.5
 """Smallest visible height (m) of a static orthographic view."""
 
 _Z = np.array([0.0, 0.0, 1.0])
+_Z.setflags(write=False)
 
 
 @dataclass(frozen=True, eq=False)

@@ -19,8 +19,8 @@ from iguana_ros.render.run import RecordedRun
 SUPERSAMPLE = 2
 """Rendering resolution factor per axis before the box filter."""
 
-LIGHT_DIRECTION = np.array([0.35, 0.3, 0.89]) / np.linalg.norm([0.35, 0.3, 0.89])
-"""Unit direction towards the light, world frame."""
+LIGHT_DIRECTION = (0.35, 0.3, 0.89)
+"""Direction towards the light, world frame (normalised where used)."""
 
 AMBIENT, DIFFUSE = 0.38, 0.62
 """Shade = AMBIENT + DIFFUSE * |n . light| (two-sided, so triangle winding does not matter)."""
@@ -34,7 +34,7 @@ GROUND_RGB = (0.70, 0.66, 0.56)
 MESH_RGB = (0.36, 0.62, 0.30)
 """Iguana colour when its marker carries no per-vertex colours."""
 
-TRAIL_RGB = np.array([0.95, 0.45, 0.10])
+TRAIL_RGB = (0.95, 0.45, 0.10)
 """Colour of the root trail."""
 
 TRAIL_LIFT = 0.01
@@ -55,7 +55,8 @@ def flat_shade(corners: np.ndarray, colors: np.ndarray) -> np.ndarray:
     tris = corners.reshape(-1, 3, 3)
     normal = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     norm = np.linalg.norm(normal, axis=1)
-    lambert = np.abs(normal @ LIGHT_DIRECTION) / np.where(norm > 0.0, norm, 1.0)
+    light = np.array(LIGHT_DIRECTION) / np.linalg.norm(LIGHT_DIRECTION)
+    lambert = np.abs(normal @ light) / np.where(norm > 0.0, norm, 1.0)
     base = colors[:, :3].reshape(-1, 3, 3).mean(axis=1)
     return np.clip(base * (AMBIENT + DIFFUSE * lambert)[:, None], 0.0, 1.0).astype(np.float32)
 
@@ -159,7 +160,7 @@ class Renderer:
             self.draw_triangles(color, depth, camera, tris, flat_shade(tris.reshape(-1, 3), colors))
         if self.trail:
             path = run.track_positions[run.track_times <= run.times[i] + 1e-9] + np.array([0, 0, TRAIL_LIFT])
-            self.draw_polyline(color, depth, camera, path, TRAIL_RGB, 1.5)
+            self.draw_polyline(color, depth, camera, path, np.array(TRAIL_RGB), 1.5)
         points = run.mesh_points[i]
         self.draw_triangles(color, depth, camera, points.reshape(-1, 3, 3),
                             flat_shade(points, run.mesh_colors[i]), outline=True)

@@ -104,3 +104,16 @@ def test_errors_are_one_line_and_exit_1(tmp_path, synthetic_bag, meshless_bag, c
     err = capsys.readouterr().err.strip()
     assert err.startswith('iguana render: error: ') and message.format(**fill) in err
     assert len(err.splitlines()) == 1
+
+
+def test_flat_shade_is_lambert_of_the_triangle_normal():
+    from iguana_ros.render.renderer import AMBIENT, DIFFUSE, LIGHT_DIRECTION, flat_shade, unit_sphere
+    light = np.array(LIGHT_DIRECTION) / np.linalg.norm(LIGHT_DIRECTION)
+    corners = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0],          # horizontal
+                        [0, 0, 0], [0, 0, 1], [0, 1, 0.0]])        # facing -x (two-sided)
+    colors = np.repeat([[1.0, 1.0, 1.0, 1.0], [1.0, 0.5, 0.0, 1.0]], 3, axis=0)
+    rgb = flat_shade(corners, colors)
+    assert np.allclose(rgb[0], AMBIENT + DIFFUSE * light[2], atol=1e-6)
+    assert np.allclose(rgb[1], (AMBIENT + DIFFUSE * light[0]) * np.array([1.0, 0.5, 0.0]), atol=1e-6)
+    sphere = unit_sphere(1)
+    assert sphere.shape == (80, 3, 3) and np.allclose(np.linalg.norm(sphere, axis=2), 1.0)
