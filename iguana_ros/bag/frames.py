@@ -98,6 +98,7 @@ class _Collector:
     scenes: list = field(default_factory=list)          # (0, log_ns, data)
     last_t: float = -math.inf
     mesh_count: int = 0
+    non_finite: int = 0
 
     def add_mesh(self, data: bytes, log_ns: int) -> None:
         """Take one serialized mesh Marker; the time base is fixed by the first two messages."""
@@ -131,6 +132,7 @@ class _Collector:
             return
         points, colors = triangle_list_from_cdr(data)
         if len(points) < 3 or not np.isfinite(points).all():
+            self.non_finite += int(len(points) >= 3)
             return
         self.centroid_times.append(t)
         self.centroid_logs.append(log_ns)
@@ -194,7 +196,12 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
     collector.finish()
     if progress is not None:
         progress(total, total)
-    return _assemble(collector, path, next(n for n, r in roles.items() if r == 'mesh_marker'))
+    run = _assemble(collector, path, next(n for n, r in roles.items() if r == 'mesh_marker'))
+    if reader.truncated:
+        run.notes.append(f'{reader.path} is truncated ({reader.problem}); read up to the last complete chunk')
+    if collector.non_finite:
+        run.notes.append(f'skipped {collector.non_finite} mesh frame(s) with NaN or Inf coordinates')
+    return run
 
 
 def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:

@@ -90,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _read(args: argparse.Namespace, kind: str):
     """The RecordedRun of the bag for the requested output."""
+    import sys
+
     from iguana_ros.bag.frames import read_run
     from iguana_ros.errors import InputError
 
@@ -103,6 +105,8 @@ def _read(args: argparse.Namespace, kind: str):
             recorded = read_run(args.bag, at=at, progress=progress)
         else:
             recorded = read_run(args.bag, fps=args.fps, start=args.start, end=args.end, progress=progress)
+    for note in recorded.notes:
+        print(f'iguana render: note: {note}', file=sys.stderr)
     if kind == 'png' and args.frame is not None and abs(recorded.times[0] - args.frame) > FRAME_TOLERANCE_S:
         raise InputError(f'--frame {args.frame:g} s is outside the run (0 to {recorded.duration:.2f} s)')
     return recorded

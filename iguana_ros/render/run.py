@@ -38,6 +38,8 @@ class RecordedRun:
     goals: list = field(default_factory=list)
     mesh_topic: str = ''
     duration: float = 0.0
+    notes: list = field(default_factory=list)
+    """Things the reader tolerated (a truncated bag, skipped non-finite frames), one sentence each."""
 
     @property
     def n_frames(self) -> int:

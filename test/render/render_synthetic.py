@@ -68,7 +68,7 @@ def _scene_bytes(*goals):
 
 
 def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh=True, stamped=True,
-                        t_start=0.0, second_goal=None):
+                        t_start=0.0, second_goal=None, chunk_bytes=768 * 1024):
     """Write a bag of the synthetic run; returns the bag directory."""
     from rclpy.serialization import serialize_message
 
@@ -77,7 +77,7 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
     from iguana_ros.nodes.conversions import odometry_msg, triangle_list_marker_cdr, yaw_to_quaternion
     from iguana_ros.topics import topic
 
-    writer = BagWriter(directory)
+    writer = BagWriter(directory, chunk_bytes=chunk_bytes)
     channels = {}
     for key in ('mesh_marker', 'iguana_state', 'scene_markers'):
         spec = topic(key)

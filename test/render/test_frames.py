@@ -65,6 +65,32 @@ def test_goals_change_when_the_simulator_republishes_the_scene(tmp_path):
     assert [g.time for g in run.goals] == pytest.approx([0.0, 1.0], abs=1e-3)
 
 
+def test_truncated_bag_and_non_finite_frames_are_reported(tmp_path):
+    import struct
+
+    from iguana_ros.bag.storage import BagWriter
+    from iguana_ros.nodes.conversions import triangle_list_marker_cdr
+    from iguana_ros.topics import topic
+    bag = write_synthetic_bag(tmp_path / 'full', duration=2.0, scene=False, chunk_bytes=4096)
+    data = (bag / 'full.mcap').read_bytes()
+    (tmp_path / 'cut.mcap').write_bytes(data[:len(data) // 2])
+    run = read_run(tmp_path / 'cut.mcap')
+    assert 5 < run.n_frames < 61 and np.allclose(run.times, np.arange(run.n_frames) / RATE)
+    assert len(run.notes) == 1 and 'cut.mcap is truncated' in run.notes[0]
+    writer = BagWriter(tmp_path / 'nan')
+    spec = topic('mesh_marker')
+    channel = writer.add_topic('/' + spec.name, spec.type, '')
+    verts, tris = box_mesh()
+    for k in range(3):
+        shifted = verts + [0.0, 0.0, 12345.0 * (k == 1)]
+        msg = triangle_list_marker_cdr(shifted, tris, np.ones((8, 4)), stamp=k / RATE)
+        msg = msg.replace(struct.pack('<d', 12345.0 - 0.05), struct.pack('<d', float('nan')))
+        writer.write(channel, msg, 10**9 + k)
+    writer.close()
+    run = read_run(tmp_path / 'nan')
+    assert run.n_frames == 2 and run.notes == ['skipped 1 mesh frame(s) with NaN or Inf coordinates']
+
+
 def test_missing_mesh_is_a_clear_error(tmp_path, synthetic_bag):
     bag = write_synthetic_bag(tmp_path / 'nomesh', duration=0.2, mesh=False)
     with pytest.raises(InputError, match='has no /mesh_marker messages'):
