@@ -1,4 +1,5 @@
-"""`iguana bench sim|tradeoff|stability`: simulator speed, speed–accuracy trade and stability at the extremes."""
+"""`iguana bench sim|tradeoff|stability|pipeline`: simulator speed, speed–accuracy trade, stability at the
+extremes, and the node pipeline's realtime factor next to the library loop."""
 from __future__ import annotations
 
 import argparse
@@ -43,6 +44,28 @@ def register(subparsers) -> None:
     stab.add_argument('--seconds', type=float, default=1.5)
     stab.add_argument('--json', action='store_true')
     stab.set_defaults(func=run_stability)
+    pipe = sub.add_parser('pipeline', help='realtime factor: four-process lockstep node run vs library run')
+    pipe.add_argument('--scene', default='hills', help='scene name or YAML path (default: hills)')
+    pipe.add_argument('--seconds', type=float, default=5.0, help='simulated seconds (default 5)')
+    pipe.add_argument('--single-process', action='store_true', help='run the four nodes in one process')
+    pipe.add_argument('--json', action='store_true', help='print one JSON object')
+    pipe.set_defaults(func=run_pipeline_bench)
+
+
+def run_pipeline_bench(args) -> int:
+    """`iguana bench pipeline`."""
+    from iguana_ros.nodes.bench_pipeline import bench_pipeline
+
+    result = bench_pipeline(args.scene, args.seconds, args.single_process)
+    if args.json:
+        print(json.dumps(result, indent=1))
+        return 0
+    print(f"{result['scene']}: {result['simulated_s']:g} s simulated")
+    print(f"  library loop:             realtime factor {result['library_realtime_factor']:.2f} "
+          f"({result['library_wall_s']:.1f} s wall)")
+    print(f"  nodes ({result['nodes_layout']}): realtime factor {result['nodes_realtime_factor']:.2f} "
+          f"({result['nodes_wall_s']:.1f} s wall in the loop, {result['nodes_total_s']:.1f} s with start-up)")
+    return 0
 
 
 def run_sim(args) -> int:

@@ -1,0 +1,35 @@
+"""`iguana bench pipeline`: realtime factor of the four-process lockstep run next to the library run."""
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+from iguana_ros.nodes.launch import RunOptions, run_scene
+from iguana_ros.pipeline import run as run_pipeline
+from iguana_ros.scene import load_scene
+
+
+def bench_pipeline(scene_name: str = 'hills', duration: float = 5.0, single_process: bool = False) -> dict:
+    """Run `scene_name` for `duration` simulated s as a library loop and as lockstep nodes; report both."""
+    scene = dataclasses.replace(load_scene(scene_name), duration=float(duration))
+    start = time.perf_counter()
+    library = run_pipeline(scene)
+    library_total = time.perf_counter() - start
+    with tempfile.TemporaryDirectory(prefix='iguana_bench_') as tmp:
+        start = time.perf_counter()
+        summary = run_scene(RunOptions(scene=scene_name, record=Path(tmp) / 'bag', single_process=single_process,
+                                       extra_params={'duration': float(duration)}))
+        nodes_total = time.perf_counter() - start
+    if summary.exit_code != 0:
+        from iguana_ros.errors import IguanaError
+        raise IguanaError(f'the node run failed: {summary.message}')
+    return {
+        'scene': scene.name, 'simulated_s': scene.duration,
+        'library_realtime_factor': scene.duration / library.wall_seconds,
+        'library_wall_s': library.wall_seconds, 'library_total_s': library_total,
+        'nodes_realtime_factor': summary.realtime_factor, 'nodes_wall_s': summary.wall_s,
+        'nodes_total_s': nodes_total, 'nodes_layout': 'one process' if single_process else 'four processes',
+        'nodes_reached_goal': summary.reached_goal,
+    }
