@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 CONFIG_ENV = 'IGUANA_CONFIG_DIR'
@@ -9,13 +10,16 @@ CONFIG_ENV = 'IGUANA_CONFIG_DIR'
 
 
 def config_dir() -> Path:
-    """Return the msg_configs/ folder: $IGUANA_CONFIG_DIR, the source tree, or share/iguana_ros."""
+    """The msg_configs/ folder: $IGUANA_CONFIG_DIR, the source tree, <prefix>/share/iguana_ros, or the ament index."""
     override = os.environ.get(CONFIG_ENV)
     if override:
         return Path(override)
     source = Path(__file__).resolve().parent.parent / 'msg_configs'
     if source.is_dir():
         return source
+    prefix_share = Path(sys.prefix) / 'share' / 'iguana_ros' / 'msg_configs'  # pip install (non-editable)
+    if prefix_share.is_dir():
+        return prefix_share
     try:
         from ament_index_python.packages import get_package_share_directory
         return Path(get_package_share_directory('iguana_ros')) / 'msg_configs'
