@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     recorded = _read(args, kind)
     images, fps = _render(args, recorded, size)
-    path, count = _write(args.output, kind, images, fps)
+    path, count = _write(args.output, kind, images, fps, _key_colors(recorded))
     print(f'{path}: {count} frame(s) {size[0]}x{size[1]}, camera {args.camera}'
           + (f', {fps:.3g} fps, {recorded.times[0]:.2f}-{recorded.times[-1]:.2f} s' if kind != 'png'
              else f', t = {recorded.times[0]:.2f} s')
@@ -134,11 +134,23 @@ def _render(args: argparse.Namespace, recorded, size: tuple[int, int]):
     return frames(), fps
 
 
-def _write(output: str, kind: str, images, fps: float):
+def _key_colors(recorded) -> list:
+    """Colours a GIF palette must hold although they cover few pixels: the trail and shaded goal colours."""
+    from iguana_ros.render.renderer import AMBIENT, TRAIL_RGB
+
+    colors = [TRAIL_RGB]
+    for goals in recorded.goals:
+        for rgba in goals.colors:
+            colors += [tuple(rgba[:3] * f) for f in (AMBIENT, 0.7, 1.0)]
+    return colors
+
+
+def _write(output: str, kind: str, images, fps: float, key_colors: list):
     """Write the frames; (path, number of frames)."""
     from iguana_ros.render.output import write_gif, write_mp4, write_png
 
     if kind == 'png':
         return write_png(output, next(iter(images))), 1
-    writer = write_gif if kind == 'gif' else write_mp4
-    return output, writer(output, images, fps)
+    if kind == 'gif':
+        return output, write_gif(output, images, fps, key_colors)
+    return output, write_mp4(output, images, fps)

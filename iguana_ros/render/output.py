@@ -1,6 +1,7 @@
-"""Image and animation writers: PNG (one frame), GIF (Pillow, adaptive palette) and MP4 (H.264 via imageio-ffmpeg)."""
+"""Image and animation writers: PNG (one frame), GIF (Pillow, one median-cut palette) and MP4 (H.264, imageio-ffmpeg)."""
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -10,6 +11,9 @@ from iguana_ros.errors import InputError
 
 EXTENSIONS = ('.png', '.gif', '.mp4')
 """Output formats of `iguana render`, by file extension."""
+
+KEY_COLOR_ROWS = 12
+"""Rows of each key colour appended to the frame a GIF palette is built from."""
 
 MP4_QUALITY = 7
 """imageio-ffmpeg quality for libx264 (0-10, 10 best)."""
@@ -40,18 +44,31 @@ def write_png(path: str | Path, image: np.ndarray) -> Path:
     return path
 
 
-def write_gif(path: str | Path, frames: Iterable[np.ndarray], fps: float) -> int:
-    """Write uint8 RGB frames `(H, W, 3)` as a looping GIF at `fps`; returns the number of frames."""
+def gif_palette(first: np.ndarray, key_colors: Iterable = ()):
+    """A median-cut 256-colour palette image for a whole GIF: the first frame `(H, W, 3)` uint8 plus a
+    block of each of `key_colors` (RGB in [0, 1]: trail, goals) so rare colours keep an entry."""
     from PIL import Image
 
-    images = [Image.fromarray(f).quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
-              for f in frames]
-    if not images:
+    blocks = [np.broadcast_to(np.round(np.asarray(c, dtype=float)[:3] * 255).astype(np.uint8),
+                              (KEY_COLOR_ROWS, first.shape[1], 3)) for c in key_colors]
+    return Image.fromarray(np.concatenate([first, *blocks], axis=0)).quantize(256, method=Image.Quantize.MEDIANCUT)
+
+
+def write_gif(path: str | Path, frames: Iterable[np.ndarray], fps: float, key_colors: Iterable = ()) -> int:
+    """Write uint8 RGB frames `(H, W, 3)` as a looping GIF at `fps` with one shared palette; returns the count."""
+    from PIL import Image
+
+    stream = iter(frames)
+    first = next(stream, None)
+    if first is None:
         raise InputError(f'no frames to write to {path}')
+    palette = gif_palette(first, key_colors)
+    images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE)
+              for f in itertools.chain([first], stream)]
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     images[0].save(path, save_all=True, append_images=images[1:], loop=0,
-                   duration=gif_durations_ms(len(images), fps), disposal=1, optimize=False)
+                   duration=gif_durations_ms(len(images), fps), disposal=1, optimize=True)
     return len(images)
 
 

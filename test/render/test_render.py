@@ -117,3 +117,15 @@ def test_flat_shade_is_lambert_of_the_triangle_normal():
     assert np.allclose(rgb[1], (AMBIENT + DIFFUSE * light[0]) * np.array([1.0, 0.5, 0.0]), atol=1e-6)
     sphere = unit_sphere(1)
     assert sphere.shape == (80, 3, 3) and np.allclose(np.linalg.norm(sphere, axis=2), 1.0)
+
+
+def test_gif_palette_keeps_rare_key_colours(tmp_path):
+    from iguana_ros.render.output import write_gif
+    ramp = np.linspace(0, 255, 200).astype(np.uint8)
+    frame = np.stack(np.broadcast_arrays(ramp[None, :], ramp[:, None], np.uint8(90)), axis=-1)
+    frame = np.ascontiguousarray(frame[:100])                      # 100x200 colour ramps
+    frame[50, 50] = (242, 115, 26)                                 # one pixel of the trail colour
+    assert write_gif(tmp_path / 'k.gif', [frame, frame], 15, key_colors=[(0.95, 0.45, 0.10)]) == 2
+    back = np.asarray(Image.open(tmp_path / 'k.gif').convert('RGB')).astype(int)
+    assert np.abs(back[50, 50] - [242, 115, 26]).max() <= 2
+    assert np.abs(back - frame).mean() < 4.0                       # the ramps survive 256 colours
