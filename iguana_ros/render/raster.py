@@ -179,6 +179,34 @@ def draw_segments(color, depth, p0, p1, k0, k1, radius, rgb):
 
 
 @numba.njit(cache=True)
+def surface_heights(tris, xy):
+    """Height `(m,)` of the highest triangle of `tris (n, 3, 3)` above each point `xy (m, 2)`; NaN where none is."""
+    out = np.full(xy.shape[0], np.nan)
+    for t in range(tris.shape[0]):
+        x0, y0 = tris[t, 0, 0], tris[t, 0, 1]
+        x1, y1 = tris[t, 1, 0], tris[t, 1, 1]
+        x2, y2 = tris[t, 2, 0], tris[t, 2, 1]
+        area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        if abs(area) < 1e-15:
+            continue
+        lo_x, hi_x = min(x0, x1, x2), max(x0, x1, x2)
+        lo_y, hi_y = min(y0, y1, y2), max(y0, y1, y2)
+        for i in range(xy.shape[0]):
+            px, py = xy[i, 0], xy[i, 1]
+            if px < lo_x or px > hi_x or py < lo_y or py > hi_y:
+                continue
+            w0 = ((x1 - px) * (y2 - py) - (x2 - px) * (y1 - py)) / area
+            w1 = ((x2 - px) * (y0 - py) - (x0 - px) * (y2 - py)) / area
+            w2 = 1.0 - w0 - w1
+            if w0 < -1e-12 or w1 < -1e-12 or w2 < -1e-12:
+                continue
+            z = w0 * tris[t, 0, 2] + w1 * tris[t, 1, 2] + w2 * tris[t, 2, 2]
+            if np.isnan(out[i]) or z > out[i]:
+                out[i] = z
+    return out
+
+
+@numba.njit(cache=True)
 def downsample(color, factor):
     """Box-filter `color (H*f, W*f, 3)` floats in [0, 1] down by `factor` to uint8 `(H, W, 3)`."""
     h, w = color.shape[0] // factor, color.shape[1] // factor

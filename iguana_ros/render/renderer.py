@@ -13,7 +13,7 @@ import numpy as np
 
 from iguana_ros.errors import InputError
 from iguana_ros.render.camera import Camera
-from iguana_ros.render.raster import clip_near, downsample, draw_segments, rasterize_triangles
+from iguana_ros.render.raster import clip_near, downsample, draw_segments, rasterize_triangles, surface_heights
 from iguana_ros.render.run import RecordedRun
 
 SUPERSAMPLE = 2
@@ -38,7 +38,7 @@ TRAIL_RGB = (0.95, 0.45, 0.10)
 """Colour of the root trail."""
 
 TRAIL_LIFT = 0.01
-"""The trail is drawn this far (m) above the recorded root path."""
+"""The trail is drawn this far (m) above the terrain under the recorded root path."""
 
 CHECKER_CELL, CHECKER_DARK = 0.5, 0.9
 """Ground checkerboard: cell side (m) and darkening of odd cells (motion cue for the follow camera)."""
@@ -88,6 +88,16 @@ def plain_ground(run: RecordedRun) -> tuple[np.ndarray, np.ndarray]:
     return quad, np.tile([*GROUND_RGB, 1.0], (6, 1))
 
 
+def ground_track(positions: np.ndarray, terrain_tris: np.ndarray) -> np.ndarray:
+    """Root path `(k, 3)` dropped onto the terrain triangles `(n, 3, 3)` below it (kept where none is below)."""
+    track = np.array(positions, dtype=np.float64).reshape(-1, 3)
+    if len(track) == 0:
+        return track
+    z = surface_heights(np.asarray(terrain_tris, dtype=np.float64), np.ascontiguousarray(track[:, :2]))
+    track[:, 2] = np.where(np.isnan(z), track[:, 2], z)
+    return track
+
+
 class Renderer:
     """Renders frames of one RecordedRun at `width` x `height` pixels (uint8 RGB arrays)."""
 
@@ -103,6 +113,7 @@ class Renderer:
         self.terrain_tris = terrain[0].reshape(-1, 3, 3)
         self.terrain_rgb = flat_shade(*terrain)
         self.sphere = unit_sphere(1)
+        self.trail_points = ground_track(run.track_positions, self.terrain_tris) + np.array([0.0, 0.0, TRAIL_LIFT])
         rows, cols = self.buffer_shape
         u = np.linspace(0.0, 1.0, rows)[:, None, None]
         sky = ((1 - u) * np.array(SKY_TOP) + u * np.array(SKY_HORIZON)).astype(np.float32)
@@ -159,7 +170,7 @@ class Renderer:
             colors = np.repeat(goals.colors, 3 * len(self.sphere), axis=0)
             self.draw_triangles(color, depth, camera, tris, flat_shade(tris.reshape(-1, 3), colors))
         if self.trail:
-            path = run.track_positions[run.track_times <= run.times[i] + 1e-9] + np.array([0, 0, TRAIL_LIFT])
+            path = self.trail_points[run.track_times <= run.times[i] + 1e-9]
             self.draw_polyline(color, depth, camera, path, np.array(TRAIL_RGB), 1.5)
         points = run.mesh_points[i]
         self.draw_triangles(color, depth, camera, points.reshape(-1, 3, 3),

@@ -106,3 +106,10 @@ def test_downsample_box_filters_to_uint8():
     assert out.shape == (2, 2, 3) and out.dtype == np.uint8
     assert out[0, 0].tolist() == [255, 255, 255] and out[1, 1].tolist() == [191, 0, 0]
     assert out[0, 1].tolist() == [0, 0, 0]
+
+
+def test_surface_heights_interpolate_the_top_triangle():
+    from iguana_ros.render.raster import surface_heights
+    plane = np.array([[[0.0, 0, 0], [2, 0, 2], [0, 2, 0]], [[0.0, 0, 1], [2, 0, 1], [0, 2, 1]]])  # z = x, z = 1
+    z = surface_heights(plane, np.array([[0.5, 0.5], [1.5, 0.25], [3.0, 3.0]]))
+    assert np.allclose(z[:2], [1.0, 1.5]) and np.isnan(z[2])
