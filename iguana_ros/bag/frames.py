@@ -95,7 +95,7 @@ class _Collector:
     centroid_logs: list = field(default_factory=list)    # receive time (ns) of each centroid's frame
     centroids: list = field(default_factory=list)
     odometry: list = field(default_factory=list)        # (stamp_ns, log_ns, data)
-    scenes: list = field(default_factory=list)          # (0, log_ns, data)
+    scenes: list = field(default_factory=list)          # (log_ns, data)
     last_t: float = -math.inf
     mesh_count: int = 0
     non_finite: int = 0
@@ -190,7 +190,7 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
         elif role == 'iguana_state':
             collector.odometry.append((_stamp_ns(msg.data), msg.log_time, msg.data))
         elif role == 'scene_markers':
-            collector.scenes.append((0, msg.log_time, msg.data))
+            collector.scenes.append((msg.log_time, msg.data))
         if progress is not None and k % 64 == 63:
             progress(k + 1, total)
     collector.finish()
@@ -209,6 +209,8 @@ def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:
     sel = c.selection
     if c.mesh_count == 0:
         raise InputError(f'bag {path} has no {mesh_topic} messages; nothing to render')
+    if c.non_finite == c.mesh_count:
+        raise InputError(f'bag {path}: all {c.mesh_count} {mesh_topic} frames have NaN or Inf coordinates')
     if not c.times:
         raise InputError(f'bag {path}: no {mesh_topic} frames between {sel.start:g} s and {sel.end:g} s '
                          f'(the run spans 0 to {c.last_t:.2f} s)')
@@ -258,7 +260,7 @@ def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
     """((terrain corners, colours) or (None, None), goal sets by time) from the scene_markers messages."""
     terrain: tuple = (None, None)
     goals: list[GoalSet] = []
-    for _, log_ns, data in sorted(c.scenes, key=lambda s: s[1]):
+    for log_ns, data in sorted(c.scenes, key=lambda s: s[0]):
         markers = marker_array_from_cdr(data)
         t = c.receive_time_of(log_ns)  # a MarkerArray has no header; its markers' stamps are often 0
         if any(m.action == _DELETEALL for m in markers):

@@ -34,15 +34,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def parse_size(text: str, even: bool = False) -> tuple[int, int]:
-    """(width, height) from 'WxH' (16..8192 each; rounded up to even numbers if `even`); InputError otherwise."""
+    """(width, height) from 'WxH' (16..4096 each; rounded up to even numbers if `even`); InputError otherwise."""
     from iguana_ros.errors import InputError
 
     parts = text.lower().split('x')
     if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
         raise InputError(f'--size {text!r} is not of the form WIDTHxHEIGHT, e.g. 640x400')
     w, h = (int(p) for p in parts)
-    if not (16 <= w <= 8192 and 16 <= h <= 8192):
-        raise InputError(f'--size {text}: width and height must be within 16..8192 pixels')
+    if not (16 <= w <= 4096 and 16 <= h <= 4096):
+        raise InputError(f'--size {text}: width and height must be within 16..4096 pixels')
     return (w + w % 2, h + h % 2) if even else (w, h)
 
 
