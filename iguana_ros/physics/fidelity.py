@@ -59,8 +59,8 @@ class Fidelity:
 
 PRESETS = {
     'fast': Fidelity(dt=1.0 / 600.0, cg_tol=1e-2, cg_max_iter=100, jacobian_every=2, polar_iters=4),
-    'balanced': Fidelity(dt=SIM_DT, cg_tol=1e-3, cg_max_iter=200, jacobian_every=4, polar_iters=8),
-    'accurate': Fidelity(dt=1.0 / 2400.0, cg_tol=1e-6, cg_max_iter=500, jacobian_every=1, polar_iters=20),
+    'balanced': Fidelity(dt=SIM_DT, cg_tol=1e-2, cg_max_iter=200, jacobian_every=4, polar_iters=8),
+    'accurate': Fidelity(dt=1.0 / 2400.0, cg_tol=1e-4, cg_max_iter=500, jacobian_every=1, polar_iters=20),
 }
 """Named presets; their measured speed and error are in the README ("Simulator")."""
 
