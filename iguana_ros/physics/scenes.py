@@ -15,7 +15,7 @@ STAND_IN_CELLS = {'coarse': (16, 2, 2), 'medium': (44, 2, 2), 'fine': (48, 4, 4)
 
 
 def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
-    """The iguana model at `resolution`, or an 0.85 m box stand-in of similar node count if the body model is
+    """The iguana model at `resolution`, or a 0.85 m box stand-in of similar node count if the body model is
     not installed. Returns `(model, name)`."""
     if resolution not in STAND_IN_CELLS:
         raise InputError(f'mesh resolution must be one of {sorted(STAND_IN_CELLS)}, got {resolution!r}')
