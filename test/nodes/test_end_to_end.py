@@ -66,3 +66,33 @@ def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
     from iguana_ros.nodes.conversions import odometry_to_numpy
     replayed = np.array([odometry_to_numpy(m)[0] for m in got['iguana_state']])
     assert np.array_equal(replayed, read_root_trajectory(bag)[1])
+
+
+def test_node_killed_mid_run_stops_the_run_and_keeps_the_bag(tmp_path, scene_file):
+    from iguana_ros.bag.storage import summarize
+    from iguana_ros.errors import IguanaError
+    from iguana_ros.nodes.launch import SceneRun
+    long_scene = tmp_path / 'long.yaml'
+    raw = yaml.safe_load(scene_file.read_text())
+    long_scene.write_text(yaml.safe_dump({**raw, 'duration': 30.0}))
+    run = SceneRun(RunOptions(scene=str(long_scene), record=tmp_path / 'bag', timeout=240))
+    try:
+        run.start()
+        run.send_goals()
+        sim = run.simulator()
+        assert spin_wait(lambda: 'frame' in run.children['planner_node'].output, 90)
+        run.children['spring_length_node'].kill()
+        with pytest.raises(IguanaError, match='spring_length_node exited with status -9'):
+            run.wait()
+        assert sim.running  # the other nodes keep running until iguana run stops them
+    finally:
+        run.stop()
+    summary = summarize(tmp_path / 'bag')
+    assert not summary.truncated
+    counts = {t.name: t.message_count for t in summary.topics}
+    assert counts['/iguana_state'] >= 1 and counts['/mesh_marker'] >= 1
+
+
+def spin_wait(predicate, timeout):
+    from iguana_ros.nodes.process import wait_for
+    return wait_for(predicate, timeout, period=0.1)
