@@ -144,26 +144,29 @@ class SimulatorNode(IguanaNode):
             self.on_lockstep_timeout(waited)
 
     def try_start(self) -> None:
-        """Begin once the planner, adaptation and spring-length nodes are connected (or fail at start_timeout)."""
-        if self.mode == 'realtime' or self.peers_ready():
+        """Begin once everything the start waits for is there (or fail at start_timeout naming what is not)."""
+        missing = self.missing_peers()
+        if not missing:
             self.started = True
             self.wall_start = self.wait_since = time.monotonic()
             self.publish_state()
             return
         if time.monotonic() - self.wall_start > self.param('start_timeout'):
-            self.fail(f'no planner/adaptation/spring-length nodes connected within '
-                      f'{self.param("start_timeout"):g} s; start them with the same ROS_DOMAIN_ID')
+            self.fail(f'not started within {self.param("start_timeout"):g} s: still waiting for {missing} '
+                      '(same ROS_DOMAIN_ID?)')
 
-    def peers_ready(self) -> bool:
-        """Planner and adaptation listen, spring lengths are offered, goals and recorder as asked."""
-        state_name = resolve('iguana_state')[0]
-        if self.count_subscribers(state_name) < 2 or self.count_publishers(resolve('spring_rest_lengths')[0]) < 1:
-            return False
+    def missing_peers(self) -> str:
+        """What the start still waits for ('' when ready): lockstep peers, goals, the recorder."""
+        if self.mode == 'lockstep' and (
+                self.count_subscribers(resolve('iguana_state')[0]) < 2
+                or self.count_publishers(resolve('spring_rest_lengths')[0]) < 1):
+            return 'the planner, terrain adaptation and spring-length nodes'
         if self.goals_received < self.param('wait_for_goals'):
-            return False
-        return not self.param('wait_for_recorder') or all(
+            return f'{self.param("wait_for_goals")} goals on goal_pose ({self.goals_received} so far)'
+        recorder_ok = not self.param('wait_for_recorder') or all(
             any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(resolve(k)[0]))
             for k in ('iguana_state', 'mesh_marker', 'clock'))
+        return '' if recorder_ok else 'the bag recorder'
 
     def on_lockstep_timeout(self, waited: float) -> None:
         """Log, re-send the state (a peer may have missed it), give up after lockstep_max_timeouts."""
