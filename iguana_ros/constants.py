@@ -40,8 +40,9 @@ BASE_FRAME = 'iguana/base_link'
 """child_frame_id of the iguana's root (pelvis) in odometry."""
 
 # --- soft-body simulator (iguana_ros.physics) -------------------------------------------------------------------
-CONTACT_STIFFNESS = 1.0e5
-"""Ground penalty stiffness per kg of node mass, 1/s² (N/m per kg): a node resting alone sinks g/1e5 ≈ 0.1 mm."""
+CONTACT_STIFFNESS = 1.0e6
+"""Ground penalty stiffness per kg of node mass, 1/s² (N/m per kg): a node resting alone sinks g/1e6 ≈ 0.01 mm; a
+sole node carrying a stance foot's 10-20 N sinks ~0.5-1 mm (at 1e5 the feet sank 3-6 mm and the body with them)."""
 
 CONTACT_DAMPING_RATIO = 1.0
 """Damping ratio of each node's ground spring-damper (1 = critical; normal force never pulls)."""

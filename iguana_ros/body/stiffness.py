@@ -3,10 +3,17 @@
 `normal` is the moderate model used in every experiment of the paper and `softer` the Section VIII-D
 model with softer springs that absorb a push better. Springs follow f_s = a (l_d - l) per spring; `a` is
 normalised by rest length (a = A * L_REF / l_rest) so every spring resists the same *strain* with the same
-force: a 1 % stretch of any body spring pulls with A * L_REF * 0.01 N (normal: 300 N/m * 0.02 m * 0.01
-= 0.06 N, roughly the weight of 6 g per spring, ~1,500 springs hold a 4 kg body's shape). Springs between
-two leg nodes are LEG_FACTOR times stiffer ("high-tension springs", Section V) so legs barely change length;
-springs from a leg node to a trunk node get the geometric mean (sqrt(LEG_FACTOR)).
+force: a 1 % stretch of any trunk spring pulls with A * L_REF * 0.01 N (normal: 30 kN/m * 0.02 m * 0.01
+= 6 N). Springs between two leg nodes are LEG_FACTOR times stiffer ("high-tension springs", Section V) so
+legs barely change length; springs from a leg node to a trunk node get the geometric mean (sqrt(LEG_FACTOR)).
+
+The springs are the actuators (they pull toward the *reference* shape), the corotated FEM pulls toward the
+*rest* shape; the presets are spring-dominated (FEM only keeps elements from degenerating), because a stiff
+FEM resists every joint bend the springs command (measured on the coarse body, suspended without gravity:
+with A = 300 N/m and E = 50 kPa the swing feet reach ~45 % of their reference lift, with A = 3 kN/m and
+E = 10 kPa 90-110 %). The spring scale is set by standing:
+at A = 300 N/m the 4 kg body lay on its belly (pelvis 0.075 -> 0.03 m); at 30 kN/m the pelvis sags
+~7 mm standing and the trot moves the body forward (README "Locomotion results").
 """
 from __future__ import annotations
 
@@ -32,12 +39,13 @@ class StiffnessPreset:
 
 
 PRESETS = {
-    # moderate springs (paper: "normal model"); body tissue E ~ 50 kPa (soft muscle), legs 10x springs
-    'normal': StiffnessPreset(spring_a=300.0, leg_factor=10.0, youngs_modulus=5.0e4,
-                              leg_youngs_factor=4.0, poisson_ratio=0.35),
-    # Section VIII-D "softer model": every spring 0.4x (feet softer too, larger contact patches)
-    'softer': StiffnessPreset(spring_a=120.0, leg_factor=10.0, youngs_modulus=2.0e4,
-                              leg_youngs_factor=4.0, poisson_ratio=0.35),
+    # moderate springs (paper: "normal model"): spring-dominated body, 30 kN/m at L_REF (legs x10), weak
+    # FEM (10 kPa, about soft fat tissue) that only keeps elements from degenerating
+    'normal': StiffnessPreset(spring_a=3.0e4, leg_factor=10.0, youngs_modulus=1.0e4,
+                              leg_youngs_factor=1.0, poisson_ratio=0.35),
+    # Section VIII-D "softer model": every spring 0.4x, FEM 0.5x (feet softer too, larger contact patches)
+    'softer': StiffnessPreset(spring_a=1.2e4, leg_factor=10.0, youngs_modulus=5.0e3,
+                              leg_youngs_factor=1.0, poisson_ratio=0.35),
 }
 """Named stiffness presets."""
 
