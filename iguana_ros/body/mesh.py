@@ -44,6 +44,9 @@ class MeshParams:
     chord_tolerance: float = 0.15  # carving: how far (x edge length) an edge midpoint may lie outside
     repair_iterations: int = 40  # sliver/topology repair attempts (perturb + re-triangulate)
     fill_rounds: int = 0   # carving: rounds of putting back tets around non-manifold boundary edges
+    inner_ring: float = 0.0  # main-body mid-stations wider than this many station spacings get an inner ring
+    improve_rounds: int = 0  # rounds of flips and node smoothing after repair (0: repair slivers by jitter)
+    improve_deg: float = 12.0  # smoothing/flipping target: all dihedral angles in [this, 180 - this] deg
 
 
 RESOLUTIONS = {
@@ -52,7 +55,8 @@ RESOLUTIONS = {
     'medium': MeshParams(main_axial=2.0, main_ring=1.0, main_min_ring=4, limb_ring=4, limb_axial=2.2,
                          max_spacing=0.03, min_spacing=0.007),
     'fine': MeshParams(main_axial=1.2, main_ring=1.0, main_min_ring=5, limb_ring=6, limb_axial=1.3,
-                       max_spacing=0.016, min_spacing=0.004, fill_rounds=3),
+                       max_spacing=0.016, min_spacing=0.004, fill_rounds=3, inner_ring=1.2,
+                       improve_rounds=30, improve_deg=15.0),
 }
 """Named resolutions: roughly 150, 400 and 1,200 nodes."""
 
@@ -101,9 +105,9 @@ def main_samples(shape: BodyShape, prm: MeshParams) -> Samples:
         pts.append(ring), spc.append(np.full(m, h[k])), surf.append(np.ones(m, bool))
     # interior nodes half-way between stations (a body-centred arrangement: no cospherical rings)
     xm = 0.5 * (xs[1:] + xs[:-1])
-    zm, _, _ = main_cross_section(shape, xm)
+    zm, rym, rzm = main_cross_section(shape, xm)
     for k, x in enumerate(xm):
-        inner = _inner_points(x, zm[k])
+        inner = _inner_points(x, zm[k], rym[k], rzm[k], h[k], prm.inner_ring)
         pts.append(inner), spc.append(np.full(len(inner), h[k])), surf.append(np.zeros(len(inner), bool))
     x0, x1 = shape.x_range
     for x in (x0, x1):  # cap tips on the axis
@@ -115,9 +119,16 @@ def main_samples(shape: BodyShape, prm: MeshParams) -> Samples:
     return Samples(points, np.concatenate(spc), np.full(len(points), PART_MAIN), np.concatenate(surf))
 
 
-def _inner_points(x: float, zc: float) -> np.ndarray:
-    """Interior candidate node `(1, 3)` on the main body axis at station x."""
-    return np.array([[x, 0.0, zc]])
+def _inner_points(x: float, zc: float, ry: float, rz: float, h: float, inner_ring: float) -> np.ndarray:
+    """Interior candidate nodes `(n, 3)` at mid-station x: the axis node, plus a half-radius ring of
+    spacing ~h where the section is wider than `inner_ring` * h (0: never)."""
+    axis = np.array([[x, 0.0, zc]])
+    if inner_ring <= 0.0 or np.sqrt(ry * rz) <= inner_ring * h:
+        return axis
+    m = max(3, int(round(np.pi * (ry + rz) / (2.0 * h))))
+    cs = _ring(m, 0.5)
+    ring = np.column_stack([np.full(m, x), 0.5 * ry * cs[:, 0], zc + 0.5 * rz * cs[:, 1]])
+    return np.vstack([axis, ring])
 
 
 def limb_samples(shape: BodyShape, prm: MeshParams, index: int) -> Samples:
@@ -372,6 +383,146 @@ def peel_boundary_slivers(points: np.ndarray, tets: np.ndarray, threshold: float
     return tets
 
 
+def _coords_quality(coords: np.ndarray) -> np.ndarray:
+    """Quality `(m,)` rad (see `tet_quality`) of tets given by vertex coordinates `(m, 4, 3)`."""
+    m = len(coords)
+    idx = np.arange(4 * m).reshape(m, 4)
+    flat = coords.reshape(-1, 3)
+    angles = dihedral_angles(flat, idx)
+    q = np.minimum(angles, np.pi - angles).min(axis=1)
+    return np.where(tet_volumes(flat, idx) > 0, q, -1.0)
+
+
+def tet_quality(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Angle `(n_tets,)` rad by which each tet's dihedral angles stay off 0 and pi; -1 if not positive.
+
+    Small for slivers, caps and wedges alike (a tet with quality q has all dihedral angles in [q, pi - q]).
+    """
+    return _coords_quality(points[tets])
+
+
+def _replace_if_better(points: np.ndarray, tets: np.ndarray, old: np.ndarray, new: list) -> np.ndarray | None:
+    """`tets` with tets `old` replaced by `new` if these fill the same volume with a better worst angle."""
+    new = orient_positive(points, np.array(new, dtype=np.int64))
+    q_new = tet_quality(points, new)
+    v_old, v_new = tet_volumes(points, tets[old]), tet_volumes(points, new)
+    if q_new.min() <= 0.0 or abs(v_new.sum() - v_old.sum()) > 1e-9 * v_old.sum():
+        return None
+    if q_new.min() <= tet_quality(points, tets[old]).min() + 1e-9:
+        return None
+    keep = np.ones(len(tets), bool)
+    keep[old] = False
+    return np.vstack([tets[keep], new])
+
+
+def _flip_32(points: np.ndarray, tets: np.ndarray, i: int) -> np.ndarray | None:
+    """3-2 flip of an edge of tet i that is surrounded by exactly three tets, if that improves them."""
+    for a, b in TET_EDGES:
+        u, v = tets[i, a], tets[i, b]
+        around = np.flatnonzero(np.any(tets == u, axis=1) & np.any(tets == v, axis=1))
+        if len(around) != 3:
+            continue
+        ring = sorted(set(tets[around].ravel().tolist()) - {u, v})
+        if len(ring) == 3:  # a closed ring of three tets: an interior edge
+            out = _replace_if_better(points, tets, around, [ring + [u], ring + [v]])
+            if out is not None:
+                return out
+    return None
+
+
+def _flip_23(points: np.ndarray, tets: np.ndarray, i: int) -> np.ndarray | None:
+    """2-3 flip of an interior face of tet i (its two tets become three around a new edge), if better."""
+    for f in TET_FACES:
+        face = tets[i, f]
+        nb = np.flatnonzero(np.isin(tets, face).sum(axis=1) == 3)
+        nb = nb[nb != i]
+        if len(nb) != 1:
+            continue
+        d = int(np.setdiff1d(tets[i], face)[0])
+        e = int(np.setdiff1d(tets[nb[0]], face)[0])
+        a, b, c = face.tolist()
+        out = _replace_if_better(points, tets, np.array([i, nb[0]]), [[d, e, a, b], [d, e, b, c], [d, e, c, a]])
+        if out is not None:
+            return out
+    return None
+
+
+def flip_bad_tets(points: np.ndarray, tets: np.ndarray, threshold: float) -> tuple:
+    """(tets, flips done): 3-2 and 2-3 flips around tets below `threshold` rad that raise the local worst angle.
+
+    Flips keep the boundary triangles, so the surface is unchanged.
+    """
+    q = tet_quality(points, tets)
+    order = np.argsort(q)
+    done = 0
+    for bad in np.sort(tets[order[q[order] < threshold]], axis=1):
+        hit = np.flatnonzero(np.all(np.sort(tets, axis=1) == bad, axis=1))
+        if len(hit) == 0:  # already replaced by an earlier flip
+            continue
+        out = _flip_32(points, tets, hit[0])
+        if out is None:
+            out = _flip_23(points, tets, hit[0])
+        if out is not None:
+            tets, done = out, done + 1
+    return tets, done
+
+
+def smooth_bad_nodes(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sliding: np.ndarray,
+                     threshold: float, rng: np.random.Generator, n_trials: int = 32,
+                     step: float = 0.25) -> tuple:
+    """(points, nodes moved): each node of a tet below `threshold` rad goes to the best of `n_trials` random
+    positions (~`step` x its shortest edge away) if that raises the worst quality of its tets.
+
+    Boundary nodes slide on the body surface if `sliding` `(n_nodes,)` marks them, else stay; interior nodes
+    stay inside the body.
+    """
+    points = points.copy()
+    on_boundary = np.zeros(len(points), bool)
+    on_boundary[boundary_triangles(tets).ravel()] = True
+    nodes = np.unique(tets[tet_quality(points, tets) < threshold])
+    nodes = nodes[sliding[nodes] | ~on_boundary[nodes]]
+    ends = tets[:, TET_EDGES].reshape(-1, 2)
+    edge_len = np.linalg.norm(points[ends[:, 1]] - points[ends[:, 0]], axis=1)
+    shortest = np.full(len(points), np.inf)
+    np.minimum.at(shortest, ends.ravel(), np.repeat(edge_len, 2))
+    length = shortest[nodes]
+    trials = points[nodes, None] + rng.normal(size=(len(nodes), n_trials, 3)) * (step * length[:, None, None])
+    surf = on_boundary[nodes]
+    trials[surf] = project_to_surface(shape, trials[surf].reshape(-1, 3)).reshape(-1, n_trials, 3)
+    inner = trials[~surf]
+    outside = body_field(shape, inner.reshape(-1, 3)).reshape(-1, n_trials) > -0.05 * length[~surf, None]
+    inner[outside] = points[nodes[~surf]][:, None].repeat(n_trials, axis=1)[outside]  # no move
+    trials[~surf] = inner
+    moved = 0
+    for v, trial in zip(nodes, trials):
+        star = tets[np.any(tets == v, axis=1)]
+        coords = np.repeat(points[star][None], n_trials, axis=0)
+        coords[:, star == v] = trial[:, None, :]
+        q = _coords_quality(coords.reshape(-1, 4, 3)).reshape(n_trials, len(star)).min(axis=1)
+        best = int(np.argmax(q))
+        if q[best] > tet_quality(points, star).min() + 1e-6:
+            points[v] = trial[best]
+            moved += 1
+    return points, moved
+
+
+def improve_mesh(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sliding: np.ndarray,
+                 threshold: float, rounds: int, peel_threshold: float, seed: int = 0) -> tuple:
+    """(points, tets): rounds of peeling boundary slivers (least dihedral < `peel_threshold` rad), flips and
+    node smoothing until every tet's `tet_quality` reaches `threshold` rad (or `rounds` are done).
+
+    Flips and moves keep the surface closed and its nodes on the body surface (`sliding` nodes slide on it).
+    """
+    rng = np.random.default_rng(seed)
+    for _ in range(rounds):
+        tets = peel_boundary_slivers(points, tets, peel_threshold)
+        tets, _ = flip_bad_tets(points, tets, threshold)
+        points, _ = smooth_bad_nodes(shape, points, tets, sliding, threshold, rng)
+        if tet_quality(points, tets).min() >= threshold:
+            break
+    return points, tets
+
+
 @dataclass(frozen=True)
 class TetMesh:
     """Nodes `(n_nodes, 3)` m, tets `(n_tets, 4)` positive, node part codes `(n_nodes,)`, surface-sample flags."""
@@ -412,8 +563,13 @@ def nonmanifold_edge_nodes(tets: np.ndarray) -> np.ndarray:
 
 def tetrahedralize(shape: BodyShape, samples: Samples, chord_tolerance: float = 0.15, fill_rounds: int = 0,
                    threshold_deg: float = 10.0,
-                   max_iterations: int = 25, seed: int = 0) -> TetMesh:
-    """Carved Delaunay mesh of the sampled nodes with slivers repaired by peeling and perturbation."""
+                   max_iterations: int = 25, seed: int = 0, improve_rounds: int = 0,
+                   improve_deg: float = 12.0) -> TetMesh:
+    """Carved Delaunay mesh of the sampled nodes with slivers repaired by peeling and perturbation.
+
+    With `improve_rounds` > 0 the perturbation only repairs the topology (no node lost, closed genus-0
+    surface) and `improve_mesh` then raises every tet's least dihedral angle towards `improve_deg`.
+    """
     rng = np.random.default_rng(seed)
     thr = np.radians(threshold_deg)
     n = len(samples.points)
@@ -428,7 +584,7 @@ def tetrahedralize(shape: BodyShape, samples: Samples, chord_tolerance: float = 
     it = 0
     for it in range(1, max_iterations + 1):
         bad = np.unique(tets[worst < thr])
-        if len(bad) == 0 and score[0] == 0:
+        if score[:2] == (0, 0) if improve_rounds > 0 else (len(bad) == 0 and score[0] == 0):
             break
 
         if len(bad) == 0:
@@ -437,6 +593,9 @@ def tetrahedralize(shape: BodyShape, samples: Samples, chord_tolerance: float = 
         t2, s2, w2 = attempt(trial)
         if s2 < score:
             points, tets, score, worst = trial, t2, s2, w2
+    if improve_rounds > 0:
+        points, tets = improve_mesh(shape, points, tets, samples.surface, np.radians(improve_deg),
+                                    improve_rounds, thr, seed)
     used = np.unique(tets)
     remap = np.full(n, -1, np.int64)
     remap[used] = np.arange(len(used))

@@ -180,7 +180,8 @@ def build_geometry(resolution: str) -> dict:
     shape = iguana_shape()
     prm = RESOLUTIONS[resolution]
     tet_mesh = tetrahedralize(shape, candidate_nodes(shape, prm), prm.chord_tolerance,
-                              prm.fill_rounds, max_iterations=prm.repair_iterations)
+                              prm.fill_rounds, max_iterations=prm.repair_iterations,
+                              improve_rounds=prm.improve_rounds, improve_deg=prm.improve_deg)
     points, tets = tet_mesh.points, tet_mesh.tets
     springs = tet_springs(tets)
     bones, weights = skin_weights(shape, points, tet_mesh.part)

@@ -14,7 +14,11 @@ REQUIRED_TAGS = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr', 'feet', 'tail', 'tr
                  'head', 'legs')
 
 
-@pytest.fixture(scope='module', params=['coarse', 'medium'])
+MIN_DIHEDRAL_DEG = 8.0
+"""Every resolution's worst tet keeps all dihedral angles above this (no slivers)."""
+
+
+@pytest.fixture(scope='module', params=['coarse', 'medium', 'fine'])
 def model(request, tmp_path_factory):
     return build_model(request.param)
 
@@ -38,7 +42,13 @@ def test_rest_pose_stands_on_the_ground(model):
 
 def test_every_tet_has_positive_volume_and_no_sliver(model):
     assert np.all(tet_volumes(model.rest_positions, model.tets) > 0)
-    assert model.summary()['min_dihedral_deg'] > 5.0
+    assert model.summary()['min_dihedral_deg'] >= MIN_DIHEDRAL_DEG
+    assert model.summary()['max_dihedral_deg'] < 180.0 - MIN_DIHEDRAL_DEG
+
+
+def test_node_counts_near_the_named_sizes(model):
+    target = {'coarse': 150, 'medium': 400, 'fine': 1200}[model.resolution]
+    assert 0.8 * target < model.n_nodes < 1.2 * target
 
 
 def test_mesh_is_one_connected_piece_using_every_node(model):
