@@ -28,6 +28,13 @@ def test_mass_sums_to_body_mass(model):
     assert np.all(model.node_mass > 0)
 
 
+def test_surface_nodes_lie_on_the_body_surface(model):
+    surface = model.rest_positions[np.unique(model.surface_triangles)]
+    f = body_field(iguana_shape(), surface)
+    assert np.all(f < 1e-6)                     # none outside the body
+    assert np.mean(np.abs(f) < 1e-4) > 0.94     # nearly all on it (a few carved-open interior nodes)
+
+
 def test_bounding_length(model):
     x = model.rest_positions[:, 0]
     assert x.max() - x.min() == pytest.approx(BODY_LENGTH, abs=0.01)

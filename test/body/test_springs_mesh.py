@@ -1,9 +1,10 @@
-"""Springs on a hand-made mesh, tet quality measures, topology helpers, the implicit body shape."""
+"""Springs on a hand-made mesh, tet quality measures, flips and smoothing, topology helpers, the body shape."""
 import numpy as np
 import pytest
 
-from iguana_ros.body.mesh import (boundary_triangles, dihedral_angles, orient_positive, radius_ratios,
-                                  surface_topology, tet_volumes)
+from iguana_ros.body.mesh import (boundary_triangles, dihedral_angles, flip_bad_tets, improve_mesh,
+                                  orient_positive, radius_ratios, smooth_bad_nodes, surface_topology,
+                                  tet_quality, tet_volumes)
 from iguana_ros.body.shape import (SMOOTH_UNION, body_field, iguana_shape, limb_field, main_field,
                                    project_to_surface, smooth_min)
 from iguana_ros.body.springs import spring_lengths, tet_springs
@@ -79,3 +80,54 @@ def test_project_to_surface_lands_on_zero_level():
     p = np.array([[0.1, 0.0, 0.2], [0.1, 0.02, 0.08], [-0.2, 0.05, 0.07], [0.22, 0.1, 0.02]])
     q = project_to_surface(shape, p, iterations=12)
     assert np.all(np.abs(body_field(shape, q)) < 2e-4)
+
+
+def _bipyramid(h: float) -> np.ndarray:
+    """Unit-circumradius triangle (nodes 0-2) in z = 0 with apexes 3 (z = h) and 4 (z = -h)."""
+    tri = [[1, 0, 0], [-0.5, np.sqrt(3) / 2, 0], [-0.5, -np.sqrt(3) / 2, 0]]
+    return np.array(tri + [[0, 0, h], [0, 0, -h]], float)
+
+
+def _surface_set(tets: np.ndarray) -> set:
+    return {tuple(sorted(t)) for t in boundary_triangles(tets).tolist()}
+
+
+@pytest.mark.parametrize('h, n_before, n_after', [(0.2, 2, 3), (1.5, 3, 2)])
+def test_flips_replace_worse_tets_and_keep_the_boundary(h, n_before, n_after):
+    p = _bipyramid(h)
+    two = orient_positive(p, np.array([[0, 1, 2, 3], [0, 1, 2, 4]]))
+    three = orient_positive(p, np.array([[3, 4, 0, 1], [3, 4, 1, 2], [3, 4, 2, 0]]))
+    before, after = (two, three) if n_before == 2 else (three, two)
+    q_before, q_after = tet_quality(p, before).min(), tet_quality(p, after).min()
+    assert q_after > q_before  # h = 0.2: 21.8 -> 43.6 deg (2-3); h = 1.5: 34.8 -> 69.5 deg (3-2)
+    flipped, done = flip_bad_tets(p, before, threshold=q_before + 1e-3)
+    assert done == 1 and len(flipped) == n_after
+    assert tet_quality(p, flipped).min() == pytest.approx(q_after)
+    assert tet_volumes(p, flipped).sum() == pytest.approx(tet_volumes(p, before).sum())
+    assert _surface_set(flipped) == _surface_set(before)
+    # nothing below the threshold: nothing flipped
+    assert flip_bad_tets(p, before, threshold=q_before - 1e-3)[1] == 0
+
+
+def _star_in_trunk(offset: np.ndarray) -> tuple:
+    """Octahedron of six fixed nodes (1 cm) around a free centre node moved by `offset`, inside the trunk."""
+    c = np.array([0.1, 0.0, 0.08])
+    axes = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+    p = np.vstack([c + offset, c + 0.01 * axes])
+    tets = [[0, 1 + i, 3 + j, 5 + k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+    return p, orient_positive(p, np.array(tets))
+
+
+def test_smoothing_moves_a_free_node_out_of_a_flat_star():
+    p, tets = _star_in_trunk(np.array([0.0096, 0.0, 0.0]))  # centre almost on the +x vertex: caps
+    shape = iguana_shape()
+    sliding = np.zeros(len(p), bool)
+    q0 = tet_quality(p, tets).min()
+    assert np.degrees(q0) < 5
+    moved, n = smooth_bad_nodes(shape, p, tets, sliding, np.radians(40), np.random.default_rng(0))
+    assert n == 1 and np.array_equal(moved[1:], p[1:])  # only the free centre moves
+    assert tet_quality(moved, tets).min() > q0
+    better, _ = improve_mesh(shape, p, tets, sliding, np.radians(52), rounds=40, peel_threshold=0.0)
+    assert np.degrees(tet_quality(better, tets).min()) > 50  # the centred star: 90 and 54.7 deg
+    assert np.linalg.norm(better[0] - p[1:].mean(axis=0)) < 2e-3
+    assert tet_volumes(better, tets).sum() == pytest.approx(tet_volumes(p, tets).sum())
