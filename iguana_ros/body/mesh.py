@@ -7,7 +7,10 @@ fat tets, where staggered rings give cospherical slivers). Every surface node is
 implicit surface of `shape.py` (soles land on z = 0). The Delaunay tetrahedralisation is carved to the
 tets inside the body and reduced to one face-connected piece; boundary slivers are peeled where the
 surface stays manifold, and remaining slivers or surface defects are repaired by small deterministic
-random moves of their nodes and re-triangulation, keeping the best mesh found.
+random moves of their nodes and re-triangulation, keeping the best mesh found. Where that global repair
+stalls (the `fine` density) it only fixes the topology, and `improve_mesh` then removes slivers locally:
+3-2/2-3 flips and node moves (surface nodes sliding on the surface), each kept only if it raises the worst
+dihedral angle of the tets it touches.
 """
 from __future__ import annotations
 
