@@ -170,5 +170,8 @@ def test_unknown_names_raise_input_error():
 def test_softer_preset_only_changes_stiffness():
     normal, softer = build_model('coarse', 'normal'), build_model('coarse', 'softer')
     assert np.array_equal(normal.springs, softer.springs)
-    assert np.allclose(softer.spring_stiffness, 0.4 * normal.spring_stiffness)
+    from iguana_ros.body.stiffness import PRESETS
+    ratio = PRESETS['softer'].spring_a / PRESETS['normal'].spring_a
+    assert ratio < 1.0
+    assert np.allclose(softer.spring_stiffness, ratio * normal.spring_stiffness)
     assert np.all(softer.youngs_modulus < normal.youngs_modulus)
