@@ -6,7 +6,8 @@ and contact damping C_c:
     A Δv = b,   A = M(1 + hα) + h C_c + (hβ + h²) K_int + h² K_c,   b = h (f − αMv) − [(hβ + h²) K_int + h² K_c] v
 
 with `f` every force except the Rayleigh terms; then v ← v + Δv, x ← x + h v. A (and the CG preconditioner)
-is rebuilt every `jacobian_every` steps; forces are always evaluated at the current state.
+is rebuilt every `jacobian_every` steps (and with it the block Cholesky factor when that is the preconditioner);
+forces are always evaluated at the current state.
 `run_steps_cg` advances many steps in one compiled call; `prepare_step` / `finish_step` split a step around an
 external (direct) linear solve.
 """
@@ -17,18 +18,19 @@ import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec, invert_3x3
 from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
-from iguana_ros.physics.solver import block_jacobi_pcg
+from iguana_ros.physics.cholesky import block_cholesky
+from iguana_ros.physics.solver import preconditioned_cg
 
 # indices of the float parameter vector `fp`
 FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG_TOL, FP_CG_ATOL, \
     FP_MAX_SPEED, FP_MAX_DEPTH, FP_CG_FAIL = range(15)
 N_FP = 15
 # indices of the integer parameter vector `ip`
-IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_SSOR = range(5)
+IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER = range(5)
 N_IP = 5
 # indices of the counter vector `counters`
-C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS = range(4)
-N_COUNTERS = 4
+C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS = range(5)
+N_COUNTERS = 5
 
 STATUS_OK = 0
 STATUS_NAN = 1
@@ -153,16 +155,27 @@ def finish_step(state, fp, counters, info):
 
 
 @numba.njit(cache=True)
-def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_steps, info):
-    """Advance `n_steps` steps with block-Jacobi PCG; stops at the first failure. Returns (status, steps done)."""
+def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_steps, info, chol):
+    """Advance `n_steps` steps with preconditioned CG; stops at the first failure. Returns (status, steps done).
+
+    `chol` = (pattern arrays, values, diag_inv, work (n, 3), ok (1,)) of the block Cholesky preconditioner,
+    refactorised at every Jacobian refresh; a step whose factorisation fails uses block Jacobi instead.
+    """
     row_ptr, cols = model[11], model[12]
     blocks, pinv, rhs, dv, work = state[6], state[8], state[10], state[2], state[11]
+    kind = ip[IP_PRECONDITIONER]
+    ok = chol[4]
     for step in range(n_steps):
-        status, _ = prepare_step(model, state, fp, ip, counters, desired_lengths, external, info)
+        status, refreshed = prepare_step(model, state, fp, ip, counters, desired_lengths, external, info)
         if status != STATUS_OK:
             return status, step
-        iters, res, threshold = block_jacobi_pcg(row_ptr, cols, blocks, pinv, rhs, dv, fp[FP_CG_TOL],
-                                                 fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], work, ip[IP_SSOR] != 0)
+        if kind == 2 and refreshed:
+            ok[0] = block_cholesky(chol[0], blocks, chol[1], chol[2])
+            if not ok[0]:
+                counters[C_FACTOR_FAILS] += 1
+        step_kind = 0 if kind == 2 and not ok[0] else kind
+        iters, res, threshold = preconditioned_cg(row_ptr, cols, blocks, pinv, chol, rhs, dv, fp[FP_CG_TOL],
+                                                  fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], work, step_kind)
         counters[C_CG_ITERS] += abs(iters)
         if iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold:
             info[0] = iters

@@ -16,7 +16,8 @@ from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.fidelity import Fidelity, get_fidelity
 from iguana_ros.physics.forces import CONTACT_NONE, corotated_elastic_forces, lame_parameters, shape_gradients
-from iguana_ros.physics.solver import DirectSolver
+from iguana_ros.physics.cholesky import CholeskyPattern, empty_factor
+from iguana_ros.physics.solver import PRECONDITIONER_CODES, DirectSolver
 
 _CAUSES = {itg.STATUS_NAN: 'nan', itg.STATUS_SPEED: 'speed', itg.STATUS_PENETRATION: 'penetration',
            itg.STATUS_SOLVER: 'solver'}
@@ -118,7 +119,7 @@ class SoftBodySimulator:
         ip[itg.IP_JACOBIAN_EVERY] = fid.effective_jacobian_every
         ip[itg.IP_POLAR_ITERS] = fid.polar_iters
         ip[itg.IP_HAS_GROUND] = self.terrain is not None
-        ip[itg.IP_SSOR] = fid.preconditioner == 'ssor'
+        ip[itg.IP_PRECONDITIONER] = PRECONDITIONER_CODES[fid.preconditioner]
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
@@ -128,9 +129,22 @@ class SoftBodySimulator:
                        np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros((nb, 3, 3)), np.zeros((n, 3, 3)),
                        np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((4, n, 3)),
                        np.zeros((n, 3, 3)), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
+        self._chol = self._build_factor()
         self._counters = np.zeros(itg.N_COUNTERS, dtype=np.int64)
         self._info = np.zeros(2)
         self._zero_external = np.zeros((n, 3))
+
+    def _build_factor(self) -> tuple:
+        """The `chol` tuple of the compiled step loop: the block Cholesky pattern and factor storage when the
+        preconditioner is 'cholesky', else empty arrays of the same types."""
+        n = len(self.rest_positions)
+        if self.fidelity.preconditioner == 'cholesky':
+            pattern = CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols)
+            values, diag_inv, work, ok = np.zeros((pattern.n_factor_blocks, 3, 3)), np.zeros((n, 3, 3)), \
+                np.zeros((n, 3)), np.zeros(1, dtype=np.int64)
+            return pattern.arrays(), values, diag_inv, work, ok
+        empty = np.zeros(0, dtype=np.int64)
+        return ((empty,) * 11,) + empty_factor(n)
 
     # ---------------------------------------------------------------------------------------------- state
     def reset(self, positions=None, velocities=None) -> None:
@@ -143,6 +157,7 @@ class SoftBodySimulator:
         contact[:] = CONTACT_NONE
         quats[:] = (0.0, 0.0, 0.0, 1.0)
         self._counters[:] = 0
+        self._chol[4][:] = 0
         self._fallback_steps = 0
         self.time = 0.0
         self._diverged = None
@@ -185,7 +200,8 @@ class SoftBodySimulator:
         return {'steps': steps, 'cg_iterations': int(c[itg.C_CG_ITERS]),
                 'cg_iterations_per_step': float(c[itg.C_CG_ITERS]) / max(steps, 1),
                 'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS]),
-                'direct_fallback_steps': self._fallback_steps}
+                'direct_fallback_steps': self._fallback_steps,
+                'cholesky_failures': int(c[itg.C_FACTOR_FAILS])}
 
     # -------------------------------------------------------------------------------------------- stepping
     def advance_frame(self, desired_lengths=None, external_forces=None, n_steps: int | None = None) -> None:
@@ -217,7 +233,7 @@ class SoftBodySimulator:
         done_total = 0
         while True:
             status, done = itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters,
-                                            ld, ext, n_steps - done_total, self._info)
+                                            ld, ext, n_steps - done_total, self._info, self._chol)
             done_total += done
             if status != itg.STATUS_SOLVER or self._fallback is None:
                 return status, done_total

@@ -1,10 +1,15 @@
-"""Linear solvers for the implicit step `A Δv = b`: block-Jacobi preconditioned CG (numba) and a direct LU."""
+"""Linear solvers for the implicit step `A Δv = b`: preconditioned CG (numba; block Jacobi, SSOR or a block
+Cholesky factor) and a direct LU."""
 from __future__ import annotations
 
 import numba
 import numpy as np
 
 from iguana_ros.physics.assembly import BlockPattern, block_matvec
+from iguana_ros.physics.cholesky import cholesky_solve
+
+PRECONDITIONER_CODES = {'jacobi': 0, 'ssor': 1, 'cholesky': 2}
+"""Integer codes of the CG preconditioners in the compiled kernels."""
 
 
 @numba.njit(cache=True)
@@ -58,20 +63,38 @@ def _ssor(row_ptr, cols, blocks, pinv, r, z):
 
 
 @numba.njit(cache=True)
-def _apply_preconditioner(row_ptr, cols, blocks, pinv, r, z, ssor):
-    """z = P⁻¹ r: block Jacobi, or symmetric block Gauss–Seidel when `ssor`."""
-    if ssor:
+def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
+    """z = P⁻¹ r: block Jacobi (kind 0), symmetric block Gauss–Seidel (1) or the block Cholesky factor (2)."""
+    if kind == 2:
+        cholesky_solve(chol[0], chol[1], chol[2], r, z, chol[3])
+    elif kind == 1:
         _ssor(row_ptr, cols, blocks, pinv, r, z)
     else:
         _precondition(pinv, r, z)
 
 
 @numba.njit(cache=True)
+def _no_factor(n):
+    """A `chol` argument for the preconditioners that use no factor."""
+    e = np.zeros(0, dtype=np.int64)
+    return ((e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)), np.zeros((0, 3, 3)), np.zeros((n, 3)))
+
+
+@numba.njit(cache=True)
 def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, work, ssor=False):
+    """`preconditioned_cg` with block Jacobi or, with `ssor`, symmetric block Gauss–Seidel."""
+    return preconditioned_cg(row_ptr, cols, blocks, pinv, _no_factor(b.shape[0]), b, x, tol, atol, max_iter, work,
+                             1 if ssor else 0)
+
+
+@numba.njit(cache=True)
+def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind):
     """Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
 
-    Preconditioner: inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi) or, with `ssor`, symmetric block
-    Gauss–Seidel (columns within each row of the pattern sorted ascending).
+    Preconditioner `kind` (PRECONDITIONER_CODES): inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi),
+    symmetric block Gauss–Seidel (columns within each row of the pattern sorted ascending), or the block
+    Cholesky factor `chol` = (pattern arrays, values, diag_inv, work (n, 3)) of `iguana_ros.physics.cholesky`.
+    With the factor at least one iteration is done (the warm start is not accepted as it is).
     Returns `(iterations, residual_norm, threshold)`; iterations = −k signals a breakdown (pᵀAp ≤ 0) at step k.
     """
     r, z, p, ap = work[0], work[1], work[2], work[3]
@@ -81,9 +104,9 @@ def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, wor
             r[i, k] = b[i, k] - ap[i, k]
     threshold = max(tol * np.sqrt(_dot(b, b)), atol)
     rnorm = np.sqrt(_dot(r, r))
-    if rnorm <= threshold:
+    if rnorm <= threshold and (kind != 2 or rnorm == 0.0):   # with a factor one iteration is cheap and ~exact
         return 0, rnorm, threshold
-    _apply_preconditioner(row_ptr, cols, blocks, pinv, r, z, ssor)
+    _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind)
     p[:] = z
     rz = _dot(r, z)
     for it in range(1, max_iter + 1):
@@ -101,7 +124,7 @@ def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, wor
         rnorm = np.sqrt(rr)
         if rnorm <= threshold:
             return it, rnorm, threshold
-        _apply_preconditioner(row_ptr, cols, blocks, pinv, r, z, ssor)
+        _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind)
         rz_new = _dot(r, z)
         beta = rz_new / rz
         rz = rz_new

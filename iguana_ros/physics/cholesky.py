@@ -1,0 +1,237 @@
+"""Sparse 3×3-block Cholesky `P A Pᵀ = L Lᵀ` of the system matrix (numba), used as the CG preconditioner.
+
+The symbolic part (`CholeskyPattern.build`: reverse Cuthill–McKee node ordering — the iguana mesh is long and
+thin, so the fill stays small — the structure of L and every update's target) is computed once per model from
+the block pattern; `block_cholesky` refactorises the numeric values, `cholesky_solve` applies `A⁻¹`.
+A factor of the current matrix makes CG converge in one iteration; CG keeps the tolerance check and the
+breakdown test, so a stale or failed factor only costs iterations.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CholeskyPattern:
+    """Structure of the block factor L over `n_nodes` in the permuted order `perm` (L row/col j = node perm[j]).
+
+    Column j of L holds the blocks `l_rows[l_ptr[j]:l_ptr[j + 1]]` (ascending, the diagonal first).
+    A blocks feeding column j: `a_block[a_ptr[j]:a_ptr[j + 1]]` (block (perm[j], c) of A, transposed into L
+    position `a_dest`). Updates of column j: for u in `u_ptr[j]:u_ptr[j + 1]`, column `u_col[u]` from its
+    position `u_from[u]` (= L_jk) to its end lands at positions `u_dest[u_start[u]:…]` of column j.
+    """
+
+    n_nodes: int
+    perm: np.ndarray      # (n_nodes,) int64
+    l_ptr: np.ndarray     # (n_nodes + 1,) int64
+    l_rows: np.ndarray    # (n_l,) int64
+    a_ptr: np.ndarray     # (n_nodes + 1,) int64
+    a_block: np.ndarray   # (n_a,) int64
+    a_dest: np.ndarray    # (n_a,) int64
+    u_ptr: np.ndarray     # (n_nodes + 1,) int64
+    u_col: np.ndarray     # (n_u,) int64
+    u_from: np.ndarray    # (n_u,) int64
+    u_start: np.ndarray   # (n_u + 1,) int64
+    u_dest: np.ndarray    # (Σ update lengths,) int64
+
+    @classmethod
+    def build(cls, row_ptr: np.ndarray, cols: np.ndarray) -> 'CholeskyPattern':
+        """Ordering and symbolic factor of the block-CSR pattern `(row_ptr (n + 1,), cols (n_blocks,))`."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+        n = len(row_ptr) - 1
+        graph = csr_matrix((np.ones(len(cols)), cols, row_ptr), shape=(n, n))
+        perm = np.asarray(reverse_cuthill_mckee(graph, symmetric_mode=True), dtype=np.int64)
+        iperm = np.empty(n, dtype=np.int64)
+        iperm[perm] = np.arange(n)
+        struct = _symbolic(n, row_ptr, cols, perm, iperm)
+        l_ptr = np.zeros(n + 1, dtype=np.int64)
+        l_ptr[1:] = np.cumsum([len(s) for s in struct])
+        l_rows = np.concatenate(struct).astype(np.int64)
+        where = [dict(zip(s.tolist(), range(l_ptr[j], l_ptr[j + 1]))) for j, s in enumerate(struct)]
+        a_ptr, a_block, a_dest = [0], [], []
+        for j in range(n):
+            for k in range(row_ptr[perm[j]], row_ptr[perm[j] + 1]):
+                i = iperm[cols[k]]
+                if i >= j:
+                    a_block.append(k)
+                    a_dest.append(where[j][i])
+            a_ptr.append(len(a_block))
+        updates = [[] for _ in range(n)]
+        for k in range(n):                           # L_jk ≠ 0 (j > k) updates column j with rows ≥ j of column k
+            for p in range(l_ptr[k] + 1, l_ptr[k + 1]):
+                updates[l_rows[p]].append((k, p))
+        u_ptr, u_col, u_from, u_start, u_dest = [0], [], [], [0], []
+        for j in range(n):
+            for k, p in updates[j]:
+                u_col.append(k)
+                u_from.append(p)
+                u_dest.extend(where[j][i] for i in l_rows[p:l_ptr[k + 1]])
+                u_start.append(len(u_dest))
+            u_ptr.append(len(u_col))
+        as_int = lambda a: np.asarray(a, dtype=np.int64)          # noqa: E731
+        return cls(n_nodes=n, perm=perm, l_ptr=l_ptr, l_rows=l_rows, a_ptr=as_int(a_ptr), a_block=as_int(a_block),
+                   a_dest=as_int(a_dest), u_ptr=as_int(u_ptr), u_col=as_int(u_col), u_from=as_int(u_from),
+                   u_start=as_int(u_start), u_dest=as_int(u_dest))
+
+    @property
+    def n_factor_blocks(self) -> int:
+        """Number of 3×3 blocks of L (diagonal included)."""
+        return len(self.l_rows)
+
+    def arrays(self) -> tuple:
+        """The tuple the compiled kernels take: (perm, l_ptr, l_rows, a_ptr, a_block, a_dest, u_ptr, u_col,
+        u_from, u_start, u_dest)."""
+        return (self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest, self.u_ptr, self.u_col,
+                self.u_from, self.u_start, self.u_dest)
+
+
+def _symbolic(n: int, row_ptr: np.ndarray, cols: np.ndarray, perm: np.ndarray, iperm: np.ndarray) -> list:
+    """Row structure (sorted, diagonal first) of every column of L, by symbolic elimination."""
+    struct = []
+    for j in range(n):
+        c = iperm[cols[row_ptr[perm[j]]:row_ptr[perm[j] + 1]]]
+        struct.append(set(c[c > j].tolist()))
+    for j in range(n):                               # column j's rows below its first off-diagonal join that column
+        if struct[j]:
+            parent = min(struct[j])
+            struct[parent] |= struct[j] - {parent}
+    return [np.array([j] + sorted(s), dtype=np.int64) for j, s in enumerate(struct)]
+
+
+def empty_factor(n_nodes: int) -> tuple:
+    """Placeholder `(values (0, 3, 3), diag_inv (n_nodes, 3, 3), y (n_nodes, 3), ok (1,))` of no factor."""
+    return np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)), np.zeros(1, dtype=np.int64)
+
+
+@numba.njit(cache=True)
+def _chol3(a, out):
+    """Lower Cholesky factor of the symmetric 3×3 `a` into `out`; False if `a` is not positive definite."""
+    d0 = a[0, 0]
+    if not d0 > 0.0:
+        return False
+    l00 = np.sqrt(d0)
+    l10 = a[1, 0] / l00
+    l20 = a[2, 0] / l00
+    d1 = a[1, 1] - l10 * l10
+    if not d1 > 0.0:
+        return False
+    l11 = np.sqrt(d1)
+    l21 = (a[2, 1] - l20 * l10) / l11
+    d2 = a[2, 2] - l20 * l20 - l21 * l21
+    if not d2 > 0.0:
+        return False
+    l22 = np.sqrt(d2)
+    out[0, 0], out[0, 1], out[0, 2] = l00, 0.0, 0.0
+    out[1, 0], out[1, 1], out[1, 2] = l10, l11, 0.0
+    out[2, 0], out[2, 1], out[2, 2] = l20, l21, l22
+    return True
+
+
+@numba.njit(cache=True)
+def _lower_inverse(l, out):
+    """out = l⁻¹ for a lower-triangular 3×3 `l`."""
+    i00 = 1.0 / l[0, 0]
+    i11 = 1.0 / l[1, 1]
+    i22 = 1.0 / l[2, 2]
+    i10 = -l[1, 0] * i00 * i11
+    i21 = -l[2, 1] * i11 * i22
+    i20 = -(l[2, 0] * i00 + l[2, 1] * i10) * i22
+    out[0, 0], out[0, 1], out[0, 2] = i00, 0.0, 0.0
+    out[1, 0], out[1, 1], out[1, 2] = i10, i11, 0.0
+    out[2, 0], out[2, 1], out[2, 2] = i20, i21, i22
+
+
+@numba.njit(cache=True)
+def _update_column(values, start, u_dest, lo, hi):
+    """values[u_dest[lo + q]] −= values[start + q] values[start]ᵀ for q < hi − lo (one column k into column j)."""
+    b00, b01, b02 = values[start, 0, 0], values[start, 0, 1], values[start, 0, 2]
+    b10, b11, b12 = values[start, 1, 0], values[start, 1, 1], values[start, 1, 2]
+    b20, b21, b22 = values[start, 2, 0], values[start, 2, 1], values[start, 2, 2]
+    for q in range(hi - lo):
+        p = start + q
+        d = u_dest[lo + q]
+        for r in range(3):
+            a0, a1, a2 = values[p, r, 0], values[p, r, 1], values[p, r, 2]
+            values[d, r, 0] -= a0 * b00 + a1 * b01 + a2 * b02
+            values[d, r, 1] -= a0 * b10 + a1 * b11 + a2 * b12
+            values[d, r, 2] -= a0 * b20 + a1 * b21 + a2 * b22
+
+
+@numba.njit(cache=True)
+def block_cholesky(pattern, blocks, values, diag_inv):
+    """Factorise A (`blocks (n_blocks, 3, 3)`) into `values (n_l, 3, 3)` = L and `diag_inv (n, 3, 3)` = L_jj⁻¹.
+
+    Left-looking; returns False (values unusable) if a pivot block is not positive definite.
+    """
+    perm, l_ptr, l_rows, a_ptr, a_block, a_dest, u_ptr, u_col, u_from, u_start, u_dest = pattern
+    tmp = np.empty((3, 3))
+    for j in range(perm.shape[0]):
+        for p in range(l_ptr[j], l_ptr[j + 1]):
+            values[p, :, :] = 0.0
+        for t in range(a_ptr[j], a_ptr[j + 1]):      # A(i, j) = A(perm[j], ·)ᵀ
+            src = blocks[a_block[t]]
+            dst = values[a_dest[t]]
+            for r in range(3):
+                for c in range(3):
+                    dst[r, c] = src[c, r]
+        for u in range(u_ptr[j], u_ptr[j + 1]):      # S(i, j) −= L(i, k) L(j, k)ᵀ
+            _update_column(values, u_from[u], u_dest, u_start[u], u_start[u + 1])
+        d = values[l_ptr[j]]
+        if not _chol3(d, tmp):
+            return False
+        d[:, :] = tmp
+        inv = diag_inv[j]
+        _lower_inverse(d, inv)
+        for p in range(l_ptr[j] + 1, l_ptr[j + 1]):  # L(i, j) = S(i, j) L_jj⁻ᵀ
+            s = values[p]
+            for r in range(3):
+                tmp[r, 0] = s[r, 0] * inv[0, 0] + s[r, 1] * inv[0, 1] + s[r, 2] * inv[0, 2]
+                tmp[r, 1] = s[r, 0] * inv[1, 0] + s[r, 1] * inv[1, 1] + s[r, 2] * inv[1, 2]
+                tmp[r, 2] = s[r, 0] * inv[2, 0] + s[r, 1] * inv[2, 1] + s[r, 2] * inv[2, 2]
+            s[:, :] = tmp
+    return True
+
+
+@numba.njit(cache=True)
+def cholesky_solve(pattern, values, diag_inv, r, z, y):
+    """z = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space."""
+    perm, l_ptr, l_rows = pattern[0], pattern[1], pattern[2]
+    n = perm.shape[0]
+    for j in range(n):
+        y[j, 0] = r[perm[j], 0]
+        y[j, 1] = r[perm[j], 1]
+        y[j, 2] = r[perm[j], 2]
+    for j in range(n):                               # L y' = y
+        inv = diag_inv[j]
+        s0, s1, s2 = y[j, 0], y[j, 1], y[j, 2]
+        y0 = inv[0, 0] * s0
+        y1 = inv[1, 0] * s0 + inv[1, 1] * s1
+        y2 = inv[2, 0] * s0 + inv[2, 1] * s1 + inv[2, 2] * s2
+        y[j, 0], y[j, 1], y[j, 2] = y0, y1, y2
+        for p in range(l_ptr[j] + 1, l_ptr[j + 1]):
+            i = l_rows[p]
+            b = values[p]
+            y[i, 0] -= b[0, 0] * y0 + b[0, 1] * y1 + b[0, 2] * y2
+            y[i, 1] -= b[1, 0] * y0 + b[1, 1] * y1 + b[1, 2] * y2
+            y[i, 2] -= b[2, 0] * y0 + b[2, 1] * y1 + b[2, 2] * y2
+    for j in range(n - 1, -1, -1):                   # Lᵀ z' = y'
+        s0, s1, s2 = y[j, 0], y[j, 1], y[j, 2]
+        for p in range(l_ptr[j] + 1, l_ptr[j + 1]):
+            i = l_rows[p]
+            b = values[p]
+            s0 -= b[0, 0] * y[i, 0] + b[1, 0] * y[i, 1] + b[2, 0] * y[i, 2]
+            s1 -= b[0, 1] * y[i, 0] + b[1, 1] * y[i, 1] + b[2, 1] * y[i, 2]
+            s2 -= b[0, 2] * y[i, 0] + b[1, 2] * y[i, 1] + b[2, 2] * y[i, 2]
+        inv = diag_inv[j]                            # L_jj⁻ᵀ is upper triangular
+        y[j, 2] = inv[2, 2] * s2
+        y[j, 1] = inv[1, 1] * s1 + inv[2, 1] * s2
+        y[j, 0] = inv[0, 0] * s0 + inv[1, 0] * s1 + inv[2, 0] * s2
+    for j in range(n):
+        z[perm[j], 0] = y[j, 0]
+        z[perm[j], 1] = y[j, 1]
+        z[perm[j], 2] = y[j, 2]
