@@ -34,9 +34,12 @@ class LocomotionMetrics:
     strides: int
 
     def as_dict(self) -> dict:
-        """Plain dict (for JSON and the summary line)."""
-        return {k: (float(v) if isinstance(v, (float, np.floating)) else v)
-                for k, v in asdict(self).items()}
+        """Plain dict for JSON and the summary line (NaN, e.g. no arrival time, becomes None)."""
+        def plain(v):
+            if isinstance(v, (float, np.floating)):
+                return float(v) if np.isfinite(v) else None
+            return v
+        return {k: plain(v) for k, v in asdict(self).items()}
 
 
 def path_length(root_xy: np.ndarray) -> float:
@@ -85,13 +88,18 @@ def lateral_bending(pelvis: np.ndarray, mid_trunk: np.ndarray, shoulders: np.nda
     return float(np.degrees(0.5 * (np.max(angle) - np.min(angle)))) if len(angle) else 0.0
 
 
-def inter_joint_variation(landmarks: np.ndarray, pairs: np.ndarray) -> float:
-    """Largest relative change of landmark distances from their first-frame values (0.05 = 5 %).
+def inter_joint_variation(landmarks: np.ndarray, reference_landmarks: np.ndarray, pairs: np.ndarray) -> float:
+    """Largest relative deviation of simulated landmark distances from the reference's (0.05 = 5 %).
 
-    `landmarks (n_frames, n_landmarks, 3)`, `pairs (n_pairs, 2)` landmark indices.
+    The paper's Section IX concern: without a skeleton, inter-articular distances of the soft body may
+    drift from the reference pose it tracks. `landmarks`, `reference_landmarks (n_frames, n_landmarks, 3)`,
+    `pairs (n_pairs, 2)` landmark indices.
     """
-    d = np.linalg.norm(landmarks[:, pairs[:, 0]] - landmarks[:, pairs[:, 1]], axis=2)
-    return float(np.max(np.abs(d / d[:1] - 1.0))) if len(d) else 0.0
+    def distances(points):
+        return np.linalg.norm(points[:, pairs[:, 0]] - points[:, pairs[:, 1]], axis=2)
+    if len(landmarks) == 0:
+        return 0.0
+    return float(np.max(np.abs(distances(landmarks) / distances(reference_landmarks) - 1.0)))
 
 
 def fell(root_up: np.ndarray) -> bool:
@@ -114,7 +122,7 @@ def stuck(times: np.ndarray, goal_distance: np.ndarray, radius: float) -> bool:
 def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: np.ndarray,
                        root_up: np.ndarray, goal_xy: np.ndarray, goal_radius: float,
                        foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int,
-                       trunk_landmarks: np.ndarray, landmarks: np.ndarray,
+                       trunk_landmarks: np.ndarray, landmarks: np.ndarray, reference_landmarks: np.ndarray,
                        landmark_pairs: np.ndarray) -> LocomotionMetrics:
     """All metrics of a run; shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`."""
     xy = root_positions[:, :2]
@@ -125,6 +133,6 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
         path_length=path_length(xy), mean_forward_speed=mean_forward_speed(times, xy, root_yaw),
         foot_slip_per_stride=foot_slip(foot_xy, foot_contact, n_strides),
         lateral_bending_amplitude_deg=lateral_bending(*np.moveaxis(trunk_landmarks, 1, 0)),
-        inter_joint_distance_variation=inter_joint_variation(landmarks, landmark_pairs),
+        inter_joint_distance_variation=inter_joint_variation(landmarks, reference_landmarks, landmark_pairs),
         fell=fell(root_up), stuck=stuck(times, dist, goal_radius) and not reached,
         strides=int(n_strides))

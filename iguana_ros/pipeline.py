@@ -138,7 +138,8 @@ class RunResult:
     root_orientations: np.ndarray     # (F, 4) xyzw
     node_positions: np.ndarray        # (F, n, 3) m
     contacts: np.ndarray              # (F, n) bool
-    reference_joints: np.ndarray      # (F, n_bones, 3) m, adapted reference pose
+    reference_joints: np.ndarray      # (F, n_bones, 3) m, adapted reference pose: joint positions
+    reference_rotations: np.ndarray   # (F, n_bones, 4) xyzw, adapted reference pose: bone orientations
     clip_history: list = field(default_factory=list)  # (start frame, clip name)
     goals: list = field(default_factory=list)         # (time, x, y)
     wall_seconds: float = 0.0
@@ -151,6 +152,7 @@ class RunResult:
         np.savez_compressed(path, times=self.times, root_positions=self.root_positions,
                             root_orientations=self.root_orientations, node_positions=self.node_positions,
                             contacts=self.contacts, reference_joints=self.reference_joints,
+                            reference_rotations=self.reference_rotations,
                             clip_frames=frames, clip_names=names, goals=np.array(self.goals, float),
                             wall_seconds=self.wall_seconds)
         return path
@@ -211,7 +213,7 @@ class Pipeline:
     frame: int = 0
 
     def step(self) -> tuple:
-        """One frame; returns (root position, orientation, adapted joint positions)."""
+        """One frame; returns (root position, orientation, adapted joint positions, bone rotations)."""
         root, quat = self.simulator.root_pose()
         self.planner.update(self.frame, root, quat)
         ref_root, ref_local = clip_pose(self.planner.clip, self.frame - self.planner.clip_start)
@@ -219,7 +221,7 @@ class Pipeline:
         lengths = self.springs.lengths_from_bones(rotations, joints)
         self.simulator.advance(lengths)
         self.frame += 1
-        return root, quat, joints
+        return root, quat, joints, rotations
 
 
 def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict | None = None) -> Pipeline:
@@ -255,9 +257,9 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     rows = _allocate(total, model.n_nodes, model.skeleton.n_bones)
     start = _time.perf_counter()
     for f in range(total):
-        _, _, joints = pipe.step()
+        _, _, joints, rotations = pipe.step()
         root, quat = pipe.simulator.root_pose()
-        _store(rows, f, root, quat, pipe.simulator.sim, joints)
+        _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations))
         if progress is not None:
             progress(f + 1, total)
     wall = _time.perf_counter() - start
@@ -270,13 +272,14 @@ def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:
     """Preallocated trajectory arrays."""
     return {'root_positions': np.zeros((n_frames, 3)), 'root_orientations': np.zeros((n_frames, 4)),
             'node_positions': np.zeros((n_frames, n_nodes, 3)), 'contacts': np.zeros((n_frames, n_nodes), bool),
-            'reference_joints': np.zeros((n_frames, n_bones, 3))}
+            'reference_joints': np.zeros((n_frames, n_bones, 3)),
+            'reference_rotations': np.zeros((n_frames, n_bones, 4))}
 
 
-def _store(rows: dict, f: int, root, quat, sim: SoftBodySimulator, joints) -> None:
+def _store(rows: dict, f: int, root, quat, sim: SoftBodySimulator, reference: tuple) -> None:
     """Record frame `f`."""
     rows['root_positions'][f] = root
     rows['root_orientations'][f] = quat
     rows['node_positions'][f] = sim.positions
     rows['contacts'][f] = sim.in_contact
-    rows['reference_joints'][f] = joints
+    rows['reference_joints'][f], rows['reference_rotations'][f] = reference

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from iguana_ros.body.model import build_model
+from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.geometry import quat_rotate, yaw_of
 from iguana_ros.metrics import LocomotionMetrics, locomotion_metrics
 
@@ -34,7 +35,9 @@ def metrics_of_run(result, scene) -> LocomotionMetrics:
     foot_contact = np.stack([result.contacts[:, f].any(axis=1) for f in feet], axis=1)
     trunk = group_centroids(nodes, bone_node_groups(model, TRUNK))
     chain_bones = tuple(b for chain in LIMB_CHAINS for b in chain)
-    landmarks = group_centroids(nodes, bone_node_groups(model, chain_bones))
+    groups = bone_node_groups(model, chain_bones)
+    landmarks = group_centroids(nodes, groups)
+    reference_landmarks = group_centroids(reference_mesh(model, result), groups)
     pairs, k = [], 0
     for chain in LIMB_CHAINS:
         pairs += [(k + i, k + i + 1) for i in range(len(chain) - 1)]
@@ -44,4 +47,11 @@ def metrics_of_run(result, scene) -> LocomotionMetrics:
     up = quat_rotate(result.root_orientations, np.array([0.0, 0.0, 1.0]))
     return locomotion_metrics(result.times, result.root_positions, yaw_of(result.root_orientations), up, goal,
                               scene.goal_radius, foot_xy, foot_contact, len(result.clip_history), trunk,
-                              landmarks, np.array(pairs))
+                              landmarks, reference_landmarks, np.array(pairs))
+
+
+def reference_mesh(model, result) -> np.ndarray:
+    """The reference mesh skinned (DQS) to each frame's adapted pose, `(n_frames, n_nodes, 3)`."""
+    computer = SpringLengthComputer(model)
+    return np.stack([computer.skin_bones_to(rot, pos)
+                     for pos, rot in zip(result.reference_joints, result.reference_rotations)])

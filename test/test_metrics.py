@@ -34,7 +34,10 @@ def test_lateral_bending_amplitude():
 def test_inter_joint_variation_and_fall():
     lm = np.zeros((3, 2, 3))
     lm[:, 1, 0] = [0.1, 0.105, 0.098]
-    assert m.inter_joint_variation(lm, np.array([[0, 1]])) == pytest.approx(0.05)
+    ref = np.zeros((3, 2, 3))
+    ref[:, 1, 1] = 0.1  # same lengths, other direction: only lengths count
+    assert m.inter_joint_variation(lm, ref, np.array([[0, 1]])) == pytest.approx(0.05)
+    assert m.inter_joint_variation(ref, ref, np.array([[0, 1]])) == 0.0
     up = np.tile([0.0, 0.0, 1.0], (4, 1))
     assert not m.fell(up)
     up[2] = [np.sin(1.2), 0.0, np.cos(1.2)]

@@ -27,6 +27,9 @@ from iguana_ros.visuals import body_colors, terrain_mesh
 WATCHDOG_PERIOD = 0.1
 """Wall seconds between lockstep timeout checks."""
 
+FINISH_ACK_TIMEOUT = 2.0
+"""Seconds the simulator waits at the end for subscribers (e.g. the recorder) to acknowledge its last frame."""
+
 GOAL_MARKER_RADIUS = 0.05
 """Radius of the goal sphere in scene_markers, m."""
 
@@ -203,10 +206,13 @@ class SimulatorNode(IguanaNode):
         self.finish(1)
 
     def finish(self, code: int) -> None:
-        """Stop publishing and end the process's spin."""
+        """Stop stepping, let subscribers acknowledge the last frame, and end the process's spin."""
         import rclpy
+        from rclpy.duration import Duration
         self.exit_code = code
         self.timer.cancel()
+        for pub in (self.state_pub, self.clock_pub, self.mesh_pub):
+            pub.wait_for_all_acked(Duration(seconds=FINISH_ACK_TIMEOUT))
         rclpy.try_shutdown(context=self.context)
 
     # ------------------------------------------------------------------------------------------ outputs
