@@ -28,6 +28,7 @@ def register(subparsers) -> None:
     sim.add_argument('--seconds', type=float, default=5.0, help='simulated seconds (default 5)')
     sim.add_argument('--preset', choices=('fast', 'balanced', 'accurate'), default='balanced')
     sim.add_argument('--solver', choices=('cg', 'direct'), default=None)
+    sim.add_argument('--preconditioner', choices=('jacobi', 'ssor', 'cholesky'), default=None)
     sim.add_argument('--cg-tol', type=float, default=None)
     sim.add_argument('--jacobian-every', type=int, default=None)
     sim.add_argument('--profile', action='store_true', help='also time each part of a step')
@@ -73,7 +74,8 @@ def run_sim(args) -> int:
     from iguana_ros.physics.benchmarks import bench_sim
 
     result = bench_sim(args.mesh, seconds=args.seconds, preset=args.preset, profile=args.profile, dt=args.dt,
-                       solver=args.solver, cg_tol=args.cg_tol, jacobian_every=args.jacobian_every)
+                       solver=args.solver, preconditioner=args.preconditioner, cg_tol=args.cg_tol,
+                       jacobian_every=args.jacobian_every)
     if args.json:
         print(json.dumps(result, indent=1))
         return 0

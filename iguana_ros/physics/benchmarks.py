@@ -62,7 +62,7 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
     result = {
         'model': name, 'nodes': len(sim.rest_positions), 'tets': len(sim.model.tets),
         'springs': len(sim.desired_lengths_rest), 'preset': preset if isinstance(preset, str) else 'custom',
-        'dt': fid.dt, 'solver': fid.solver, 'cg_tol': fid.cg_tol, 'jacobian_every': fid.effective_jacobian_every,
+        'dt': fid.dt, 'solver': fid.solver, 'preconditioner': fid.preconditioner, 'cg_tol': fid.cg_tol, 'jacobian_every': fid.effective_jacobian_every,
         'simulated_s': sim.time, 'steps': steps,
         'realtime_factor': sim.time / timing['sim_wall_s'],
         'realtime_factor_cpu': sim.time / max(cpu_s - timing['gait_wall_s'], 1e-12),
@@ -114,6 +114,15 @@ def profile_step(sim, repeats: int = 100) -> dict:
         block_jacobi_pcg(row_ptr, cols, sim._state[6], sim._state[8], sim._state[10], solution, 0.0, 0.0, 10, work)
 
     out['cg_iteration'] = _time_us(ten_cg_iterations, max(repeats // 10, 5)) / 10.0
+    if sim.fidelity.preconditioner == 'cholesky':
+        from iguana_ros.physics.cholesky import block_cholesky, cholesky_solve
+
+        chol = tuple(a.copy() for a in sim._chol[1:4])
+        out['cholesky_factor'] = _time_us(lambda: block_cholesky(sim._chol[0], sim._state[6], chol[0], chol[1]),
+                                          repeats)
+        out['cholesky_solve'] = _time_us(lambda: cholesky_solve(sim._chol[0], chol[0], chol[1], sim._state[10],
+                                                                solution, chol[2]), repeats)
+        out['cg_iteration'] += out['cholesky_solve']      # the preconditioner of each iteration
     out['cg_per_step'] = out['cg_iteration'] * sim.stats['cg_iterations_per_step']
     return out
 
