@@ -167,9 +167,18 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     probe.listen('mesh_marker')
     probe.listen('scene_markers')
     lengths_pub = probe.pub('spring_rest_lengths')
+    push_pub = probe.pub('push')
     scene_file = _scene(tmp_path, terrain={'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0})
     with _node('simulator_node', scene_file, tmp_path, lockstep_timeout=1.0, lockstep_max_timeouts=50) as sim:
         probe.wait('iguana_state', 1, timeout=60)
+        probe.wait_matched('push')
+        from geometry_msgs.msg import WrenchStamped
+        push = WrenchStamped()
+        push.header.frame_id = 'wing'  # not a node tag: rejected
+        push.wrench.force.y = -40.0
+        push_pub.publish(push)
+        push.header.frame_id = 'trunk_left'
+        push_pub.publish(push)
         lengths_pub.publish(lengths_to_msg(np.ones(7), 0))  # wrong length: rejected, still waiting
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 5))  # future frame
         probe.spin(0.3)
@@ -188,6 +197,8 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     assert np.all(points[:, 2] - terrain.height(points[:, :2]) > -0.01)
     assert [m.ns for m in scene.markers] == ['terrain']
     assert 'rejected spring_rest_lengths' in sim.output and 'future frame 5' in sim.output
+    assert "rejected push: push region 'wing' is not a node tag" in sim.output
+    assert 'push [0.0, -40.0, 0.0] N on trunk_left' in sim.output
 
 
 def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
