@@ -53,7 +53,7 @@ def _write_joint(skeleton: Skeleton, bone: int, depth: int, lines: list, order: 
     offset = _PERM @ skeleton.offsets[bone]
     children = skeleton.children(bone)
     if bone == 0:
-        lines += [f'ROOT {skeleton.names[0]}', '{', f'  OFFSET 0.000000 0.000000 0.000000',
+        lines += [f'ROOT {skeleton.names[0]}', '{', '  OFFSET 0.000000 0.000000 0.000000',
                   '  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation']
     elif len(children) == 0:
         lines += [f'{pad}End Site', f'{pad}{{', f'{pad}  OFFSET {offset[0]:.6f} {offset[1]:.6f} {offset[2]:.6f}',
