@@ -78,12 +78,13 @@ def ros_args(params: dict) -> list[str]:
 def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, list[str]]:
     """Command line of every child node process, by name."""
     common = {'scene': str(scene_file), 'use_sim_time': True}
-    sim = {**common, 'mode': options.mode, 'wait_for_goals': len(scene.goals), 'wait_for_recorder': True,
-           **options.extra_params}
+    goals = {'wait_for_goals': len(scene.goals)}  # planner and simulator both wait for the scene's goals
+    sim = {**common, **goals, 'mode': options.mode, 'wait_for_recorder': True, **options.extra_params}
+    params = {'planner_node': {**common, **goals}, 'simulator_node': sim}
     if options.single_process:
         return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(sim)]}
-    return {kind: [sys.executable, '-m', f'iguana_ros.nodes.{kind}',
-                   *ros_args(sim if kind == 'simulator_node' else common)] for kind in NODE_KINDS}
+    return {kind: [sys.executable, '-m', f'iguana_ros.nodes.{kind}', *ros_args(params.get(kind, common))]
+            for kind in NODE_KINDS}
 
 
 def new_bag_dir(options: RunOptions, scene: Scene) -> Path:

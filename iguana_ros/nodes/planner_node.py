@@ -34,6 +34,8 @@ class PlannerNode(IguanaNode):
         self.skeleton = iguana_skeleton()
         self.half_extent = self.scene.terrain.extent / 2.0
         self.last_frame = -1
+        self.goals_received = 0
+        self.held_state = None
         self.clip_pub = self.publisher('motion_clip')
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
@@ -53,11 +55,18 @@ class PlannerNode(IguanaNode):
             self.get_logger().info(f'goal stamp {at:.0f} s is not simulated time (wall clock?); adopting it now')
             at = 0.0
         self.stage.schedule_goal(xy, at)
+        self.goals_received += 1
         self.get_logger().info(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) scheduled for t={at:.3f} s')
+        if self.held_state is not None and self.goals_received >= self.param('wait_for_goals'):
+            held, self.held_state = self.held_state, None
+            self.on_state(held)
 
     def on_state(self, msg) -> None:
         """At a stride end, publish the next clip aligned to the body's root."""
         frame, root, orientation = state_from_msg(msg)
+        if self.goals_received < self.param('wait_for_goals'):
+            self.held_state = msg  # decided once the scene's goals are in (see wait_for_goals)
+            return
         if frame <= self.last_frame:
             if frame < self.last_frame:
                 self.get_logger().warning(f'ignored stale iguana_state for frame {frame} '
