@@ -211,3 +211,20 @@ def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
         assert sim.wait(30) == 1
     assert 'lockstep: no spring_rest_lengths for frame 0' in sim.output
     assert 'lockstep timed out 2 times' in sim.output
+
+
+def test_planner_holds_the_first_stride_until_the_scene_goals_arrive(tmp_path, make_node, executor):
+    from iguana_ros.nodes.goal_sender import goal_message
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('motion_clip')
+    goal_pub, state_pub = probe.pub('goal_pose'), probe.pub('iguana_state')
+    with _node('planner_node', _scene(tmp_path), tmp_path, wait_for_goals=1) as planner:
+        probe.wait_matched('goal_pose')
+        probe.wait_matched('iguana_state')
+        state_pub.publish(_state(0))  # the state overtakes the goal
+        probe.spin(1.0)
+        assert probe.got['motion_clip'] == []
+        goal_pub.publish(goal_message(0.3, 2.0))
+        probe.wait('motion_clip')
+        assert planner.running
+    assert "frame 0: clip 'turn_left'" in planner.output
