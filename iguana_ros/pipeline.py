@@ -17,6 +17,7 @@ from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip, MotionGraph, PolicyParams
+from iguana_ros.physics.pushes import region_force
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import PushSpec, Scene
 from iguana_ros.terrain.adaptation import (AdaptationState, adapt_pose, pose_kinematics,
@@ -123,8 +124,7 @@ def push_forces(model, pushes: tuple, time: float) -> np.ndarray | None:
 def _push_on_region(model, push: PushSpec) -> np.ndarray:
     """Force field `(n_nodes, 3)` of one push on its tagged region."""
     mask = np.ones(model.n_nodes, bool) if push.region == 'all' else model.node_tags[push.region]
-    weights = np.where(mask, model.node_mass, 0.0)
-    return np.outer(weights / weights.sum(), np.asarray(push.force, float))
+    return region_force(model.node_mass, mask, push.force)
 
 
 # ---------------------------------------------------------------------------------------------- the run

@@ -63,11 +63,6 @@ def _header(stamp: float | Time, frame_id: str) -> Header:
     return Header(stamp=stamp if isinstance(stamp, Time) else time_to_msg(stamp), frame_id=frame_id)
 
 
-def yaw_to_quaternion(yaw: float) -> np.ndarray:
-    """Quaternion `(4,)` xyzw of a rotation by `yaw` rad about +z."""
-    return np.array([0.0, 0.0, np.sin(0.5 * yaw), np.cos(0.5 * yaw)])
-
-
 # ----------------------------------------------------------------------------- poses
 
 def poses_to_msgs(positions, quaternions) -> list[Pose]:

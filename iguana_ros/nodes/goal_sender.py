@@ -11,13 +11,14 @@ from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.conversions import pose_stamped_msg, yaw_to_quaternion
+from iguana_ros.geometry import quat_from_yaw
+from iguana_ros.nodes.conversions import pose_stamped_msg
 from iguana_ros.nodes.ros_topics import resolve
 
 
 def goal_message(x: float, y: float, yaw_deg: float = 0.0, at: float = 0.0, frame_id: str = WORLD_FRAME):
     """PoseStamped goal at (x, y) heading `yaw_deg`, stamped `at` s of simulated time (0 = at once)."""
-    return pose_stamped_msg([x, y, 0.0], yaw_to_quaternion(math.radians(yaw_deg)), stamp=at, frame_id=frame_id)
+    return pose_stamped_msg([x, y, 0.0], quat_from_yaw(math.radians(yaw_deg)), stamp=at, frame_id=frame_id)
 
 
 def _wait_for_subscribers(pub, count: int, timeout: float, keep_going: Callable[[], None]) -> None:

@@ -8,6 +8,7 @@ import numpy as np
 from iguana_ros.constants import MAX_NODE_SPEED
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.meshes import SoftBodyMesh, tet_volumes
+from iguana_ros.physics.pushes import region_force
 from iguana_ros.physics.scenes import place_on_terrain
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
@@ -92,11 +93,8 @@ def _push_forces(model, total: float):
     if total == 0.0:
         return None
     tags = model.node_tags
-    mask = np.asarray(tags['trunk_left'] if 'trunk_left' in tags else tags['left'], dtype=bool)
-    mass = np.asarray(model.node_mass) * mask
-    forces = np.zeros((len(mass), 3))
-    forces[:, 1] = -total * mass / mass.sum()
-    return forces
+    mask = tags['trunk_left'] if 'trunk_left' in tags else tags['left']
+    return region_force(model.node_mass, mask, (0.0, -total, 0.0))
 
 
 def stability_table(model, seconds: float = 1.5, names=None, progress=None) -> list:

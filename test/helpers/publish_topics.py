@@ -19,12 +19,13 @@ def build_messages(i: int, t: float) -> dict:
     """Messages of frame i at time t (s) for each periodic topic key."""
     import numpy as np
 
+    from iguana_ros.geometry import quat_from_yaw
     from iguana_ros.nodes import conversions as cv
     rng = np.random.default_rng(i)
     verts = rng.random((30, 3))
     tris = rng.integers(0, 30, (40, 3))
     return {
-        'goal_pose': cv.pose_stamped_msg([i * 0.1, -i * 0.2, 0.0], cv.yaw_to_quaternion(0.1 * i), t),
+        'goal_pose': cv.pose_stamped_msg([i * 0.1, -i * 0.2, 0.0], quat_from_yaw(0.1 * i), t),
         'iguana_state': cv.odometry_msg(rng.random(3), [0, 0, 0, 1], rng.random(3), rng.random(3), t),
         'spring_rest_lengths': cv.joint_state_msg(rng.random(50), t),
         'mesh_marker': cv.triangle_list_marker_cdr(verts, tris, rng.random((30, 4)), t),

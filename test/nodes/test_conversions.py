@@ -7,6 +7,7 @@ from rclpy.serialization import deserialize_message, serialize_message  # noqa: 
 from visualization_msgs.msg import Marker  # noqa: E402
 
 from iguana_ros.errors import InputError  # noqa: E402
+from iguana_ros.geometry import quat_from_yaw  # noqa: E402
 from iguana_ros.nodes import conversions as cv  # noqa: E402
 
 
@@ -29,7 +30,7 @@ def test_time_round_trip_and_split():
 
 
 def test_yaw_quaternion_rotates_x_to_y():
-    q = cv.yaw_to_quaternion(np.pi / 2)
+    q = quat_from_yaw(np.pi / 2)
     np.testing.assert_allclose(q, [0, 0, np.sqrt(0.5), np.sqrt(0.5)])
 
 
@@ -48,10 +49,10 @@ def test_empty_pose_list_keeps_shapes():
 
 
 def test_pose_stamped_round_trip():
-    msg = cv.pose_stamped_msg([1.0, -2.0, 0.5], cv.yaw_to_quaternion(0.3), stamp=1.25)
+    msg = cv.pose_stamped_msg([1.0, -2.0, 0.5], quat_from_yaw(0.3), stamp=1.25)
     pos, quat = cv.pose_stamped_to_numpy(msg)
     np.testing.assert_array_equal(pos, [1.0, -2.0, 0.5])
-    np.testing.assert_allclose(quat, cv.yaw_to_quaternion(0.3))
+    np.testing.assert_allclose(quat, quat_from_yaw(0.3))
     assert msg.header.frame_id == 'world'
 
 

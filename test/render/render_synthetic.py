@@ -74,7 +74,8 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
 
     from iguana_ros.bag.schema import message_definition
     from iguana_ros.bag.storage import BagWriter
-    from iguana_ros.nodes.conversions import odometry_msg, triangle_list_marker_cdr, yaw_to_quaternion
+    from iguana_ros.geometry import quat_from_yaw
+    from iguana_ros.nodes.conversions import odometry_msg, triangle_list_marker_cdr
     from iguana_ros.topics import topic
 
     writer = BagWriter(directory, chunk_bytes=chunk_bytes)
@@ -99,7 +100,7 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
         if second_goal is not None and k == int(round(RATE)):   # a new goal arrives at t = 1 s
             writer.write(channels['scene_markers'], _scene_bytes(GOAL, second_goal), log_ns - 500)
         if odometry:
-            msg = odometry_msg(pos, yaw_to_quaternion(yaw), [SPEED * c, SPEED * s, 0.0], [0.0, 0.0, TURN_RATE],
+            msg = odometry_msg(pos, quat_from_yaw(yaw), [SPEED * c, SPEED * s, 0.0], [0.0, 0.0, TURN_RATE],
                                stamp=stamp)
             writer.write(channels['iguana_state'], serialize_message(msg), log_ns + 10)
     writer.close()
