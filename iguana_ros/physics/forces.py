@@ -48,123 +48,176 @@ def lame_parameters(youngs_modulus: np.ndarray, poisson_ratio: float) -> tuple:
 
 
 # ------------------------------------------------------------------------------------------- rotations
+@numba.njit(cache=True, inline='always')
+def _quat_rotation(qx, qy, qz, qw):
+    """Row-major entries (r00, r01, …, r22) of the rotation matrix of the unit quaternion (x, y, z, w)."""
+    return (1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw),
+            2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw),
+            2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy))
+
+
+@numba.njit(cache=True, inline='always')
+def _rotation_step(q, f):
+    """One Müller et al. (2016) iteration towards the rotation maximising tr(Rᵀf) from the quaternion `q` (4-tuple,
+    x y z w) for the 3×3 `f` (9-tuple, row-major); returns (new quaternion, squared step angle)."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _quat_rotation(q[0], q[1], q[2], q[3])
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = f
+    ox = (r10 * f20 - r20 * f10) + (r11 * f21 - r21 * f11) + (r12 * f22 - r22 * f12)   # Σ_c r_c × f_c
+    oy = (r20 * f00 - r00 * f20) + (r21 * f01 - r01 * f21) + (r22 * f02 - r02 * f22)
+    oz = (r00 * f10 - r10 * f00) + (r01 * f11 - r11 * f01) + (r02 * f12 - r12 * f02)
+    dot = r00 * f00 + r10 * f10 + r20 * f20 + r01 * f01 + r11 * f11 + r21 * f21 + r02 * f02 + r12 * f12 + r22 * f22
+    inv = 1.0 / (abs(dot) + 1e-9)
+    ox, oy, oz = ox * inv, oy * inv, oz * inv
+    angle2 = ox * ox + oy * oy + oz * oz
+    if angle2 < 1e-4:                                # small step: first-order quaternion (normalised below)
+        dx, dy, dz, dw = 0.5 * ox, 0.5 * oy, 0.5 * oz, 1.0
+    else:
+        angle = np.sqrt(angle2)
+        sn = np.sin(0.5 * angle) / angle
+        dx, dy, dz, dw = ox * sn, oy * sn, oz * sn, np.cos(0.5 * angle)
+    x, y, z, w = q
+    nx = dw * x + dx * w + dy * z - dz * y
+    ny = dw * y - dx * z + dy * w + dz * x
+    nz = dw * z + dx * y - dy * x + dz * w
+    nw = dw * w - dx * x - dy * y - dz * z
+    norm = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
+    return (nx * norm, ny * norm, nz * norm, nw * norm), angle2
+
+
+@numba.njit(cache=True, inline='always')
+def _extract_quaternion(f, quats, t, max_iter):
+    """Warm-started rotation extraction for tet `t`: iterates `quats[t]` on the 3×3 `f` (9-tuple); returns it."""
+    q = (quats[t, 0], quats[t, 1], quats[t, 2], quats[t, 3])
+    for _ in range(max_iter):
+        q, angle2 = _rotation_step(q, f)
+        if angle2 < 1e-16:                           # converged to 1e-8 rad
+            break
+    quats[t, 0], quats[t, 1], quats[t, 2], quats[t, 3] = q
+    return q
+
+
 @numba.njit(cache=True)
 def quat_to_matrix(q, r):
     """Write the rotation matrix of unit quaternion `q (4,)` (x, y, z, w) into `r (3, 3)`."""
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    r[0, 0] = 1 - 2 * (y * y + z * z)
-    r[0, 1] = 2 * (x * y - z * w)
-    r[0, 2] = 2 * (x * z + y * w)
-    r[1, 0] = 2 * (x * y + z * w)
-    r[1, 1] = 1 - 2 * (x * x + z * z)
-    r[1, 2] = 2 * (y * z - x * w)
-    r[2, 0] = 2 * (x * z - y * w)
-    r[2, 1] = 2 * (y * z + x * w)
-    r[2, 2] = 1 - 2 * (x * x + y * y)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _quat_rotation(q[0], q[1], q[2], q[3])
+    r[0, 0], r[0, 1], r[0, 2] = r00, r01, r02
+    r[1, 0], r[1, 1], r[1, 2] = r10, r11, r12
+    r[2, 0], r[2, 1], r[2, 2] = r20, r21, r22
 
 
 @numba.njit(cache=True)
 def extract_rotation(a, q, r, max_iter):
     """Rotation `r (3, 3)` maximising tr(rᵀa) (Müller et al. 2016), warm-started from and written to `q (4,)`."""
-    for _ in range(max_iter):
-        quat_to_matrix(q, r)
-        ox = 0.0
-        oy = 0.0
-        oz = 0.0
-        dot = 0.0
-        for c in range(3):  # Σ_c r_c × a_c and Σ_c r_c · a_c over the columns
-            ox += r[1, c] * a[2, c] - r[2, c] * a[1, c]
-            oy += r[2, c] * a[0, c] - r[0, c] * a[2, c]
-            oz += r[0, c] * a[1, c] - r[1, c] * a[0, c]
-            dot += r[0, c] * a[0, c] + r[1, c] * a[1, c] + r[2, c] * a[2, c]
-        inv = 1.0 / (abs(dot) + 1e-9)
-        ox *= inv
-        oy *= inv
-        oz *= inv
-        angle2 = ox * ox + oy * oy + oz * oz
-        if angle2 < 1e-16:                           # converged to 1e-8 rad
-            break
-        if angle2 < 1e-4:                            # small step: first-order quaternion (normalised below)
-            dx, dy, dz, dw = 0.5 * ox, 0.5 * oy, 0.5 * oz, 1.0
-        else:
-            angle = np.sqrt(angle2)
-            s = np.sin(0.5 * angle) / angle
-            dx, dy, dz, dw = ox * s, oy * s, oz * s, np.cos(0.5 * angle)
-        x, y, z, w = q[0], q[1], q[2], q[3]
-        nx = dw * x + dx * w + dy * z - dz * y
-        ny = dw * y - dx * z + dy * w + dz * x
-        nz = dw * z + dx * y - dy * x + dz * w
-        nw = dw * w - dx * x - dy * y - dz * z
-        norm = np.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
-        q[0], q[1], q[2], q[3] = nx / norm, ny / norm, nz / norm, nw / norm
+    f = (a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2])
+    qs = q.reshape(1, 4)
+    _extract_quaternion(f, qs, 0, max_iter)
     quat_to_matrix(q, r)
 
 
 # ---------------------------------------------------------------------------------------- elastic force
+@numba.njit(cache=True, inline='always')
+def _deformation_gradient(x, tets, grads, t):
+    """F = Σ_a x_a ⊗ ∇φ_a of tet `t` as a row-major 9-tuple."""
+    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
+    for a in range(4):
+        node = tets[t, a]
+        x0, x1, x2 = x[node, 0], x[node, 1], x[node, 2]
+        g0, g1, g2 = grads[t, a, 0], grads[t, a, 1], grads[t, a, 2]
+        f00 += x0 * g0
+        f01 += x0 * g1
+        f02 += x0 * g2
+        f10 += x1 * g0
+        f11 += x1 * g1
+        f12 += x1 * g2
+        f20 += x2 * g0
+        f21 += x2 * g1
+        f22 += x2 * g2
+    return f00, f01, f02, f10, f11, f12, f20, f21, f22
+
+
+@numba.njit(cache=True, inline='always')
+def _rotated_stress(r, f, two_mu, lam, vol):
+    """V R σ (row-major 9-tuple) with σ = 2μ ε + λ tr(ε) I, ε = sym(RᵀF) − I; `r`, `f` row-major 9-tuples."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = r
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = f
+    s00 = r00 * f00 + r10 * f10 + r20 * f20          # S = RᵀF (its upper triangle and diagonal suffice)
+    s11 = r01 * f01 + r11 * f11 + r21 * f21
+    s22 = r02 * f02 + r12 * f12 + r22 * f22
+    s01 = r00 * f01 + r10 * f11 + r20 * f21
+    s10 = r01 * f00 + r11 * f10 + r21 * f20
+    s02 = r00 * f02 + r10 * f12 + r20 * f22
+    s20 = r02 * f00 + r12 * f10 + r22 * f20
+    s12 = r01 * f02 + r11 * f12 + r21 * f22
+    s21 = r02 * f01 + r12 * f11 + r22 * f21
+    e00, e11, e22 = s00 - 1.0, s11 - 1.0, s22 - 1.0
+    lt = lam * (e00 + e11 + e22)
+    p00, p11, p22 = vol * (two_mu * e00 + lt), vol * (two_mu * e11 + lt), vol * (two_mu * e22 + lt)
+    shear = vol * two_mu * 0.5
+    p01, p02, p12 = shear * (s01 + s10), shear * (s02 + s20), shear * (s12 + s21)
+    return (r00 * p00 + r01 * p01 + r02 * p02, r00 * p01 + r01 * p11 + r02 * p12, r00 * p02 + r01 * p12 + r02 * p22,
+            r10 * p00 + r11 * p01 + r12 * p02, r10 * p01 + r11 * p11 + r12 * p12, r10 * p02 + r11 * p12 + r12 * p22,
+            r20 * p00 + r21 * p01 + r22 * p02, r20 * p01 + r21 * p11 + r22 * p12, r20 * p02 + r21 * p12 + r22 * p22)
+
+
 @numba.njit(cache=True)
 def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters, forces, blocks, tet_blocks, scale):
     """Add corotated linear FEM forces of `tets (n_tets, 4)` at `x (n, 3)`; update `quats (n_tets, 4)`; stiffness."""
-    f_def = np.empty((3, 3))
-    r = np.empty((3, 3))
-    p = np.empty((3, 3))
     rg = np.empty((4, 3))
-    xl = np.empty((4, 3))
     for t in range(tets.shape[0]):
-        g = grads[t]
-        for a in range(4):                          # gather the 4 node positions
-            node = tets[t, a]
-            xl[a, 0] = x[node, 0]
-            xl[a, 1] = x[node, 1]
-            xl[a, 2] = x[node, 2]
-        for i in range(3):                          # deformation gradient F = Σ_a x_a ⊗ ∇φ_a
-            for j in range(3):
-                f_def[i, j] = xl[0, i] * g[0, j] + xl[1, i] * g[1, j] + xl[2, i] * g[2, j] + xl[3, i] * g[3, j]
-        extract_rotation(f_def, quats[t], r, polar_iters)
-        tr = 0.0
-        for i in range(3):                          # ε = sym(RᵀF) − I, written into p
-            for j in range(3):
-                acc = 0.0
-                for k in range(3):
-                    acc += r[k, i] * f_def[k, j] + r[k, j] * f_def[k, i]
-                p[i, j] = 0.5 * acc
-            p[i, i] -= 1.0
-            tr += p[i, i]
-        m2 = 2.0 * mu[t]
-        for i in range(3):                          # σ = 2μ ε + λ tr(ε) I
-            for j in range(3):
-                p[i, j] *= m2
-            p[i, i] += lam[t] * tr
+        f = _deformation_gradient(x, tets, grads, t)
+        q = _extract_quaternion(f, quats, t, polar_iters)
+        r = _quat_rotation(q[0], q[1], q[2], q[3])
         vol = volume[t]
-        for a in range(4):                          # f_a = −V R σ ∇φ_a
-            s0 = p[0, 0] * g[a, 0] + p[0, 1] * g[a, 1] + p[0, 2] * g[a, 2]
-            s1 = p[1, 0] * g[a, 0] + p[1, 1] * g[a, 1] + p[1, 2] * g[a, 2]
-            s2 = p[2, 0] * g[a, 0] + p[2, 1] * g[a, 1] + p[2, 2] * g[a, 2]
+        p = _rotated_stress(r, f, 2.0 * mu[t], lam[t], vol)
+        for a in range(4):                           # f_a = −V R σ ∇φ_a
             node = tets[t, a]
-            for i in range(3):
-                forces[node, i] -= vol * (r[i, 0] * s0 + r[i, 1] * s1 + r[i, 2] * s2)
+            g0, g1, g2 = grads[t, a, 0], grads[t, a, 1], grads[t, a, 2]
+            forces[node, 0] -= p[0] * g0 + p[1] * g1 + p[2] * g2
+            forces[node, 1] -= p[3] * g0 + p[4] * g1 + p[5] * g2
+            forces[node, 2] -= p[6] * g0 + p[7] * g1 + p[8] * g2
         if scale != 0.0:
-            _add_tet_stiffness(g, r, vol * scale * mu[t], vol * scale * lam[t], rg, blocks, tet_blocks[t])
+            for a in range(4):                       # r_a = R ∇φ_a
+                g0, g1, g2 = grads[t, a, 0], grads[t, a, 1], grads[t, a, 2]
+                rg[a, 0] = r[0] * g0 + r[1] * g1 + r[2] * g2
+                rg[a, 1] = r[3] * g0 + r[4] * g1 + r[5] * g2
+                rg[a, 2] = r[6] * g0 + r[7] * g1 + r[8] * g2
+            _add_tet_stiffness(rg, vol * scale * mu[t], vol * scale * lam[t], blocks, tet_blocks[t])
 
 
 @numba.njit(cache=True)
-def _add_tet_stiffness(g, r, vmu, vlam, rg, blocks, block_index):
-    """Add R K Rᵀ of one tet: block (a, b) = V[μ(∇φ_a·∇φ_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ], r_a = R ∇φ_a."""
+def _add_tet_stiffness(rg, vmu, vlam, blocks, block_index):
+    """Add R K Rᵀ of one tet: block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` = R ∇φ_a."""
     for a in range(4):
-        for i in range(3):
-            rg[a, i] = r[i, 0] * g[a, 0] + r[i, 1] * g[a, 1] + r[i, 2] * g[a, 2]
-    for a in range(4):
+        a0, a1, a2 = rg[a, 0], rg[a, 1], rg[a, 2]
         for b in range(a, 4):                        # upper blocks; (b, a) is the transpose
-            gg = vmu * (g[a, 0] * g[b, 0] + g[a, 1] * g[b, 1] + g[a, 2] * g[b, 2])
-            ab = blocks[block_index[4 * a + b]]
-            ba = blocks[block_index[4 * b + a]]
-            for i in range(3):
-                for j in range(3):
-                    k = vmu * rg[b, i] * rg[a, j] + vlam * rg[a, i] * rg[b, j]
-                    if i == j:
-                        k += gg
-                    ab[i, j] += k
-                    if a != b:
-                        ba[j, i] += k
+            b0, b1, b2 = rg[b, 0], rg[b, 1], rg[b, 2]
+            gg = vmu * (a0 * b0 + a1 * b1 + a2 * b2)  # ∇φ_a·∇φ_b = r_a·r_b
+            k00 = (vmu + vlam) * a0 * b0 + gg
+            k11 = (vmu + vlam) * a1 * b1 + gg
+            k22 = (vmu + vlam) * a2 * b2 + gg
+            k01 = vmu * b0 * a1 + vlam * a0 * b1
+            k10 = vmu * b1 * a0 + vlam * a1 * b0
+            k02 = vmu * b0 * a2 + vlam * a0 * b2
+            k20 = vmu * b2 * a0 + vlam * a2 * b0
+            k12 = vmu * b1 * a2 + vlam * a1 * b2
+            k21 = vmu * b2 * a1 + vlam * a2 * b1
+            _add_block(blocks, block_index[4 * a + b], k00, k01, k02, k10, k11, k12, k20, k21, k22)
+            if b != a:
+                _add_block(blocks, block_index[4 * b + a], k00, k10, k20, k01, k11, k21, k02, k12, k22)
+
+
+@numba.njit(cache=True, inline='always')
+def _add_block(blocks, p, k00, k01, k02, k10, k11, k12, k20, k21, k22):
+    """blocks[p] += [[k00, k01, k02], [k10, k11, k12], [k20, k21, k22]]."""
+    blocks[p, 0, 0] += k00
+    blocks[p, 0, 1] += k01
+    blocks[p, 0, 2] += k02
+    blocks[p, 1, 0] += k10
+    blocks[p, 1, 1] += k11
+    blocks[p, 1, 2] += k12
+    blocks[p, 2, 0] += k20
+    blocks[p, 2, 1] += k21
+    blocks[p, 2, 2] += k22
 
 
 # ----------------------------------------------------------------------------------------------- springs
@@ -200,17 +253,10 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, idx):
     c = a * (1.0 - geo)
     k00, k11, k22 = c * u0 * u0 + a * geo, c * u1 * u1 + a * geo, c * u2 * u2 + a * geo
     k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
-    for b, sign in ((idx[0], 1.0), (idx[1], 1.0), (idx[2], -1.0), (idx[3], -1.0)):
-        blk = blocks[b]
-        blk[0, 0] += sign * k00
-        blk[1, 1] += sign * k11
-        blk[2, 2] += sign * k22
-        blk[0, 1] += sign * k01
-        blk[1, 0] += sign * k01
-        blk[0, 2] += sign * k02
-        blk[2, 0] += sign * k02
-        blk[1, 2] += sign * k12
-        blk[2, 1] += sign * k12
+    _add_block(blocks, idx[0], k00, k01, k02, k01, k11, k12, k02, k12, k22)
+    _add_block(blocks, idx[1], k00, k01, k02, k01, k11, k12, k02, k12, k22)
+    _add_block(blocks, idx[2], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
+    _add_block(blocks, idx[3], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
 
 
 # ----------------------------------------------------------------------------------------------- contact
