@@ -62,13 +62,15 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
     result = {
         'model': name, 'nodes': len(sim.rest_positions), 'tets': len(sim.model.tets),
         'springs': len(sim.desired_lengths_rest), 'preset': preset if isinstance(preset, str) else 'custom',
-        'dt': fid.dt, 'solver': fid.solver, 'preconditioner': fid.preconditioner, 'cg_tol': fid.cg_tol, 'jacobian_every': fid.effective_jacobian_every,
-        'simulated_s': sim.time, 'steps': steps,
+        'dt': fid.dt, 'solver': fid.solver, 'preconditioner': fid.preconditioner, 'cg_tol': fid.cg_tol,
+        'jacobian_every': fid.effective_jacobian_every, 'factor_every': fid.factor_every,
+        'polar_iters': fid.polar_iters, 'simulated_s': sim.time, 'steps': steps,
         'realtime_factor': sim.time / timing['sim_wall_s'],
         'realtime_factor_cpu': sim.time / max(cpu_s - timing['gait_wall_s'], 1e-12),
         'ms_per_step': 1e3 * timing['sim_wall_s'] / steps,
         'gait_ms_per_frame': 1e3 * timing['gait_wall_s'] / max(timing['frames'], 1),
         'cg_iterations_per_step': sim.stats['cg_iterations_per_step'],
+        'factorisations_per_step': sim.stats['factorisations'] / max(steps, 1),
         'nodes_in_contact': sim.stats['nodes_in_contact'],
         'com_travel_m': float(np.linalg.norm(sim.center_of_mass()[:2] - (sim.model.node_mass @ start[:, :2])
                                              / sim.model.node_mass.sum())),
@@ -141,14 +143,16 @@ def _time_us(fn, repeats: int) -> float:
 
 TRADEOFF_SETTINGS = (
     # (group, label, overrides of the balanced preset); each compared with the finest run of the same mesh
-    [('dt', f'dt=1/{n}', dict(dt=1.0 / n, jacobian_every=1)) for n in (4800, 2400, 1200, 600, 300, 120)]
-    + [('cg_tol', f'cg_tol={tol:g}', dict(cg_tol=tol, jacobian_every=1)) for tol in (1e-2, 1e-3, 1e-4, 1e-6)]
-    + [('solver', 'direct', dict(solver='direct', jacobian_every=1)),
-       ('solver', 'ssor', dict(preconditioner='ssor', jacobian_every=1))]
+    [('dt', f'dt=1/{n}', dict(dt=1.0 / n)) for n in (4800, 2400, 1200, 600, 300, 120)]
+    + [('cg_tol', f'cg_tol={tol:g}', dict(cg_tol=tol)) for tol in (1e-2, 1e-3, 1e-4, 1e-6)]
+    + [('solver', 'direct', dict(solver='direct')),
+       ('solver', 'ssor', dict(preconditioner='ssor'))]
     + [('jacobian_every', f'jacobian_every={k}', dict(jacobian_every=k)) for k in (1, 2, 4)]
+    + [('factor_every', f'factor_every={k}', dict(factor_every=k)) for k in (1, 2, 4, 8, 16)]
+    + [('polar_iters', f'polar_iters={k}', dict(polar_iters=k)) for k in (1, 2, 8)]
     + [('preset', name, dict(preset=name)) for name in ('fast', 'balanced', 'accurate')]
 )
-REFERENCE = dict(dt=1.0 / 4800.0, cg_tol=1e-8, cg_max_iter=1000, jacobian_every=1)
+REFERENCE = dict(dt=1.0 / 4800.0, cg_tol=1e-8, cg_max_iter=1000, jacobian_every=1, factor_every=1, polar_iters=20)
 """The finest run every other run is compared with."""
 
 

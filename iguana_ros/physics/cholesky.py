@@ -104,8 +104,9 @@ def _symbolic(n: int, row_ptr: np.ndarray, cols: np.ndarray, perm: np.ndarray, i
 
 
 def empty_factor(n_nodes: int) -> tuple:
-    """Placeholder `(values (0, 3, 3), diag_inv (n_nodes, 3, 3), y (n_nodes, 3), ok (1,))` of no factor."""
-    return np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)), np.zeros(1, dtype=np.int64)
+    """Placeholder `(values (0, 3, 3), diag_inv (n_nodes, 3, 3), y (n_nodes, 3), factor state (3,))` of no
+    factor."""
+    return np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64)
 
 
 @numba.njit(cache=True)

@@ -19,7 +19,9 @@ RESOLUTIONS = ('coarse', 'medium', 'fine')
 @dataclass(frozen=True)
 class Fidelity:
     """Integration settings: time step (s), linear solver and CG preconditioner, CG tolerance/iterations,
-    Jacobian refresh interval (steps), rotation-extraction iterations per step.
+    Jacobian refresh interval (steps), rotation-extraction iterations per step, and how long a Cholesky
+    preconditioner factor is reused (`factor_every` steps; refactorised sooner once a solve needs more than
+    `refactor_iters` CG iterations).
 
     `resolution` is the mesh resolution a scene or benchmark builds the model at (the simulator itself
     simulates whatever model it is given).
@@ -33,6 +35,8 @@ class Fidelity:
     jacobian_every: int = 1
     polar_iters: int = 8
     resolution: str = 'medium'
+    factor_every: int = 1
+    refactor_iters: int = 2
 
     @property
     def effective_jacobian_every(self) -> int:
@@ -50,6 +54,8 @@ class Fidelity:
             (int(self.jacobian_every) >= 1, 'jacobian_every', 'an integer >= 1 (steps between refreshes)'),
             (int(self.polar_iters) >= 1, 'polar_iters', 'an integer >= 1'),
             (self.resolution in RESOLUTIONS, 'resolution', f'one of {RESOLUTIONS}'),
+            (int(self.factor_every) >= 1, 'factor_every', 'an integer >= 1 (steps a Cholesky factor is reused)'),
+            (int(self.refactor_iters) >= 1, 'refactor_iters', 'an integer >= 1 (CG iterations)'),
         ]
         for ok, name, expected in checks:
             if not ok:
@@ -59,17 +65,20 @@ class Fidelity:
 
 PRESETS = {
     # jacobian_every=1: the spring-dominated iguana presets (body/stiffness.py, leg springs ~1e5-1e6 N/m) diverge
-    # with any reused matrix under an abrupt command (bench gait: 120 m/s at t=3 ms with every 2-4 steps); a fresh
-    # matrix each step costs about the same time here because CG then needs fewer iterations (measured).
-    # preconditioner='cholesky': the block Cholesky factor of each step's matrix (CG converges in 1 iteration);
+    # with any reused matrix under an abrupt command (bench gait: 120 m/s at t=3 ms with every 2-4 steps).
+    # preconditioner='cholesky': the block Cholesky factor of the matrix makes CG converge in 1 iteration;
     # measured 1.9x (medium) and 1.5x (coarse) faster than block Jacobi's 62 / 37 iterations with these stiff
-    # springs, and the trajectory is the exact solve's (block Jacobi at CG 1e-2 differed from it by 21 mm node RMS)
+    # springs. factor_every=4: the factor (the largest single cost, ~230 us on medium) is reused for 4 steps;
+    # the matrix itself stays current, CG then needs ~1.8 iterations per step and the trajectory's error against
+    # the dt=1/4800 reference is unchanged (25 vs 28 mm node RMS after 2 s, dominated by the time step).
+    # polar_iters=1: the rotations are warm-started from the last step, so one iteration per step tracks them
+    # (the 8 of before cost 0.24 ms/step for no measurable change in the error).
     'fast': Fidelity(dt=1.0 / 600.0, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=100, jacobian_every=1,
-                     polar_iters=4),
+                     polar_iters=1, factor_every=4),
     'balanced': Fidelity(dt=SIM_DT, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=200, jacobian_every=1,
-                         polar_iters=8),
+                         polar_iters=1, factor_every=4),
     'accurate': Fidelity(dt=1.0 / 2400.0, preconditioner='cholesky', cg_tol=1e-4, cg_max_iter=500,
-                         jacobian_every=1, polar_iters=20),
+                         jacobian_every=1, polar_iters=20, factor_every=1),
 }
 """Named presets; their measured speed and error are in the README ("Simulator")."""
 

@@ -6,8 +6,8 @@ and contact damping C_c:
     A Δv = b,   A = M(1 + hα) + h C_c + (hβ + h²) K_int + h² K_c,   b = h (f − αMv) − [(hβ + h²) K_int + h² K_c] v
 
 with `f` every force except the Rayleigh terms; then v ← v + Δv, x ← x + h v. A (and the CG preconditioner)
-is rebuilt every `jacobian_every` steps (and with it the block Cholesky factor when that is the preconditioner);
-forces are always evaluated at the current state.
+is rebuilt every `jacobian_every` steps; the block Cholesky factor of A, when that is the preconditioner, every
+`factor_every` steps or sooner (see `run_steps_cg`); forces are always evaluated at the current state.
 `run_steps_cg` advances many steps in one compiled call; `prepare_step` / `finish_step` split a step around an
 external (direct) linear solve.
 """
@@ -26,11 +26,12 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
     FP_MAX_SPEED, FP_MAX_DEPTH, FP_CG_FAIL = range(15)
 N_FP = 15
 # indices of the integer parameter vector `ip`
-IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER = range(5)
-N_IP = 5
+IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
+    IP_REFACTOR_ITERS = range(7)
+N_IP = 7
 # indices of the counter vector `counters`
-C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS = range(5)
-N_COUNTERS = 5
+C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS = range(6)
+N_COUNTERS = 6
 
 STATUS_OK = 0
 STATUS_NAN = 1
@@ -154,30 +155,66 @@ def finish_step(state, fp, counters, info):
     return status
 
 
+# entries of the factor state `chol[4]` (3,) int64 of the block Cholesky preconditioner
+F_VALID, F_STEP, F_LAST_ITERS = range(3)
+
+
+@numba.njit(cache=True)
+def _factor_is_due(ip, counters, factor_state):
+    """Whether the Cholesky preconditioner must be refactorised before this step's solve: there is none, it is
+    `factor_every` steps old, or the last solve needed more than `refactor_iters` CG iterations."""
+    return (factor_state[F_VALID] <= 0 or counters[C_STEP] - factor_state[F_STEP] >= ip[IP_FACTOR_EVERY]
+            or factor_state[F_LAST_ITERS] > ip[IP_REFACTOR_ITERS])
+
+
+@numba.njit(cache=True)
+def _refactor(blocks, counters, chol):
+    """Factorise the current system matrix into `chol`; counts it (and a failure, which leaves no factor)."""
+    factor_state = chol[4]
+    factor_state[F_VALID] = block_cholesky(chol[0], blocks, chol[1], chol[2])
+    factor_state[F_STEP] = counters[C_STEP]
+    counters[C_FACTORS] += 1
+    if not factor_state[F_VALID]:
+        counters[C_FACTOR_FAILS] += 1
+
+
+@numba.njit(cache=True)
+def _solve(model, state, fp, ip, chol, kind):
+    """Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold)."""
+    step_kind = 0 if kind == 2 and not chol[4][F_VALID] else kind   # no factor: block Jacobi
+    return preconditioned_cg(model[11], model[12], state[6], state[8], chol, state[10], state[2], fp[FP_CG_TOL],
+                             fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state[11], step_kind)
+
+
 @numba.njit(cache=True)
 def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_steps, info, chol):
     """Advance `n_steps` steps with preconditioned CG; stops at the first failure. Returns (status, steps done).
 
-    `chol` = (pattern arrays, values, diag_inv, work (n, 3), ok (1,)) of the block Cholesky preconditioner,
-    refactorised at every Jacobian refresh; a step whose factorisation fails uses block Jacobi instead.
+    `chol` = (pattern arrays, values, diag_inv, work (n, 3), factor state (3,)) of the block Cholesky
+    preconditioner. The system matrix is current every step; its factor is reused for up to `factor_every`
+    steps (CG absorbs the difference in a few iterations) and refactorised early after a slow solve, or
+    when a solve with a stale factor fails (then the solve is repeated). A failed factorisation falls back to
+    block Jacobi for that step.
     """
-    row_ptr, cols = model[11], model[12]
-    blocks, pinv, rhs, dv, work = state[6], state[8], state[10], state[2], state[11]
     kind = ip[IP_PRECONDITIONER]
-    ok = chol[4]
+    factor_state = chol[4]
     for step in range(n_steps):
         status, refreshed = prepare_step(model, state, fp, ip, counters, desired_lengths, external, info)
         if status != STATUS_OK:
             return status, step
-        if kind == 2 and refreshed:
-            ok[0] = block_cholesky(chol[0], blocks, chol[1], chol[2])
-            if not ok[0]:
-                counters[C_FACTOR_FAILS] += 1
-        step_kind = 0 if kind == 2 and not ok[0] else kind
-        iters, res, threshold = preconditioned_cg(row_ptr, cols, blocks, pinv, chol, rhs, dv, fp[FP_CG_TOL],
-                                                  fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], work, step_kind)
+        if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
+            _refactor(state[6], counters, chol)
+        iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
+        failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
+        if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:
+            counters[C_CG_ITERS] += abs(iters)
+            _refactor(state[6], counters, chol)              # a stale factor: refactorise and solve again
+            state[2][:] = 0.0
+            iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
+            failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         counters[C_CG_ITERS] += abs(iters)
-        if iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold:
+        factor_state[F_LAST_ITERS] = abs(iters)
+        if failed:
             info[0] = iters
             info[1] = res / threshold if threshold > 0 else np.inf
             return STATUS_SOLVER, step

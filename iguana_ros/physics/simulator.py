@@ -120,6 +120,8 @@ class SoftBodySimulator:
         ip[itg.IP_POLAR_ITERS] = fid.polar_iters
         ip[itg.IP_HAS_GROUND] = self.terrain is not None
         ip[itg.IP_PRECONDITIONER] = PRECONDITIONER_CODES[fid.preconditioner]
+        ip[itg.IP_FACTOR_EVERY] = fid.factor_every
+        ip[itg.IP_REFACTOR_ITERS] = fid.refactor_iters
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
@@ -140,9 +142,9 @@ class SoftBodySimulator:
         n = len(self.rest_positions)
         if self.fidelity.preconditioner == 'cholesky':
             pattern = CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols)
-            values, diag_inv, work, ok = np.zeros((pattern.n_factor_blocks, 3, 3)), np.zeros((n, 3, 3)), \
-                np.zeros((n, 3)), np.zeros(1, dtype=np.int64)
-            return pattern.arrays(), values, diag_inv, work, ok
+            values, diag_inv, work, factor_state = np.zeros((pattern.n_factor_blocks, 3, 3)), \
+                np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros(3, dtype=np.int64)
+            return pattern.arrays(), values, diag_inv, work, factor_state
         empty = np.zeros(0, dtype=np.int64)
         return ((empty,) * 11,) + empty_factor(n)
 
@@ -194,14 +196,15 @@ class SoftBodySimulator:
 
     @property
     def stats(self) -> dict:
-        """Counters: steps, CG iterations (total and per step), Jacobian refreshes, nodes in contact."""
+        """Counters: steps, CG iterations (total and per step), Jacobian refreshes, Cholesky factorisations,
+        nodes in contact."""
         c = self._counters
         steps = int(c[itg.C_STEP])
         return {'steps': steps, 'cg_iterations': int(c[itg.C_CG_ITERS]),
                 'cg_iterations_per_step': float(c[itg.C_CG_ITERS]) / max(steps, 1),
                 'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS]),
                 'direct_fallback_steps': self._fallback_steps,
-                'cholesky_failures': int(c[itg.C_FACTOR_FAILS])}
+                'cholesky_failures': int(c[itg.C_FACTOR_FAILS]), 'factorisations': int(c[itg.C_FACTORS])}
 
     # -------------------------------------------------------------------------------------------- stepping
     def advance_frame(self, desired_lengths=None, external_forces=None, n_steps: int | None = None) -> None:

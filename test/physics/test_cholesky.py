@@ -53,18 +53,42 @@ def test_indefinite_matrix_is_reported(bar):
     assert not block_cholesky(chol.arrays(), blocks, values, diag_inv)
 
 
-def test_cholesky_cg_run_equals_direct_lu(bar):
-    """A dropped, bent bar landing on hills: CG with the factor tracks the direct solve to round-off."""
+def _drop_bent_bar(bar, **kwargs) -> SoftBodySimulator:
+    """The bar dropped 5 cm onto hills with its springs shortened 3 %, run for 0.3 s (fall, touch-down, friction)."""
     terrain = HeightField.hills(amplitude=0.02, wavelength=0.3, seed=1, extent=1.0)
-    runs = {}
-    for name, kwargs in (('cholesky', dict(preconditioner='cholesky')), ('direct', dict(solver='direct')),
-                         ('jacobi', dict(preconditioner='jacobi'))):
-        sim = SoftBodySimulator(bar, terrain, 'balanced', **kwargs)
-        sim.reset(np.asarray(bar.rest_positions) + [0.0, 0.0, 0.05])
-        bent = np.asarray(bar.spring_rest_lengths) * 0.97
-        for _ in range(9):                           # 0.3 s: fall, touch-down, friction
-            sim.advance_frame(bent)
-        runs[name] = sim
+    sim = SoftBodySimulator(bar, terrain, 'balanced', **kwargs)
+    sim.reset(np.asarray(bar.rest_positions) + [0.0, 0.0, 0.05])
+    bent = np.asarray(bar.spring_rest_lengths) * 0.97
+    for _ in range(9):
+        sim.advance_frame(bent)
+    return sim
+
+
+def test_reused_factor_needs_few_iterations_and_tracks_direct_solve(bar):
+    """A factor reused for up to 4 steps: far fewer factorisations, ≤ 3 CG iterations a step, same motion."""
+    lagged = _drop_bent_bar(bar, factor_every=4, refactor_iters=2)
+    direct = _drop_bent_bar(bar, solver='direct')
+    steps = lagged.stats['steps']
+    assert steps // 4 <= lagged.stats['factorisations'] < steps // 2
+    assert 1.0 < lagged.stats['cg_iterations_per_step'] <= 3.0
+    assert lagged.stats['direct_fallback_steps'] == 0
+    diff = np.abs(lagged.positions - direct.positions).max()
+    assert diff < 1e-3, f'{diff:.3g} m from the direct solve'
+
+
+def test_stale_factor_that_fails_is_refactorised_not_given_up(bar):
+    """With one CG iteration allowed, a stale factor cannot converge: the step refactorises and solves again."""
+    sim = _drop_bent_bar(bar, factor_every=1000, refactor_iters=1000, cg_max_iter=1)
+    assert sim.stats['direct_fallback_steps'] == 0
+    assert sim.stats['factorisations'] > 1
+    assert sim.stats['cg_iterations_per_step'] > 1.0
+
+
+def test_cholesky_cg_run_equals_direct_lu(bar):
+    """A dropped, bent bar landing on hills: CG with a fresh factor each step tracks the direct solve to round-off."""
+    runs = {name: _drop_bent_bar(bar, **kwargs) for name, kwargs in (
+        ('cholesky', dict(preconditioner='cholesky', factor_every=1)), ('direct', dict(solver='direct')),
+        ('jacobi', dict(preconditioner='jacobi')))}
     assert runs['cholesky'].stats['cholesky_failures'] == 0
     assert runs['cholesky'].stats['nodes_in_contact'] > 0
     assert runs['cholesky'].stats['cg_iterations_per_step'] == pytest.approx(1.0)
