@@ -11,6 +11,7 @@ from iguana_ros.constants import (
     CONTACT_DAMPING_RATIO, CONTACT_STIFFNESS, FRAME_RATE, FRICTION_COEFFICIENT, FRICTION_STIFFNESS, GRAVITY,
     MAX_NODE_SPEED, MAX_PENETRATION, RAYLEIGH_ALPHA, RAYLEIGH_BETA)
 from iguana_ros.errors import InputError
+from iguana_ros.jit_cache import ensure_fresh_kernel_cache
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.errors import SimulationDiverged
@@ -56,6 +57,7 @@ class SoftBodySimulator:
                  contact_stiffness: float = CONTACT_STIFFNESS, contact_damping_ratio: float = CONTACT_DAMPING_RATIO,
                  friction_stiffness: float = FRICTION_STIFFNESS, max_speed: float = MAX_NODE_SPEED,
                  max_penetration: float = MAX_PENETRATION, cg_fallback: bool = True, **overrides) -> None:
+        ensure_fresh_kernel_cache()
         self.model = model
         self.terrain = terrain
         self.fidelity: Fidelity = get_fidelity(fidelity, **overrides)

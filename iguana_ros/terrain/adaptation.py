@@ -29,6 +29,7 @@ import numpy as np
 from iguana_ros.body.skeleton import Skeleton
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.geometry import matrix_to_quat, quat_from_rotvec, quat_mul, quat_to_matrix, quat_to_rotvec
+from iguana_ros.jit_cache import ensure_fresh_kernel_cache
 from iguana_ros.terrain.heightfield import HeightField, bilinear_height_gradient
 
 FOOT_BONES = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
@@ -344,6 +345,7 @@ class _ResidualProblem:
     def __init__(self, skeleton: Skeleton, terrain: HeightField, root_position: np.ndarray,
                  local_rotations: np.ndarray, targets: np.ndarray, weights: np.ndarray,
                  clearance: np.ndarray, settings: AdaptationSettings) -> None:
+        ensure_fresh_kernel_cache()                  # the objective calls heightfield's kernel
         self.var_bones = ik_bones(skeleton)
         self.x_ref = np.append(quat_to_rotvec(local_rotations[self.var_bones]).ravel(), 0.0)
         self.positions = np.empty((skeleton.n_bones, 3))

@@ -1,0 +1,38 @@
+"""numba cache invalidation: an edited kernel source removes the package's cached kernels, an unchanged one not."""
+from pathlib import Path
+
+from iguana_ros.jit_cache import STAMP_NAME, invalidate_stale_kernels, kernel_sources_digest
+
+
+def _package(tmp_path: Path) -> Path:
+    """A package with a kernel module calling a kernel of another module, and cached kernels of both."""
+    pkg = tmp_path / 'pkg'
+    (pkg / 'sub' / '__pycache__').mkdir(parents=True)
+    (pkg / '__pycache__').mkdir()
+    (pkg / 'callee.py').write_text('import numba\n@numba.njit(cache=True)\ndef f(x):\n    return x + 1\n')
+    (pkg / 'sub' / 'caller.py').write_text('import numba\nfrom pkg.callee import f\n')
+    (pkg / 'plain.py').write_text('X = 1\n')
+    for name in ('sub/__pycache__/caller.g-3.py311.nbi', 'sub/__pycache__/caller.g-3.py311.1.nbc',
+                 '__pycache__/callee.f-2.py311.nbi'):
+        (pkg / name).write_bytes(b'cached')
+    return pkg
+
+
+def test_first_check_and_changed_callee_clear_the_cache_unchanged_sources_keep_it(tmp_path):
+    pkg = _package(tmp_path)
+    assert invalidate_stale_kernels(pkg) == 3                     # no stamp yet: caches of unknown sources
+    assert (pkg / '__pycache__' / STAMP_NAME).read_text() == kernel_sources_digest(pkg)
+    (pkg / 'sub' / '__pycache__' / 'caller.g-3.py311.nbi').write_bytes(b'recompiled')
+    assert invalidate_stale_kernels(pkg) == 0                     # fresh: nothing deleted
+    assert (pkg / 'sub' / '__pycache__' / 'caller.g-3.py311.nbi').exists()
+    (pkg / 'plain.py').write_text('X = 2\n')                      # a module without kernels does not count
+    assert invalidate_stale_kernels(pkg) == 0
+    (pkg / 'callee.py').write_text('import numba\n@numba.njit(cache=True)\ndef f(x):\n    return x + 2\n')
+    assert invalidate_stale_kernels(pkg) == 1                     # the caller's stale cache goes
+    assert not list(pkg.rglob('*.nbi'))
+
+
+def test_unwritable_cache_is_not_an_error(tmp_path):
+    pkg = _package(tmp_path)
+    (pkg / '__pycache__' / STAMP_NAME).mkdir()                    # the stamp cannot be opened as a file
+    assert invalidate_stale_kernels(pkg) == 0
