@@ -71,7 +71,9 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
             info[1] = depth
             return STATUS_PENETRATION, refresh
     if refresh:
-        _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha, ip[IP_HAS_GROUND] != 0)
+        _finish_matrix(mass, diag, blocks, dextra, diag_k, diag_c, in_a, h, alpha, ip[IP_HAS_GROUND] != 0)
+        if ip[IP_PRECONDITIONER] != 2:               # the Cholesky path inverts only if its factor fails
+            invert_diagonal(diag, blocks, pinv)
         counters[C_REFRESHES] += 1
     elif ip[IP_HAS_GROUND]:
         _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha)
@@ -86,8 +88,15 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
 
 
 @numba.njit(cache=True)
-def _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha, has_ground):
-    """Add the diagonal terms M(1 + hα) + h C_c + h² K_c and invert the diagonal blocks for the preconditioner."""
+def invert_diagonal(diag, blocks, pinv):
+    """pinv[i] = A_ii⁻¹ `(n, 3, 3)` for the block Jacobi preconditioner (`diag (n,)`: indices of the A_ii)."""
+    for i in range(diag.shape[0]):
+        invert_3x3(blocks[diag[i]], pinv[i])
+
+
+@numba.njit(cache=True)
+def _finish_matrix(mass, diag, blocks, dextra, diag_k, diag_c, in_a, h, alpha, has_ground):
+    """Add the diagonal terms M(1 + hα) + h C_c + h² K_c to the system matrix."""
     h2 = h * h
     for i in range(mass.shape[0]):
         blk = blocks[diag[i]]
@@ -100,7 +109,6 @@ def _finish_matrix(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, al
                 blk[p, q] += c[p, q]
             d[p, p] += mass[i] * (1.0 + h * alpha)
             blk[p, p] += mass[i] * (1.0 + h * alpha)
-        invert_3x3(blk, pinv[i])
 
 
 @numba.njit(cache=True)
@@ -181,7 +189,10 @@ def _refactor(blocks, counters, chol):
 @numba.njit(cache=True)
 def _solve(model, state, fp, ip, chol, kind):
     """Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold)."""
-    step_kind = 0 if kind == 2 and not chol[4][F_VALID] else kind   # no factor: block Jacobi
+    step_kind = kind
+    if kind == 2 and not chol[4][F_VALID]:          # no factor: block Jacobi
+        step_kind = 0
+        invert_diagonal(model[13], state[6], state[8])
     return preconditioned_cg(model[11], model[12], state[6], state[8], chol, state[10], state[2], fp[FP_CG_TOL],
                              fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state[11], step_kind)
 
