@@ -19,8 +19,8 @@ class CholeskyPattern:
     """Structure of the block factor L over `n_nodes` in the permuted order `perm` (L row/col j = node perm[j]).
 
     Column j of L holds the blocks `l_rows[l_ptr[j]:l_ptr[j + 1]]` (ascending, the diagonal first).
-    A blocks feeding column j: `a_block[a_ptr[j]:a_ptr[j + 1]]` (block (perm[j], c) of A, transposed into L
-    position `a_dest`). Updates of column j: for u in `u_ptr[j]:u_ptr[j + 1]`, column `u_col[u]` from its
+    A blocks feeding column j: stored blocks `a_block[a_ptr[j]:a_ptr[j + 1]]` of A's upper triangle, copied
+    (transposed where `a_transpose`) into L position `a_dest`. Updates of column j: for u in `u_ptr[j]:u_ptr[j + 1]`, column `u_col[u]` from its
     position `u_from[u]` (= L_jk) to its end lands at positions `u_dest[u_start[u]:…]` of column j.
     """
 
@@ -31,6 +31,7 @@ class CholeskyPattern:
     a_ptr: np.ndarray     # (n_nodes + 1,) int64
     a_block: np.ndarray   # (n_a,) int64
     a_dest: np.ndarray    # (n_a,) int64
+    a_transpose: np.ndarray  # (n_a,) int64, 1 where the L block is the stored block transposed
     u_ptr: np.ndarray     # (n_nodes + 1,) int64
     u_col: np.ndarray     # (n_u,) int64
     u_from: np.ndarray    # (n_u,) int64
@@ -39,27 +40,22 @@ class CholeskyPattern:
 
     @classmethod
     def build(cls, row_ptr: np.ndarray, cols: np.ndarray) -> 'CholeskyPattern':
-        """Ordering and symbolic factor of the block-CSR pattern `(row_ptr (n + 1,), cols (n_blocks,))`."""
+        """Ordering and symbolic factor of the upper-triangle block-CSR pattern `(row_ptr (n + 1,),
+        cols (n_blocks,))` of a symmetric matrix."""
         n = len(row_ptr) - 1
+        full_ptr, full_cols = _symmetric_pattern(row_ptr, cols)
         candidates = []
-        for perm in _orderings(row_ptr, cols):
+        for perm in _orderings(full_ptr, full_cols):
             iperm = np.empty(n, dtype=np.int64)
             iperm[perm] = np.arange(n)
-            struct = _symbolic(n, row_ptr, cols, perm, iperm)
+            struct = _symbolic(n, full_ptr, full_cols, perm, iperm)
             candidates.append((_update_count(struct), perm, iperm, struct))
         _, perm, iperm, struct = min(candidates, key=lambda c: c[0])
         l_ptr = np.zeros(n + 1, dtype=np.int64)
         l_ptr[1:] = np.cumsum([len(s) for s in struct])
         l_rows = np.concatenate(struct).astype(np.int64)
         where = [dict(zip(s.tolist(), range(l_ptr[j], l_ptr[j + 1]))) for j, s in enumerate(struct)]
-        a_ptr, a_block, a_dest = [0], [], []
-        for j in range(n):
-            for k in range(row_ptr[perm[j]], row_ptr[perm[j] + 1]):
-                i = iperm[cols[k]]
-                if i >= j:
-                    a_block.append(k)
-                    a_dest.append(where[j][i])
-            a_ptr.append(len(a_block))
+        a_block, a_dest, a_transpose, a_ptr = _gather_map(row_ptr, cols, iperm, where)
         updates = [[] for _ in range(n)]
         for k in range(n):                           # L_jk ≠ 0 (j > k) updates column j with rows ≥ j of column k
             for p in range(l_ptr[k] + 1, l_ptr[k + 1]):
@@ -73,8 +69,8 @@ class CholeskyPattern:
                 u_start.append(len(u_dest))
             u_ptr.append(len(u_col))
         as_int = lambda a: np.asarray(a, dtype=np.int64)          # noqa: E731
-        return cls(n_nodes=n, perm=perm, l_ptr=l_ptr, l_rows=l_rows, a_ptr=as_int(a_ptr), a_block=as_int(a_block),
-                   a_dest=as_int(a_dest), u_ptr=as_int(u_ptr), u_col=as_int(u_col), u_from=as_int(u_from),
+        return cls(n_nodes=n, perm=perm, l_ptr=l_ptr, l_rows=l_rows, a_ptr=a_ptr, a_block=a_block, a_dest=a_dest,
+                   a_transpose=a_transpose, u_ptr=as_int(u_ptr), u_col=as_int(u_col), u_from=as_int(u_from),
                    u_start=as_int(u_start), u_dest=as_int(u_dest))
 
     @property
@@ -83,14 +79,42 @@ class CholeskyPattern:
         return len(self.l_rows)
 
     def arrays(self) -> tuple:
-        """The tuple the compiled kernels take: (perm, l_ptr, l_rows, a_ptr, a_block, a_dest, u_ptr, u_col,
-        u_from, u_start, u_dest)."""
-        return (self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest, self.u_ptr, self.u_col,
-                self.u_from, self.u_start, self.u_dest)
+        """The tuple the compiled kernels take: (perm, l_ptr, l_rows, a_ptr, a_block, a_dest, a_transpose, u_ptr,
+        u_col, u_from, u_start, u_dest)."""
+        return (self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest, self.a_transpose,
+                self.u_ptr, self.u_col, self.u_from, self.u_start, self.u_dest)
+
+
+def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
+    """Both triangles `(row_ptr (n + 1,), cols)` of the symmetric pattern whose upper triangle is given."""
+    from scipy.sparse import csr_matrix
+
+    n = len(row_ptr) - 1
+    upper = csr_matrix((np.ones(len(cols)), cols, row_ptr), shape=(n, n))
+    full = (upper + upper.T).tocsr()
+    full.sort_indices()
+    return full.indptr.astype(np.int64), full.indices.astype(np.int64)
+
+
+def _gather_map(row_ptr: np.ndarray, cols: np.ndarray, iperm: np.ndarray, where: list) -> tuple:
+    """Where each stored upper block (r, c) of A goes in L: column min(iperm[r], iperm[c]), row the max, transposed
+    when iperm[c] ≥ iperm[r] (then L holds A(c, r) = blockᵀ). Returns (a_block, a_dest, a_transpose, a_ptr)."""
+    n = len(row_ptr) - 1
+    rows = np.repeat(np.arange(n), np.diff(row_ptr))
+    pr, pc = iperm[rows], iperm[cols]
+    transpose = pc >= pr
+    l_col = np.where(transpose, pr, pc)
+    l_row = np.where(transpose, pc, pr)
+    order = np.argsort(l_col, kind='stable')
+    dest = np.array([where[j][i] for i, j in zip(l_row[order], l_col[order])], dtype=np.int64)
+    a_ptr = np.zeros(n + 1, dtype=np.int64)
+    a_ptr[1:] = np.cumsum(np.bincount(l_col, minlength=n))
+    return order.astype(np.int64), dest, transpose[order].astype(np.int64), a_ptr
 
 
 def _orderings(row_ptr: np.ndarray, cols: np.ndarray) -> list:
-    """Candidate node orderings `(n,)` of the block pattern: reverse Cuthill–McKee and minimum degree on A + Aᵀ."""
+    """Candidate node orderings `(n,)` of the full symmetric block pattern: reverse Cuthill–McKee and minimum
+    degree."""
     from scipy.sparse import csr_matrix, identity
     from scipy.sparse.csgraph import reverse_cuthill_mckee
     from scipy.sparse.linalg import splu
@@ -130,7 +154,7 @@ def empty_factor(n_nodes: int) -> tuple:
     return np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline='always')
 def _chol3(a, out):
     """Lower Cholesky factor of the symmetric 3×3 `a` into `out`; False if `a` is not positive definite."""
     d0 = a[0, 0]
@@ -154,7 +178,7 @@ def _chol3(a, out):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline='always')
 def _lower_inverse(l, out):
     """out = l⁻¹ for a lower-triangular 3×3 `l`."""
     i00 = 1.0 / l[0, 0]
@@ -168,7 +192,7 @@ def _lower_inverse(l, out):
     out[2, 0], out[2, 1], out[2, 2] = i20, i21, i22
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline='always')
 def _update_column(values, start, u_dest, lo, hi):
     """values[u_dest[lo + q]] −= values[start + q] values[start]ᵀ for q < hi − lo (one column k into column j)."""
     b00, b01, b02 = values[start, 0, 0], values[start, 0, 1], values[start, 0, 2]
@@ -190,17 +214,20 @@ def block_cholesky(pattern, blocks, values, diag_inv):
 
     Left-looking; returns False (values unusable) if a pivot block is not positive definite.
     """
-    perm, l_ptr, l_rows, a_ptr, a_block, a_dest, u_ptr, u_col, u_from, u_start, u_dest = pattern
+    perm, l_ptr, l_rows, a_ptr, a_block, a_dest, a_transpose, u_ptr, u_col, u_from, u_start, u_dest = pattern
     tmp = np.empty((3, 3))
     for j in range(perm.shape[0]):
         for p in range(l_ptr[j], l_ptr[j + 1]):
             values[p, :, :] = 0.0
-        for t in range(a_ptr[j], a_ptr[j + 1]):      # A(i, j) = A(perm[j], ·)ᵀ
+        for t in range(a_ptr[j], a_ptr[j + 1]):      # L position (i, j) ← A(perm[i], perm[j])
             src = blocks[a_block[t]]
             dst = values[a_dest[t]]
-            for r in range(3):
-                for c in range(3):
-                    dst[r, c] = src[c, r]
+            if a_transpose[t]:
+                for r in range(3):
+                    for c in range(3):
+                        dst[r, c] = src[c, r]
+            else:
+                dst[:, :] = src
         for u in range(u_ptr[j], u_ptr[j + 1]):      # S(i, j) −= L(i, k) L(j, k)ᵀ
             _update_column(values, u_from[u], u_dest, u_start[u], u_start[u + 1])
         d = values[l_ptr[j]]
@@ -228,31 +255,28 @@ def cholesky_solve(pattern, values, diag_inv, r, z, y):
         y[j, 0] = r[perm[j], 0]
         y[j, 1] = r[perm[j], 1]
         y[j, 2] = r[perm[j], 2]
-    for j in range(n):                               # L y' = y
-        inv = diag_inv[j]
+    for j in range(n):                               # L y' = y (blocks indexed in place: views are slow)
         s0, s1, s2 = y[j, 0], y[j, 1], y[j, 2]
-        y0 = inv[0, 0] * s0
-        y1 = inv[1, 0] * s0 + inv[1, 1] * s1
-        y2 = inv[2, 0] * s0 + inv[2, 1] * s1 + inv[2, 2] * s2
+        y0 = diag_inv[j, 0, 0] * s0
+        y1 = diag_inv[j, 1, 0] * s0 + diag_inv[j, 1, 1] * s1
+        y2 = diag_inv[j, 2, 0] * s0 + diag_inv[j, 2, 1] * s1 + diag_inv[j, 2, 2] * s2
         y[j, 0], y[j, 1], y[j, 2] = y0, y1, y2
         for p in range(l_ptr[j] + 1, l_ptr[j + 1]):
             i = l_rows[p]
-            b = values[p]
-            y[i, 0] -= b[0, 0] * y0 + b[0, 1] * y1 + b[0, 2] * y2
-            y[i, 1] -= b[1, 0] * y0 + b[1, 1] * y1 + b[1, 2] * y2
-            y[i, 2] -= b[2, 0] * y0 + b[2, 1] * y1 + b[2, 2] * y2
+            y[i, 0] -= values[p, 0, 0] * y0 + values[p, 0, 1] * y1 + values[p, 0, 2] * y2
+            y[i, 1] -= values[p, 1, 0] * y0 + values[p, 1, 1] * y1 + values[p, 1, 2] * y2
+            y[i, 2] -= values[p, 2, 0] * y0 + values[p, 2, 1] * y1 + values[p, 2, 2] * y2
     for j in range(n - 1, -1, -1):                   # Lᵀ z' = y'
         s0, s1, s2 = y[j, 0], y[j, 1], y[j, 2]
         for p in range(l_ptr[j] + 1, l_ptr[j + 1]):
             i = l_rows[p]
-            b = values[p]
-            s0 -= b[0, 0] * y[i, 0] + b[1, 0] * y[i, 1] + b[2, 0] * y[i, 2]
-            s1 -= b[0, 1] * y[i, 0] + b[1, 1] * y[i, 1] + b[2, 1] * y[i, 2]
-            s2 -= b[0, 2] * y[i, 0] + b[1, 2] * y[i, 1] + b[2, 2] * y[i, 2]
-        inv = diag_inv[j]                            # L_jj⁻ᵀ is upper triangular
-        y[j, 2] = inv[2, 2] * s2
-        y[j, 1] = inv[1, 1] * s1 + inv[2, 1] * s2
-        y[j, 0] = inv[0, 0] * s0 + inv[1, 0] * s1 + inv[2, 0] * s2
+            w0, w1, w2 = y[i, 0], y[i, 1], y[i, 2]
+            s0 -= values[p, 0, 0] * w0 + values[p, 1, 0] * w1 + values[p, 2, 0] * w2
+            s1 -= values[p, 0, 1] * w0 + values[p, 1, 1] * w1 + values[p, 2, 1] * w2
+            s2 -= values[p, 0, 2] * w0 + values[p, 1, 2] * w1 + values[p, 2, 2] * w2
+        y[j, 2] = diag_inv[j, 2, 2] * s2             # L_jj⁻ᵀ is upper triangular
+        y[j, 1] = diag_inv[j, 1, 1] * s1 + diag_inv[j, 2, 1] * s2
+        y[j, 0] = diag_inv[j, 0, 0] * s0 + diag_inv[j, 1, 0] * s1 + diag_inv[j, 2, 0] * s2
     for j in range(n):
         z[perm[j], 0] = y[j, 0]
         z[perm[j], 1] = y[j, 1]

@@ -181,12 +181,13 @@ def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters
                 rg[a, 0] = r[0] * g0 + r[1] * g1 + r[2] * g2
                 rg[a, 1] = r[3] * g0 + r[4] * g1 + r[5] * g2
                 rg[a, 2] = r[6] * g0 + r[7] * g1 + r[8] * g2
-            _add_tet_stiffness(rg, vol * scale * mu[t], vol * scale * lam[t], blocks, tet_blocks[t])
+            _add_tet_stiffness(rg, vol * scale * mu[t], vol * scale * lam[t], blocks, tet_blocks, tets, t)
 
 
-@numba.njit(cache=True)
-def _add_tet_stiffness(rg, vmu, vlam, blocks, block_index):
-    """Add R K Rᵀ of one tet: block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` = R ∇φ_a."""
+@numba.njit(cache=True, inline='always')
+def _add_tet_stiffness(rg, vmu, vlam, blocks, tet_blocks, tets, t):
+    """Add R K Rᵀ of tet `t`: block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` = R ∇φ_a,
+    into the stored upper triangle (block (b, a) = (a, b)ᵀ when node b < node a)."""
     for a in range(4):
         a0, a1, a2 = rg[a, 0], rg[a, 1], rg[a, 2]
         for b in range(a, 4):                        # upper blocks; (b, a) is the transpose
@@ -201,9 +202,7 @@ def _add_tet_stiffness(rg, vmu, vlam, blocks, block_index):
             k20 = vmu * b2 * a0 + vlam * a2 * b0
             k12 = vmu * b1 * a2 + vlam * a1 * b2
             k21 = vmu * b2 * a1 + vlam * a2 * b1
-            _add_block(blocks, block_index[4 * a + b], k00, k01, k02, k10, k11, k12, k20, k21, k22)
-            if b != a:
-                _add_block(blocks, block_index[4 * b + a], k00, k10, k20, k01, k11, k21, k02, k12, k22)
+            _add_block(blocks, tet_blocks[t, 4 * a + b], k00, k01, k02, k10, k11, k12, k20, k21, k22)
 
 
 @numba.njit(cache=True, inline='always')
@@ -247,16 +246,15 @@ def spring_forces(x, springs, stiffness, desired_lengths, forces, blocks, spring
             _add_spring_stiffness(u0, u1, u2, scale * a, geo, blocks, spring_blocks[s])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline='always')
 def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, idx):
-    """Add ±a[u uᵀ + geo (I − u uᵀ)] into the (ii, jj, ij, ji) blocks `idx (4,)`."""
+    """Add ±a[u uᵀ + geo (I − u uᵀ)] into the (ii, jj, ij) blocks `idx (3,)` (symmetric, so either triangle)."""
     c = a * (1.0 - geo)
     k00, k11, k22 = c * u0 * u0 + a * geo, c * u1 * u1 + a * geo, c * u2 * u2 + a * geo
     k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
     _add_block(blocks, idx[0], k00, k01, k02, k01, k11, k12, k02, k12, k22)
     _add_block(blocks, idx[1], k00, k01, k02, k01, k11, k12, k02, k12, k22)
     _add_block(blocks, idx[2], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
-    _add_block(blocks, idx[3], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
 
 
 # ----------------------------------------------------------------------------------------------- contact
@@ -309,7 +307,7 @@ def contact_forces(x, v, contact_mass, friction, heights, ox, oy, spacing, kn, c
     return n_contact, deepest, max_depth
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline='always')
 def _friction(x, v, i, n0, n1, n2, kt, ct, limit, anchors, forces, diag_k, diag_c):
     """Tangential anchor spring-damper capped at `limit` = μ f_n; slides the anchor when capped. Returns state."""
     e0 = x[i, 0] - anchors[i, 0]
@@ -353,7 +351,7 @@ def _friction(x, v, i, n0, n1, n2, kt, ct, limit, anchors, forces, diag_k, diag_
     return CONTACT_SLIP
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline='always')
 def _outer_add(blk, n0, n1, n2, k):
     """blk += k n nᵀ."""
     n = (n0, n1, n2)

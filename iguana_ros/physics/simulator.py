@@ -44,6 +44,15 @@ def friction_per_node(model, friction) -> np.ndarray:
     return mu
 
 
+def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
+    """Each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along
+    (the FEM force is invariant to relabelling): every (a < b) stiffness block then lands untransposed in the
+    upper-triangle storage, so the assembly branch is always predicted."""
+    order = np.argsort(tets, axis=1, kind='stable')
+    return (np.ascontiguousarray(np.take_along_axis(tets, order, axis=1)),
+            np.ascontiguousarray(np.take_along_axis(grads, order[:, :, None], axis=1)))
+
+
 class SoftBodySimulator:
     """Tetrahedral soft body with springs, corotated FEM, Rayleigh damping and height-field ground contact.
 
@@ -82,6 +91,7 @@ class SoftBodySimulator:
             grads, volume = shape_gradients(rest, tets)
         except ValueError as exc:
             raise InputError(f'simulator: model {exc}') from None
+        tets, grads = _ascending_nodes(tets, grads)
         mu, lam = lame_parameters(np.broadcast_to(model.youngs_modulus, (len(tets),)), model.poisson_ratio)
         mass = np.ascontiguousarray(model.node_mass, dtype=np.float64)
         if mass.shape != (n,) or np.any(mass <= 0):
@@ -148,7 +158,7 @@ class SoftBodySimulator:
                 np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros(3, dtype=np.int64)
             return pattern.arrays(), values, diag_inv, work, factor_state
         empty = np.zeros(0, dtype=np.int64)
-        return ((empty,) * 11,) + empty_factor(n)
+        return ((empty,) * 12,) + empty_factor(n)
 
     # ---------------------------------------------------------------------------------------------- state
     def reset(self, positions=None, velocities=None) -> None:

@@ -32,28 +32,28 @@ def _precondition(pinv, r, z):
 
 @numba.njit(cache=True)
 def _ssor(row_ptr, cols, blocks, pinv, r, z):
-    """z = M⁻¹ r for the symmetric block Gauss–Seidel preconditioner M = (D + L) D⁻¹ (D + U)."""
+    """z = M⁻¹ r for the symmetric block Gauss–Seidel preconditioner M = (D + L) D⁻¹ (D + U), with A stored as
+    its upper block triangle (L = Uᵀ)."""
     n = r.shape[0]
-    for i in range(n):                               # forward: (D + L) y = r, y stored in z
-        s0, s1, s2 = r[i, 0], r[i, 1], r[i, 2]
-        for k in range(row_ptr[i], row_ptr[i + 1]):
+    z[:] = r
+    for i in range(n):                               # forward: (D + Uᵀ) y = r; y_i final, then pushed to rows j > i
+        s0, s1, s2 = z[i, 0], z[i, 1], z[i, 2]
+        y0 = pinv[i, 0, 0] * s0 + pinv[i, 0, 1] * s1 + pinv[i, 0, 2] * s2
+        y1 = pinv[i, 1, 0] * s0 + pinv[i, 1, 1] * s1 + pinv[i, 1, 2] * s2
+        y2 = pinv[i, 2, 0] * s0 + pinv[i, 2, 1] * s1 + pinv[i, 2, 2] * s2
+        z[i, 0], z[i, 1], z[i, 2] = y0, y1, y2
+        for k in range(row_ptr[i] + 1, row_ptr[i + 1]):
             j = cols[k]
-            if j >= i:
-                break
-            blk = blocks[k]
-            s0 -= blk[0, 0] * z[j, 0] + blk[0, 1] * z[j, 1] + blk[0, 2] * z[j, 2]
-            s1 -= blk[1, 0] * z[j, 0] + blk[1, 1] * z[j, 1] + blk[1, 2] * z[j, 2]
-            s2 -= blk[2, 0] * z[j, 0] + blk[2, 1] * z[j, 1] + blk[2, 2] * z[j, 2]
-        for a in range(3):
-            z[i, a] = pinv[i, a, 0] * s0 + pinv[i, a, 1] * s1 + pinv[i, a, 2] * s2
+            blk = blocks[k]                          # A_ji = blkᵀ
+            z[j, 0] -= blk[0, 0] * y0 + blk[1, 0] * y1 + blk[2, 0] * y2
+            z[j, 1] -= blk[0, 1] * y0 + blk[1, 1] * y1 + blk[2, 1] * y2
+            z[j, 2] -= blk[0, 2] * y0 + blk[1, 2] * y1 + blk[2, 2] * y2
     for i in range(n - 1, -1, -1):                   # backward: z_i = y_i − D_i⁻¹ Σ_{j>i} A_ij z_j
         s0 = 0.0
         s1 = 0.0
         s2 = 0.0
-        for k in range(row_ptr[i + 1] - 1, row_ptr[i] - 1, -1):
+        for k in range(row_ptr[i] + 1, row_ptr[i + 1]):
             j = cols[k]
-            if j <= i:
-                break
             blk = blocks[k]
             s0 += blk[0, 0] * z[j, 0] + blk[0, 1] * z[j, 1] + blk[0, 2] * z[j, 2]
             s1 += blk[1, 0] * z[j, 0] + blk[1, 1] * z[j, 1] + blk[1, 2] * z[j, 2]
@@ -77,7 +77,7 @@ def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
 def _no_factor(n):
     """A `chol` argument for the preconditioners that use no factor."""
     e = np.zeros(0, dtype=np.int64)
-    return ((e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)), np.zeros((0, 3, 3)), np.zeros((n, 3)))
+    return ((e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)), np.zeros((0, 3, 3)), np.zeros((n, 3)))
 
 
 @numba.njit(cache=True)
@@ -91,8 +91,9 @@ def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, wor
 def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind):
     """Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
 
-    Preconditioner `kind` (PRECONDITIONER_CODES): inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi),
-    symmetric block Gauss–Seidel (columns within each row of the pattern sorted ascending), or the block
+    A is stored as its upper block triangle (`iguana_ros.physics.assembly`). Preconditioner `kind`
+    (PRECONDITIONER_CODES): inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi), symmetric block
+    Gauss–Seidel (the diagonal block first in each row, columns ascending), or the block
     Cholesky factor `chol` = (pattern arrays, values, diag_inv, work (n, 3)) of `iguana_ros.physics.cholesky`.
     With the factor at least one iteration is done (the warm start is not accepted as it is).
     Returns `(iterations, residual_norm, threshold)`; iterations = −k signals a breakdown (pᵀAp ≤ 0) at step k.

@@ -22,7 +22,7 @@ def _spd_system(bar, seed=0):
     rng = np.random.default_rng(seed)
     n = pat.n_nodes
     dense = np.zeros((3 * n, 3 * n))
-    rows = np.repeat(np.arange(n), np.diff(pat.row_ptr))
+    rows = pat.rows
     for r, c in zip(rows, pat.cols):                 # symmetric, on the pattern, made diagonally dominant
         if r < c:
             blk = rng.normal(size=(3, 3))
