@@ -202,7 +202,10 @@ def _add_tet_stiffness(rg, vmu, vlam, blocks, tet_blocks, tets, t):
             k20 = vmu * b2 * a0 + vlam * a2 * b0
             k12 = vmu * b1 * a2 + vlam * a1 * b2
             k21 = vmu * b2 * a1 + vlam * a2 * b1
-            _add_block(blocks, tet_blocks[t, 4 * a + b], k00, k01, k02, k10, k11, k12, k20, k21, k22)
+            if tets[t, a] < tets[t, b] or a == b:
+                _add_block(blocks, tet_blocks[t, 4 * a + b], k00, k01, k02, k10, k11, k12, k20, k21, k22)
+            else:                                    # node b < node a: the stored block is (b, a) = (a, b)ᵀ
+                _add_block(blocks, tet_blocks[t, 4 * a + b], k00, k10, k20, k01, k11, k21, k02, k12, k22)
 
 
 @numba.njit(cache=True, inline='always')
