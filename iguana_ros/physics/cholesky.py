@@ -155,41 +155,36 @@ def empty_factor(n_nodes: int) -> tuple:
 
 
 @numba.njit(cache=True, inline='always')
-def _chol3(a, out):
-    """Lower Cholesky factor of the symmetric 3×3 `a` into `out`; False if `a` is not positive definite."""
-    d0 = a[0, 0]
+def _factor_pivot(values, p, diag_inv, j):
+    """Replace the symmetric 3×3 `values[p]` by its lower Cholesky factor L and write L⁻¹ into `diag_inv[j]`;
+    False if the block is not positive definite."""
+    d0 = values[p, 0, 0]
     if not d0 > 0.0:
         return False
     l00 = np.sqrt(d0)
-    l10 = a[1, 0] / l00
-    l20 = a[2, 0] / l00
-    d1 = a[1, 1] - l10 * l10
+    l10 = values[p, 1, 0] / l00
+    l20 = values[p, 2, 0] / l00
+    d1 = values[p, 1, 1] - l10 * l10
     if not d1 > 0.0:
         return False
     l11 = np.sqrt(d1)
-    l21 = (a[2, 1] - l20 * l10) / l11
-    d2 = a[2, 2] - l20 * l20 - l21 * l21
+    l21 = (values[p, 2, 1] - l20 * l10) / l11
+    d2 = values[p, 2, 2] - l20 * l20 - l21 * l21
     if not d2 > 0.0:
         return False
     l22 = np.sqrt(d2)
-    out[0, 0], out[0, 1], out[0, 2] = l00, 0.0, 0.0
-    out[1, 0], out[1, 1], out[1, 2] = l10, l11, 0.0
-    out[2, 0], out[2, 1], out[2, 2] = l20, l21, l22
+    values[p, 0, 0], values[p, 0, 1], values[p, 0, 2] = l00, 0.0, 0.0
+    values[p, 1, 0], values[p, 1, 1], values[p, 1, 2] = l10, l11, 0.0
+    values[p, 2, 0], values[p, 2, 1], values[p, 2, 2] = l20, l21, l22
+    i00 = 1.0 / l00
+    i11 = 1.0 / l11
+    i22 = 1.0 / l22
+    i10 = -l10 * i00 * i11
+    i21 = -l21 * i11 * i22
+    diag_inv[j, 0, 0], diag_inv[j, 0, 1], diag_inv[j, 0, 2] = i00, 0.0, 0.0
+    diag_inv[j, 1, 0], diag_inv[j, 1, 1], diag_inv[j, 1, 2] = i10, i11, 0.0
+    diag_inv[j, 2, 0], diag_inv[j, 2, 1], diag_inv[j, 2, 2] = -(l20 * i00 + l21 * i10) * i22, i21, i22
     return True
-
-
-@numba.njit(cache=True, inline='always')
-def _lower_inverse(l, out):
-    """out = l⁻¹ for a lower-triangular 3×3 `l`."""
-    i00 = 1.0 / l[0, 0]
-    i11 = 1.0 / l[1, 1]
-    i22 = 1.0 / l[2, 2]
-    i10 = -l[1, 0] * i00 * i11
-    i21 = -l[2, 1] * i11 * i22
-    i20 = -(l[2, 0] * i00 + l[2, 1] * i10) * i22
-    out[0, 0], out[0, 1], out[0, 2] = i00, 0.0, 0.0
-    out[1, 0], out[1, 1], out[1, 2] = i10, i11, 0.0
-    out[2, 0], out[2, 1], out[2, 2] = i20, i21, i22
 
 
 @numba.njit(cache=True, inline='always')
@@ -212,37 +207,35 @@ def _update_column(values, start, u_dest, lo, hi):
 def block_cholesky(pattern, blocks, values, diag_inv):
     """Factorise A (`blocks (n_blocks, 3, 3)`) into `values (n_l, 3, 3)` = L and `diag_inv (n, 3, 3)` = L_jj⁻¹.
 
-    Left-looking; returns False (values unusable) if a pivot block is not positive definite.
+    Left-looking; returns False (values unusable) if a pivot block is not positive definite. Blocks are indexed
+    in place (numba array views cost more than the arithmetic here).
     """
     perm, l_ptr, l_rows, a_ptr, a_block, a_dest, a_transpose, u_ptr, u_col, u_from, u_start, u_dest = pattern
-    tmp = np.empty((3, 3))
     for j in range(perm.shape[0]):
-        for p in range(l_ptr[j], l_ptr[j + 1]):
-            values[p, :, :] = 0.0
+        lo, hi = l_ptr[j], l_ptr[j + 1]
+        values[lo:hi] = 0.0
         for t in range(a_ptr[j], a_ptr[j + 1]):      # L position (i, j) ← A(perm[i], perm[j])
-            src = blocks[a_block[t]]
-            dst = values[a_dest[t]]
+            k, p = a_block[t], a_dest[t]
             if a_transpose[t]:
                 for r in range(3):
                     for c in range(3):
-                        dst[r, c] = src[c, r]
+                        values[p, r, c] = blocks[k, c, r]
             else:
-                dst[:, :] = src
+                for r in range(3):
+                    for c in range(3):
+                        values[p, r, c] = blocks[k, r, c]
         for u in range(u_ptr[j], u_ptr[j + 1]):      # S(i, j) −= L(i, k) L(j, k)ᵀ
             _update_column(values, u_from[u], u_dest, u_start[u], u_start[u + 1])
-        d = values[l_ptr[j]]
-        if not _chol3(d, tmp):
+        if not _factor_pivot(values, lo, diag_inv, j):
             return False
-        d[:, :] = tmp
-        inv = diag_inv[j]
-        _lower_inverse(d, inv)
-        for p in range(l_ptr[j] + 1, l_ptr[j + 1]):  # L(i, j) = S(i, j) L_jj⁻ᵀ
-            s = values[p]
+        i00, i10, i11 = diag_inv[j, 0, 0], diag_inv[j, 1, 0], diag_inv[j, 1, 1]
+        i20, i21, i22 = diag_inv[j, 2, 0], diag_inv[j, 2, 1], diag_inv[j, 2, 2]
+        for p in range(lo + 1, hi):                  # L(i, j) = S(i, j) L_jj⁻ᵀ (L_jj⁻¹ lower triangular)
             for r in range(3):
-                tmp[r, 0] = s[r, 0] * inv[0, 0] + s[r, 1] * inv[0, 1] + s[r, 2] * inv[0, 2]
-                tmp[r, 1] = s[r, 0] * inv[1, 0] + s[r, 1] * inv[1, 1] + s[r, 2] * inv[1, 2]
-                tmp[r, 2] = s[r, 0] * inv[2, 0] + s[r, 1] * inv[2, 1] + s[r, 2] * inv[2, 2]
-            s[:, :] = tmp
+                s0, s1, s2 = values[p, r, 0], values[p, r, 1], values[p, r, 2]
+                values[p, r, 0] = s0 * i00
+                values[p, r, 1] = s0 * i10 + s1 * i11
+                values[p, r, 2] = s0 * i20 + s1 * i21 + s2 * i22
     return True
 
 
