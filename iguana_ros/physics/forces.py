@@ -246,18 +246,18 @@ def spring_forces(x, springs, stiffness, desired_lengths, forces, blocks, spring
         forces[j, 2] -= mag * u2
         if scale != 0.0:
             geo = max(0.0, 1.0 - desired_lengths[s] / length)   # clamp: keep the block positive semi-definite
-            _add_spring_stiffness(u0, u1, u2, scale * a, geo, blocks, spring_blocks[s])
+            _add_spring_stiffness(u0, u1, u2, scale * a, geo, blocks, spring_blocks, s)
 
 
 @numba.njit(cache=True, inline='always')
-def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, idx):
-    """Add ±a[u uᵀ + geo (I − u uᵀ)] into the (ii, jj, ij) blocks `idx (3,)` (symmetric, so either triangle)."""
+def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
+    """Add ±a[u uᵀ + geo (I − u uᵀ)] into spring `s`'s (ii, jj, ij) blocks (symmetric, so either triangle)."""
     c = a * (1.0 - geo)
     k00, k11, k22 = c * u0 * u0 + a * geo, c * u1 * u1 + a * geo, c * u2 * u2 + a * geo
     k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
-    _add_block(blocks, idx[0], k00, k01, k02, k01, k11, k12, k02, k12, k22)
-    _add_block(blocks, idx[1], k00, k01, k02, k01, k11, k12, k02, k12, k22)
-    _add_block(blocks, idx[2], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
+    _add_block(blocks, spring_blocks[s, 0], k00, k01, k02, k01, k11, k12, k02, k12, k22)
+    _add_block(blocks, spring_blocks[s, 1], k00, k01, k02, k01, k11, k12, k02, k12, k22)
+    _add_block(blocks, spring_blocks[s, 2], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
 
 
 # ----------------------------------------------------------------------------------------------- contact

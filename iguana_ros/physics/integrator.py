@@ -80,9 +80,8 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     ap = work[3]
     block_matvec(row_ptr, cols, blocks, v, ap)          # ap = A v; (A − dextra) v is the stiffness part
     for i in range(n):
-        d = dextra[i]
         for k in range(3):
-            dv_k = d[k, 0] * v[i, 0] + d[k, 1] * v[i, 1] + d[k, 2] * v[i, 2]
+            dv_k = dextra[i, k, 0] * v[i, 0] + dextra[i, k, 1] * v[i, 1] + dextra[i, k, 2] * v[i, 2]
             rhs[i, k] = h * forces[i, k] - (ap[i, k] - dv_k)
     return STATUS_OK, refresh
 
@@ -98,17 +97,16 @@ def invert_diagonal(diag, blocks, pinv):
 def _finish_matrix(mass, diag, blocks, dextra, diag_k, diag_c, in_a, h, alpha, has_ground):
     """Add the diagonal terms M(1 + hα) + h C_c + h² K_c to the system matrix."""
     h2 = h * h
-    for i in range(mass.shape[0]):
-        blk = blocks[diag[i]]
-        d = dextra[i]
-        c = in_a[i]
+    for i in range(mass.shape[0]):                  # in-place indices, no array views (measured faster)
+        k = diag[i]
+        m = mass[i] * (1.0 + h * alpha)
         for p in range(3):
             for q in range(3):
-                d[p, q] = h * diag_c[i, p, q] if has_ground else 0.0
-                c[p, q] = d[p, q] + (h2 * diag_k[i, p, q] if has_ground else 0.0)
-                blk[p, q] += c[p, q]
-            d[p, p] += mass[i] * (1.0 + h * alpha)
-            blk[p, p] += mass[i] * (1.0 + h * alpha)
+                dex = h * diag_c[i, p, q] if has_ground else 0.0
+                con = dex + (h2 * diag_k[i, p, q] if has_ground else 0.0)
+                in_a[i, p, q] = con
+                dextra[i, p, q] = dex + (m if p == q else 0.0)
+                blocks[k, p, q] += con + (m if p == q else 0.0)
 
 
 @numba.njit(cache=True)
