@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from iguana_ros.physics.forces import FASTMATH
+
 
 @dataclass(frozen=True)
 class CholeskyPattern:
@@ -154,7 +156,7 @@ def empty_factor(n_nodes: int) -> tuple:
     return np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64)
 
 
-@numba.njit(cache=True, inline='always')
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _factor_pivot(values, p, diag_inv, j):
     """Replace the symmetric 3×3 `values[p]` by its lower Cholesky factor L and write L⁻¹ into `diag_inv[j]`;
     False if the block is not positive definite."""
@@ -187,7 +189,7 @@ def _factor_pivot(values, p, diag_inv, j):
     return True
 
 
-@numba.njit(cache=True, inline='always')
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _update_column(values, start, u_dest, lo, hi):
     """values[u_dest[lo + q]] −= values[start + q] values[start]ᵀ for q < hi − lo (one column k into column j)."""
     b00, b01, b02 = values[start, 0, 0], values[start, 0, 1], values[start, 0, 2]
@@ -203,7 +205,7 @@ def _update_column(values, start, u_dest, lo, hi):
             values[d, r, 2] -= a0 * b20 + a1 * b21 + a2 * b22
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath=FASTMATH)
 def block_cholesky(pattern, blocks, values, diag_inv):
     """Factorise A (`blocks (n_blocks, 3, 3)`) into `values (n_l, 3, 3)` = L and `diag_inv (n, 3, 3)` = L_jj⁻¹.
 
