@@ -20,3 +20,16 @@ def test_bench_sim_rejects_bad_time_step(capsys):
     with pytest.raises(SystemExit) as exc:
         main(['bench', 'sim', '--dt', '1/0'])
     assert exc.value.code == 2 and 'time step' in capsys.readouterr().err
+
+
+def test_bench_sim_solver_knobs_reach_the_simulator(capsys):
+    """--factor-every / --polar-iters are applied and reported; factorisations follow the reuse interval."""
+    argv = ['bench', 'sim', '--mesh', 'coarse', '--seconds', '0.1', '--json']
+    assert main(argv + ['--factor-every', '1', '--polar-iters', '3']) == 0
+    fresh = json.loads(capsys.readouterr().out)
+    assert main(argv + ['--factor-every', '8']) == 0
+    reused = json.loads(capsys.readouterr().out)
+    assert (fresh['factor_every'], fresh['polar_iters'], reused['factor_every']) == (1, 3, 8)
+    assert fresh['factorisations_per_step'] == pytest.approx(1.0)
+    assert reused['factorisations_per_step'] < 0.6
+    assert fresh['cg_iterations_per_step'] < reused['cg_iterations_per_step'] <= 3.0
