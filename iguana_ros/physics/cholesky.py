@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from iguana_ros.physics.forces import FASTMATH
+from iguana_ros.jit import FASTMATH
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from iguana_ros.constants import (
     CONTACT_DAMPING_RATIO, CONTACT_STIFFNESS, FRAME_RATE, FRICTION_COEFFICIENT, FRICTION_STIFFNESS, GRAVITY,
     MAX_NODE_SPEED, MAX_PENETRATION, RAYLEIGH_ALPHA, RAYLEIGH_BETA)
 from iguana_ros.errors import InputError
-from iguana_ros.jit_cache import ensure_fresh_kernel_cache
+from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.errors import SimulationDiverged

@@ -29,7 +29,7 @@ import numpy as np
 from iguana_ros.body.skeleton import Skeleton
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.geometry import matrix_to_quat, quat_from_rotvec, quat_mul, quat_to_matrix, quat_to_rotvec
-from iguana_ros.jit_cache import ensure_fresh_kernel_cache
+from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.terrain.heightfield import HeightField, bilinear_height_gradient
 
 FOOT_BONES = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')

@@ -1,7 +1,7 @@
 """numba cache invalidation: an edited kernel source removes the package's cached kernels, an unchanged one not."""
 from pathlib import Path
 
-from iguana_ros.jit_cache import STAMP_NAME, invalidate_stale_kernels, kernel_sources_digest
+from iguana_ros.jit import STAMP_NAME, invalidate_stale_kernels, kernel_sources_digest
 
 
 def _package(tmp_path: Path) -> Path:
