@@ -1,8 +1,9 @@
 """Sparse 3×3-block Cholesky `P A Pᵀ = L Lᵀ` of the system matrix (numba), used as the CG preconditioner.
 
 The symbolic part (`CholeskyPattern.build`: a fill-reducing node ordering — minimum degree or reverse
-Cuthill–McKee, whichever needs fewer block updates — the structure of L and every update's target) is computed once per model from
-the block pattern; `block_cholesky` refactorises the numeric values, `cholesky_solve` applies `A⁻¹`.
+Cuthill–McKee, whichever needs fewer block updates — the structure of L and every update's target) is computed
+once per model from the block pattern (A's upper triangle, `iguana_ros.physics.assembly`); `block_cholesky`
+refactorises the numeric values, `cholesky_solve` applies `A⁻¹`.
 A factor of the current matrix makes CG converge in one iteration; CG keeps the tolerance check and the
 breakdown test, so a stale or failed factor only costs iterations.
 """
@@ -22,8 +23,9 @@ class CholeskyPattern:
 
     Column j of L holds the blocks `l_rows[l_ptr[j]:l_ptr[j + 1]]` (ascending, the diagonal first).
     A blocks feeding column j: stored blocks `a_block[a_ptr[j]:a_ptr[j + 1]]` of A's upper triangle, copied
-    (transposed where `a_transpose`) into L position `a_dest`. Updates of column j: for u in `u_ptr[j]:u_ptr[j + 1]`, column `u_col[u]` from its
-    position `u_from[u]` (= L_jk) to its end lands at positions `u_dest[u_start[u]:…]` of column j.
+    (transposed where `a_transpose`) into L position `a_dest`. Updates of column j: for u in
+    `u_ptr[j]:u_ptr[j + 1]`, column `u_col[u]` from its position `u_from[u]` (= L_jk) to its end lands at
+    positions `u_dest[u_start[u]:…]` of column j.
     """
 
     n_nodes: int
@@ -33,7 +35,7 @@ class CholeskyPattern:
     a_ptr: np.ndarray     # (n_nodes + 1,) int64
     a_block: np.ndarray   # (n_a,) int64
     a_dest: np.ndarray    # (n_a,) int64
-    a_transpose: np.ndarray  # (n_a,) int64, 1 where the L block is the stored block transposed
+    a_transpose: np.ndarray  # (n_a,) int64, 1 where L holds the stored block transposed
     u_ptr: np.ndarray     # (n_nodes + 1,) int64
     u_col: np.ndarray     # (n_u,) int64
     u_from: np.ndarray    # (n_u,) int64

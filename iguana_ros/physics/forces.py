@@ -187,8 +187,8 @@ def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _add_tet_stiffness(rg, vmu, vlam, blocks, tet_blocks, tets, t):
-    """Add R K Rᵀ of tet `t`: block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` = R ∇φ_a,
-    into the stored upper triangle (block (b, a) = (a, b)ᵀ when node b < node a)."""
+    """Add R K Rᵀ of tet `t`: block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` =
+    R ∇φ_a, into the stored upper triangle (block (b, a) = (a, b)ᵀ when node b < node a)."""
     for a in range(4):
         a0, a1, a2 = rg[a, 0], rg[a, 1], rg[a, 2]
         for b in range(a, 4):                        # upper blocks; (b, a) is the transpose

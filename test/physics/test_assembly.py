@@ -10,7 +10,7 @@ from iguana_ros.physics.integrator import invert_diagonal
 
 @pytest.fixture(scope='module')
 def system():
-    """A 2×2×1-cube box's pattern with random symmetric, diagonally dominant block values: (pattern, blocks, dense)."""
+    """A 2×2×1-cube box's pattern with random symmetric, diagonally dominant values: (pattern, blocks, dense)."""
     mesh = box_mesh(size=(0.2, 0.2, 0.1), cells=(2, 2, 1), total_mass=1.0, youngs_modulus=1e4, spring_stiffness=1e3)
     pat = BlockPattern.build(len(mesh.rest_positions), mesh.tets, mesh.springs)
     rng = np.random.default_rng(3)
