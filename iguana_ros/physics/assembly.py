@@ -52,7 +52,7 @@ class BlockPattern:
     @property
     def rows(self) -> np.ndarray:
         """Row of every stored block `(n_blocks,)`."""
-        return np.repeat(np.arange(self.n_nodes), np.diff(self.row_ptr))
+        return block_rows(self.row_ptr)
 
     def to_scipy(self, blocks: np.ndarray):
         """The full symmetric matrix as `scipy.sparse.csc_matrix (3 n_nodes, 3 n_nodes)` from the stored
@@ -65,6 +65,11 @@ class BlockPattern:
         strict = bsr_matrix((np.where(off[:, None, None], blocks, 0.0), self.cols, self.row_ptr),
                             shape=(n, n)).tocsc()
         return (upper + strict.T).tocsc()
+
+
+def block_rows(row_ptr: np.ndarray) -> np.ndarray:
+    """Row of every block `(n_blocks,)` of a block-CSR pattern with `row_ptr (n + 1,)`."""
+    return np.repeat(np.arange(len(row_ptr) - 1), np.diff(row_ptr))
 
 
 def _upper_key(rows: np.ndarray, cols: np.ndarray, n_nodes: int) -> np.ndarray:

@@ -15,6 +15,7 @@ import numba
 import numpy as np
 
 from iguana_ros.jit import FASTMATH
+from iguana_ros.physics.assembly import block_rows
 
 
 @dataclass(frozen=True)
@@ -104,7 +105,7 @@ def _gather_map(row_ptr: np.ndarray, cols: np.ndarray, iperm: np.ndarray, where:
     """Where each stored upper block (r, c) of A goes in L: column min(iperm[r], iperm[c]), row the max, transposed
     when iperm[c] ≥ iperm[r] (then L holds A(c, r) = blockᵀ). Returns (a_block, a_dest, a_transpose, a_ptr)."""
     n = len(row_ptr) - 1
-    rows = np.repeat(np.arange(n), np.diff(row_ptr))
+    rows = block_rows(row_ptr)
     pr, pc = iperm[rows], iperm[cols]
     transpose = pc >= pr
     l_col = np.where(transpose, pr, pc)

@@ -68,11 +68,11 @@ PRESETS = {
     # with any reused matrix under an abrupt command (bench gait: 120 m/s at t=3 ms with every 2-4 steps).
     # preconditioner='cholesky': the block Cholesky factor of the matrix makes CG converge in 1 iteration;
     # measured 1.9x (medium) and 1.5x (coarse) faster than block Jacobi's 62 / 37 iterations with these stiff
-    # springs. factor_every=4: the factor (the largest single cost, ~230 us on medium) is reused for 4 steps;
+    # springs. factor_every=4: the factor (the largest single cost, ~140 us on medium) is reused for 4 steps;
     # the matrix itself stays current, CG then needs ~1.8 iterations per step and the trajectory's error against
     # the dt=1/4800 reference is unchanged (25 vs 28 mm node RMS after 2 s, dominated by the time step).
     # polar_iters=1: the rotations are warm-started from the last step, so one iteration per step tracks them
-    # (the 8 of before cost 0.24 ms/step for no measurable change in the error).
+    # (the 8 of before cost 0.22 ms/step for no measurable change in the error).
     'fast': Fidelity(dt=1.0 / 600.0, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=100, jacobian_every=1,
                      polar_iters=1, factor_every=4),
     'balanced': Fidelity(dt=SIM_DT, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=200, jacobian_every=1,
