@@ -18,7 +18,7 @@ from iguana_ros.config import config_path
 from iguana_ros.constants import PUSH_DURATION
 from iguana_ros.errors import InputError
 
-TERRAIN_KINDS = ('flat', 'tilted', 'hills', 'heightmap')
+TERRAIN_KINDS = ('flat', 'tilted', 'hills', 'heightmap', 'steps', 'noise')
 RESOLUTIONS = ('coarse', 'medium', 'fine')
 STIFFNESS_PRESETS = ('normal', 'softer')
 FIDELITY_PRESETS = ('fast', 'balanced', 'accurate')
@@ -30,7 +30,13 @@ class SceneError(InputError):
 
 @dataclass(frozen=True)
 class TerrainSpec:
-    """Terrain of a scene: flat ground, a tilted plane, procedural hills or a height-map file."""
+    """Terrain of a scene: flat ground, a tilted plane, procedural hills, steps or noise, or a height-map file.
+
+    Fields by kind (lengths in m): tilted `slope_deg`, `direction_deg`; hills `amplitude`, `wavelength`, `seed`;
+    steps `block_size`, `step_min`, `step_max`, `seed`, `spacing` (flat pad of radius 0.4 m at height 0 around
+    the origin); noise `amplitude`, `wavelength`, `seed`, `spacing`; heightmap `file`, `scale`, `spacing`.
+    Every kind is a square of side `extent` centred on the origin (a height map: its own size).
+    """
 
     kind: str = 'flat'
     slope_deg: float = 10.0
@@ -42,6 +48,9 @@ class TerrainSpec:
     spacing: float = 0.05
     file: str = ''
     scale: float = 1.0
+    block_size: float = 0.3
+    step_min: float = 0.03
+    step_max: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -124,8 +133,10 @@ _CHOICES = {
     'pushes.region': ('trunk_left', 'trunk_right', 'tail', 'head', 'feet', 'legs', 'all'),
 }
 _POSITIVE = {'duration', 'goal_radius', 'terrain.wavelength', 'terrain.extent', 'terrain.spacing',
-             'terrain.scale', 'pushes.duration', 'record.mesh_every_n_frames'}
-_NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude'}
+             'terrain.scale', 'terrain.block_size', 'pushes.duration', 'record.mesh_every_n_frames'}
+_NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude', 'terrain.step_min', 'terrain.step_max'}
+MAX_GRID_NODES = 4000 ** 2
+"""Largest grid (nodes) a generated steps or noise terrain may have: `(extent / spacing + 1)²`."""
 
 
 def _fail(source: str, path: str, message: str) -> typing.NoReturn:
@@ -224,10 +235,30 @@ def _cross_checks(scene: Scene, source: str) -> None:
         _fail(source, 'terrain.file', 'a heightmap terrain needs a file (.npy or 16-bit .png)')
     if abs(scene.terrain.slope_deg) >= 60.0:
         _fail(source, 'terrain.slope_deg', f'expected |slope| < 60 deg, got {scene.terrain.slope_deg}')
+    if scene.terrain.kind in ('steps', 'noise'):
+        _check_generated_terrain(scene.terrain, source)
     half = scene.terrain.extent / 2.0
     for i, goal in enumerate(scene.goals):
         if max(abs(goal.x), abs(goal.y)) > half:
             _fail(source, f'goals[{i}]', f'goal ({goal.x}, {goal.y}) is off the terrain (|x|, |y| <= {half})')
+
+
+def _check_generated_terrain(terrain: TerrainSpec, source: str) -> None:
+    """Rules of the `steps` and `noise` grids: block and step ranges, samples per wavelength, grid size."""
+    from iguana_ros.terrain.heightfield import NOISE_MIN_SAMPLES
+
+    nodes = (math.ceil(terrain.extent / terrain.spacing) + 1) ** 2
+    if nodes > MAX_GRID_NODES:
+        _fail(source, 'terrain.spacing', f'a {terrain.extent:g} m terrain at spacing {terrain.spacing:g} m has '
+              f'{nodes} grid nodes, at most {MAX_GRID_NODES} allowed; use a larger spacing')
+    if terrain.kind == 'steps':
+        if terrain.step_max < terrain.step_min:
+            _fail(source, 'terrain.step_max', f'expected >= step_min ({terrain.step_min}), got {terrain.step_max}')
+        if terrain.block_size < terrain.spacing:
+            _fail(source, 'terrain.block_size', f'expected >= spacing ({terrain.spacing}), got {terrain.block_size}')
+    elif terrain.wavelength < NOISE_MIN_SAMPLES * terrain.spacing:
+        _fail(source, 'terrain.wavelength', f'expected >= {NOISE_MIN_SAMPLES} x spacing '
+              f'({NOISE_MIN_SAMPLES * terrain.spacing:g} m), got {terrain.wavelength}')
 
 
 def parse_scene(raw, source: str = '<scene>') -> Scene:

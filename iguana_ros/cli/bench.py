@@ -1,10 +1,13 @@
-"""`iguana bench sim|tradeoff|stability|pipeline`: simulator speed, speed–accuracy trade, stability at the
-extremes, and the node pipeline's realtime factor next to the library loop."""
+"""`iguana bench sim|tradeoff|stability|pipeline|locomotion`: simulator speed, speed–accuracy trade, stability
+at the extremes, the node pipeline's realtime factor next to the library loop, and the randomized locomotion
+benchmark (its handler in cli/bench_locomotion.py)."""
 from __future__ import annotations
 
 import argparse
 import json
 from fractions import Fraction
+
+from iguana_ros.cli import bench_locomotion
 
 
 def _time_step(text: str) -> float:
@@ -19,8 +22,9 @@ def _time_step(text: str) -> float:
 
 
 def register(subparsers) -> None:
-    """Add `bench` with its `sim`, `tradeoff` and `stability` sub-commands."""
-    parser = subparsers.add_parser('bench', help='simulator benchmarks (speed, speed-accuracy trade, stability)')
+    """Add `bench` with its `sim`, `tradeoff`, `stability`, `pipeline` and `locomotion` sub-commands."""
+    parser = subparsers.add_parser('bench', help='benchmarks: simulator speed, speed-accuracy trade, stability, '
+                                                 'node pipeline, randomized locomotion')
     sub = parser.add_subparsers(dest='bench', metavar='BENCH', required=True)
     sim = sub.add_parser('sim', help='simulate the iguana walking (lateral-bend gait) on hills; report speed')
     sim.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
@@ -54,6 +58,7 @@ def register(subparsers) -> None:
     pipe.add_argument('--single-process', action='store_true', help='run the four nodes in one process')
     pipe.add_argument('--json', action='store_true', help='print one JSON object')
     pipe.set_defaults(func=run_pipeline_bench)
+    bench_locomotion.register(sub)
 
 
 def run_pipeline_bench(args) -> int:

@@ -1,4 +1,4 @@
-"""Builds the height field a scene names (flat, tilted plane, hills, height-map file)."""
+"""Builds the height field a scene names (flat, tilted plane, hills, steps, noise, height-map file)."""
 from __future__ import annotations
 
 import numpy as np
@@ -17,4 +17,9 @@ def terrain_from_spec(spec: TerrainSpec) -> HeightField:
         return HeightField.tilted_plane(spec.slope_deg, (np.cos(d), np.sin(d)), extent=half)
     if spec.kind == 'hills':
         return HeightField.hills(spec.amplitude, spec.wavelength, spec.seed, extent=half)
+    if spec.kind == 'steps':
+        return HeightField.steps(spec.block_size, spec.step_min, spec.step_max, spec.seed, extent=half,
+                                 spacing=spec.spacing)
+    if spec.kind == 'noise':
+        return HeightField.noise(spec.amplitude, spec.wavelength, spec.seed, extent=half, spacing=spec.spacing)
     return HeightField.from_file(spec.file, scale=spec.scale, spacing=spec.spacing)

@@ -17,6 +17,10 @@ from iguana_ros.errors import InputError
 
 DEFAULT_EXTENT = 50.0
 """Half-size (m) of the square grid built by the analytic constructors (`flat`, `tilted_plane`)."""
+STEPS_PAD_RADIUS = 0.4
+"""Radius (m) of the flat start pad at height 0 around the origin (the default start) of `HeightField.steps`."""
+NOISE_MIN_SAMPLES = 4
+"""Fewest grid samples per `wavelength` that `HeightField.noise` accepts (fewer would be aliased white noise)."""
 
 
 @numba.njit(cache=True)
@@ -157,14 +161,61 @@ class HeightField:
             raise InputError('hills: amplitude must be >= 0 and wavelength, extent > 0 (metres)')
         rng = np.random.default_rng(seed)
         spacing = wavelength / 16.0
-        n = int(np.ceil(2.0 * extent / spacing)) + 1
-        axis = -extent + spacing * np.arange(n)
+        axis = _grid_axis(extent, spacing)
         gx, gy = np.meshgrid(axis, axis, indexing='ij')
-        heights = np.zeros((n, n))
+        heights = np.zeros(gx.shape)
         for _ in range(8):  # 8 components, once per construction (not a per-step loop)
             angle = rng.uniform(0, 2 * np.pi)
             k = 2 * np.pi / (wavelength * rng.uniform(0.7, 1.4))
             heights += np.sin(k * (np.cos(angle) * gx + np.sin(angle) * gy) + rng.uniform(0, 2 * np.pi))
+        peak = np.max(np.abs(heights))
+        heights *= amplitude / peak if peak > 0 else 0.0
+        return cls(heights, origin=(-extent, -extent), spacing=spacing)
+
+    @classmethod
+    def steps(cls, block_size: float = 0.3, step_min: float = 0.03, step_max: float = 0.05, seed: int = 0,
+              extent: float = 5.0, spacing: float = 0.05, pad_radius: float = STEPS_PAD_RADIUS) -> 'HeightField':
+        """Square blocks of side `block_size` m, each of a height drawn uniformly in [`step_min`, `step_max`] m.
+
+        Blocks are aligned to the origin (block `(a, b)` covers `[a, a + 1) * block_size` in x, likewise in y);
+        the grid of `spacing` m over `[-extent, extent]²` gives each node the height of its block, so an edge is
+        a ramp over the one grid cell before it (the field is bilinear). Nodes within `pad_radius` m of the
+        origin are a flat start pad at height 0, so a body starting there stands on level ground and first steps
+        up onto a block.
+        """
+        if not (block_size > 0 and spacing > 0 and extent > 0 and pad_radius >= 0):
+            raise InputError('steps: block_size, spacing, extent must be > 0 and pad_radius >= 0 (metres)')
+        if not 0 <= step_min <= step_max:
+            raise InputError(f'steps: need 0 <= step_min <= step_max (m), got {step_min} and {step_max}')
+        axis = _grid_axis(extent, spacing)
+        block = np.floor(axis / block_size + 1e-9).astype(np.int64)   # eps: a node on an edge joins the next
+        rng = np.random.default_rng(seed)
+        table = rng.uniform(step_min, step_max, size=(block[-1] - block[0] + 1,) * 2)
+        heights = table[np.ix_(block - block[0], block - block[0])]
+        heights[np.hypot(axis[:, None], axis[None, :]) <= pad_radius] = 0.0
+        return cls(heights, origin=(-extent, -extent), spacing=spacing)
+
+    @classmethod
+    def noise(cls, amplitude: float = 0.05, wavelength: float = 0.8, seed: int = 0, extent: float = 5.0,
+              spacing: float = 0.05) -> 'HeightField':
+        """Band-limited Gaussian noise on a `spacing` m grid over `[-extent, extent]²`, peak |height| = `amplitude`.
+
+        White noise is smoothed by a Gaussian filter (periodic boundary) of sigma `wavelength / (2 pi sqrt 2)`,
+        which puts the peak of the radial power spectrum at `wavelength` m, as the plane waves of `hills`; the
+        heights' autocorrelation falls to 1/e at `wavelength / (pi sqrt 2)`. The mean is removed before scaling.
+        Deterministic for a `seed`.
+        """
+        from scipy.ndimage import gaussian_filter
+
+        if amplitude < 0 or wavelength <= 0 or extent <= 0 or spacing <= 0:
+            raise InputError('noise: amplitude must be >= 0 and wavelength, extent, spacing > 0 (metres)')
+        if wavelength < NOISE_MIN_SAMPLES * spacing:
+            raise InputError(f'noise: wavelength {wavelength} m needs a grid spacing of at most '
+                             f'{wavelength / NOISE_MIN_SAMPLES:g} m, got {spacing}')
+        n = _grid_axis(extent, spacing).size
+        white = np.random.default_rng(seed).standard_normal((n, n))
+        heights = gaussian_filter(white, wavelength / (2.0 * np.pi * np.sqrt(2.0)) / spacing, mode='wrap')
+        heights -= heights.mean()
         peak = np.max(np.abs(heights))
         heights *= amplitude / peak if peak > 0 else 0.0
         return cls(heights, origin=(-extent, -extent), spacing=spacing)
@@ -192,6 +243,11 @@ class HeightField:
             return cls(heights, origin=origin, spacing=spacing)
         except InputError as exc:
             raise InputError(f'{path}: {exc}') from None
+
+
+def _grid_axis(extent: float, spacing: float) -> np.ndarray:
+    """Node coordinates `(n,)` (m) of a grid from `-extent` in steps of `spacing`, reaching at least `extent`."""
+    return -extent + spacing * np.arange(int(np.ceil(2.0 * extent / spacing)) + 1)
 
 
 def _load_npy(path: Path) -> np.ndarray:

@@ -1,0 +1,147 @@
+"""`iguana bench locomotion`: the randomized locomotion benchmark (iguana_ros.locomotion_bench) on all cores.
+
+A progress line per finished run goes to stderr; then a table per mode and terrain kind with the
+with/without-adaptation ratios, or with --json one object {config, summary, rows, wall_s} on stdout.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+KINDS = ('hills', 'tilted', 'steps', 'noise')
+"""The benchmark's terrain kinds (iguana_ros.locomotion_bench.BENCH_KINDS, kept here so --help imports little)."""
+MODES = {'both': (True, False), 'adapt': (True,), 'no-adapt': (False,)}
+
+
+def _count(minimum: int):
+    """argparse type: an integer >= `minimum`."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'expected an integer, got {text!r}') from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f'expected an integer >= {minimum}, got {value}')
+        return value
+    return parse
+
+
+def _seconds(text: str) -> float:
+    """argparse type: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected seconds, got {text!r}') from None
+    if not 0 < value < float('inf'):
+        raise argparse.ArgumentTypeError(f'expected a positive number of seconds, got {text!r}')
+    return value
+
+
+def _kinds(text: str) -> tuple:
+    """argparse type: a comma-separated list of terrain kinds."""
+    kinds = tuple(k.strip() for k in text.split(',') if k.strip())
+    bad = [k for k in kinds if k not in KINDS]
+    if bad or not kinds:
+        raise argparse.ArgumentTypeError(f'expected a comma-separated list of {", ".join(KINDS)}, got {text!r}')
+    return kinds
+
+
+def register(sub) -> None:
+    """Add `locomotion` to the `bench` sub-commands."""
+    loco = sub.add_parser('locomotion', help='walk to a goal 3 m away on random terrains, with and without '
+                                             'terrain adaptation; reach rate, time, slip per mode and terrain')
+    loco.add_argument('--terrains', type=_count(1), default=30, help='number of random terrains (default 30)')
+    loco.add_argument('--seed', type=_count(0), default=0, help='seed of the terrains and goals (default 0)')
+    loco.add_argument('--duration', type=_seconds, default=40.0,
+                      help='simulated seconds per run at most; a run ends 2 s after reaching its goal (default 40)')
+    loco.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
+    loco.add_argument('--workers', type=_count(1), default=None, help='worker processes (default: one per core)')
+    loco.add_argument('--modes', choices=tuple(MODES), default='both', help='with and/or without adaptation')
+    loco.add_argument('--kinds', type=_kinds, default=KINDS, help=f'terrain kinds to cycle (default {",".join(KINDS)})')
+    loco.add_argument('--json', action='store_true', help='print one JSON object (summary and rows) on stdout')
+    loco.add_argument('-o', '--output', default=None, help='also write the rows (a JSON list) to this file')
+    loco.set_defaults(func=run_locomotion)
+
+
+def run_locomotion(args: argparse.Namespace) -> int:
+    """`iguana bench locomotion`."""
+    from iguana_ros.locomotion_bench import random_scenes, run_benchmark, summarize
+
+    scenes = random_scenes(args.terrains, args.seed, args.duration, args.mesh, args.kinds)
+    modes = MODES[args.modes]
+    output = _open_output(args.output)          # before the runs: a bad path fails now, not after an hour
+    print(f'{len(scenes)} terrains x {len(modes)} modes, {args.mesh} mesh, up to {args.duration:g} s each',
+          file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    rows = run_benchmark(scenes, modes, args.workers,
+                         progress=lambda row, done, total: print(f'[{done}/{total}] {_progress_line(row)}',
+                                                                 file=sys.stderr, flush=True))
+    wall = time.perf_counter() - start
+    summary = summarize(rows)
+    if output is not None:
+        with output:
+            json.dump(rows, output, indent=1)
+    if args.json:
+        config = {'terrains': args.terrains, 'seed': args.seed, 'duration': args.duration, 'mesh': args.mesh,
+                  'workers': args.workers, 'modes': args.modes, 'kinds': list(args.kinds)}
+        print(json.dumps({'config': config, 'summary': summary, 'rows': rows, 'wall_s': wall}, indent=1))
+    else:
+        print(format_summary(summary))
+        print(f'{len(rows)} runs in {wall:.1f} s wall')
+    return 0
+
+
+def _open_output(path: str | None):
+    """The rows file opened for writing (None without -o); InputError (one line) if it cannot be."""
+    from iguana_ros.errors import InputError
+
+    if path is None:
+        return None
+    try:
+        return open(path, 'w', encoding='utf-8')
+    except OSError as exc:
+        raise InputError(f'cannot write the rows to {path}: {exc.strerror}') from None
+
+
+def _progress_line(row: dict) -> str:
+    """One finished run: outcome, slip and speed of the simulation."""
+    head = f"{row['scene']} {row['mode']}:"
+    if row.get('error'):
+        return f"{head} ERROR {row['error']} ({row['wall_s']:.1f} s wall)"
+    if row.get('reached_goal'):
+        outcome = f"reached the goal at {_num(row.get('time_to_goal'), '.1f')} s"
+    else:
+        flags = ''.join(f', {flag}' for flag in ('fell', 'stuck') if row.get(flag))
+        outcome = f"not reached ({_num(row.get('final_goal_distance'), '.2f')} m left{flags})"
+    return (f"{head} {outcome}; slip {_num(row.get('foot_slip_per_stride'), '.3f')} m/stride; "
+            f"realtime factor {_num(row.get('realtime_factor'), '.2f')}, {row['wall_s']:.1f} s wall")
+
+
+def _num(value, fmt: str, width: int = 0) -> str:
+    """`value` formatted, or '-' when missing, right-aligned in `width`."""
+    return format(value, fmt).rjust(width) if value is not None else '-'.rjust(width)
+
+
+def format_summary(summary: dict) -> str:
+    """The readable table of `summarize`'s result: one line per mode and kind, then the ratios."""
+    lines = [f"{'mode':9s} {'terrain':8s} {'runs':>4s} {'reached':>12s} {'time s':>7s} {'slip med':>9s} "
+             f"{'slip mean':>9s} {'speed':>7s} {'fell':>4s} {'stuck':>5s} {'errors':>6s}",
+             f"{'':9s} {'':8s} {'':4s} {'':12s} {'(med)':>7s} {'m/stride':>9s} {'m/stride':>9s} "
+             f"{'(med)':>7s}   speed = {summary['speed_key']}"]
+    for mode, groups in summary['modes'].items():
+        for group, g in groups.items():
+            reached = f"{g['reached']}/{g['n']} {100 * g['reach_rate']:3.0f}%" if g['n'] else '-'
+            lines.append(f"{mode:9s} {group:8s} {g['n']:4d} {reached:>12s} {_num(g['time_to_goal_median'], '.1f', 7)} "
+                         f"{_num(g['foot_slip_per_stride_median'], '.4f', 9)} "
+                         f"{_num(g['foot_slip_per_stride_mean'], '.4f', 9)} {_num(g['speed_median'], '.3f', 7)} "
+                         f"{g['fell']:4d} {g['stuck']:5d} {g['errors']:6d}")
+    if summary['ratios']:
+        lines += ['', f"{'with / without adaptation':26s} {'reach rate':>10s} {'slip without/with':>17s} "
+                      f"{'time without/with':>17s}  (time: over the scenes both reached)"]
+        for group, r in summary['ratios'].items():
+            lines.append(f"{group:26s} {_num(r['reach_rate_with_over_without'], '.2f', 10)} "
+                         f"{_num(r['slip_without_over_with'], '.2f', 17)} "
+                         f"{_num(r['time_without_over_with'], '.2f', 17)}  ({r['both_reached']} scenes)")
+    return '\n'.join(lines)

@@ -1,0 +1,259 @@
+"""Randomized locomotion benchmark: many seeded terrains, one goal each, with and without terrain adaptation.
+
+`random_scenes` draws the scenes (hills, tilted planes, steps, smooth noise; a goal 3 m from the start in a
+random direction, also behind the iguana, which starts facing +x), `run_benchmark` runs every (scene,
+adaptation) pair in worker processes and returns one plain row per run, `summarize` reduces the rows per mode
+and terrain kind and compares the modes. ROS-free; `iguana bench locomotion` is the command over it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import statistics
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Callable, Iterable
+
+import numpy as np
+
+from iguana_ros.errors import InputError
+from iguana_ros.scene import RESOLUTIONS, GoalSpec, ModelSpec, Scene, TerrainSpec, parse_scene
+
+BENCH_KINDS = ('hills', 'tilted', 'steps', 'noise')
+"""Terrain kinds of the benchmark, in the order `random_scenes` cycles through them."""
+KIND_FIELDS = {'hills': ('amplitude', 'wavelength', 'seed'), 'tilted': ('slope_deg', 'direction_deg'),
+               'steps': ('block_size', 'step_min', 'step_max', 'seed'), 'noise': ('amplitude', 'wavelength', 'seed')}
+"""The TerrainSpec fields each benchmark kind reads (copied into every row as `terrain`)."""
+GOAL_DISTANCE = 3.0
+"""Distance (m) of each scene's goal from the start (0, 0)."""
+GOAL_RADIUS = 0.2
+TERRAIN_EXTENT = 10.0
+"""Side (m) of every benchmark terrain, centred on the start."""
+STOP_AFTER_GOAL = 2.0
+"""A run ends this many simulated seconds after the root first reaches the goal (s)."""
+MODE_NAMES = {True: 'adapt', False: 'no_adapt'}
+"""Row and summary name of a run with (True) and without (False) terrain adaptation."""
+IDENTITY_KEYS = ('scene', 'kind', 'terrain', 'goal', 'resolution', 'duration', 'adaptation', 'mode', 'error',
+                 'error_type')
+"""Row keys that say what ran, not how it went (not summarised as metrics)."""
+
+
+# ------------------------------------------------------------------------------------------- the scenes
+
+def _random_terrain(kind: str, rng: np.random.Generator) -> TerrainSpec:
+    """A TerrainSpec of `kind` with parameters drawn from the benchmark's ranges (lengths in m, angles in deg)."""
+    seed = int(rng.integers(0, 1_000_000))
+    if kind == 'hills':
+        params = {'amplitude': rng.uniform(0.03, 0.12), 'wavelength': rng.uniform(0.5, 1.4), 'seed': seed}
+    elif kind == 'tilted':
+        params = {'slope_deg': rng.uniform(5.0, 15.0), 'direction_deg': rng.uniform(0.0, 360.0)}
+    elif kind == 'steps':
+        params = {'block_size': 0.3, 'step_min': 0.03, 'step_max': 0.05, 'seed': seed}
+    else:
+        params = {'amplitude': rng.uniform(0.03, 0.10), 'wavelength': rng.uniform(0.4, 1.2), 'seed': seed}
+    params = {k: v if isinstance(v, int) else round(float(v), 4) for k, v in params.items()}
+    return TerrainSpec(kind=kind, extent=TERRAIN_EXTENT, **params)
+
+
+def random_scenes(n_terrains: int, seed: int, duration: float = 40.0, resolution: str = 'medium',
+                  kinds: Iterable[str] = BENCH_KINDS) -> list[Scene]:
+    """`n_terrains` scenes `bench_<kind>_<index>` cycling through `kinds`, each with one goal 3 m away.
+
+    Scene `i` draws its terrain parameters and goal direction (uniform over the full circle) from its own
+    generator, `SeedSequence(seed, spawn_key=(i,))`: the same (n, seed) always gives the same scenes, and the
+    first scenes of a longer list are those of a shorter one. Model `resolution`, fidelity 'balanced',
+    `duration` s, goal radius 0.2 m, terrain 10 m square. Raises InputError on a bad argument.
+    """
+    kinds = tuple(kinds)
+    if not kinds or any(k not in BENCH_KINDS for k in kinds):
+        raise InputError(f'terrain kinds must be among {", ".join(BENCH_KINDS)}, got {", ".join(kinds) or "none"}')
+    if resolution not in RESOLUTIONS:
+        raise InputError(f'mesh resolution must be one of {", ".join(RESOLUTIONS)}, got {resolution!r}')
+    if isinstance(n_terrains, bool) or not isinstance(n_terrains, int) or n_terrains < 0:
+        raise InputError(f'number of terrains must be an integer >= 0, got {n_terrains!r}')
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f'seed must be an integer >= 0, got {seed!r}')
+    if not (math.isfinite(duration) and duration > 0):
+        raise InputError(f'duration must be a positive number of seconds, got {duration!r}')
+    scenes = []
+    for i in range(n_terrains):
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(i,)))
+        kind = kinds[i % len(kinds)]
+        terrain = _random_terrain(kind, rng)
+        heading = rng.uniform(0.0, 2.0 * np.pi)
+        goal = GoalSpec(x=round(GOAL_DISTANCE * math.cos(heading), 4), y=round(GOAL_DISTANCE * math.sin(heading), 4))
+        name = f'bench_{kind}_{i:03d}'
+        scene = Scene(name=name, description=f'locomotion benchmark (seed {seed}): {kind} terrain, goal 3 m away',
+                      terrain=terrain, model=ModelSpec(resolution=resolution), goals=(goal,), goal_radius=GOAL_RADIUS,
+                      duration=float(duration), fidelity='balanced', adaptation=True)
+        scenes.append(parse_scene(dataclasses.asdict(scene), name))     # the scene file rules hold for these too
+    return scenes
+
+
+# --------------------------------------------------------------------------------------------- the runs
+
+def _identity(scene: Scene, adaptation: bool) -> dict:
+    """The keys of a row that say what ran."""
+    return {'scene': scene.name, 'kind': scene.terrain.kind,
+            'terrain': {k: getattr(scene.terrain, k) for k in KIND_FIELDS.get(scene.terrain.kind, ())},
+            'goal': [scene.goals[-1].x, scene.goals[-1].y] if scene.goals else None,
+            'resolution': scene.model.resolution, 'duration': scene.duration,
+            'adaptation': bool(adaptation), 'mode': MODE_NAMES[bool(adaptation)]}
+
+
+def _error_row(scene: Scene, adaptation: bool, exc: BaseException, wall: float) -> dict:
+    """The row of a run that raised `exc`: what ran, `error` (one line) and `error_type`."""
+    message = ' '.join(str(exc).split()) or type(exc).__name__
+    return {**_identity(scene, adaptation), 'error': message, 'error_type': type(exc).__name__, 'wall_s': wall}
+
+
+def run_task(scene: Scene, adaptation: bool) -> dict:
+    """Run one (scene, adaptation) pair to its duration or 2 s past the goal; one plain row for JSON.
+
+    The row holds what ran (`_identity`), `wall_s` (build, run and metrics), `simulated_s`, `realtime_factor`
+    (simulated over the frame loop's wall time) and every field of the run's LocomotionMetrics. Any exception
+    (e.g. SimulationDiverged) gives a row with `error` set instead, so one bad run never ends a benchmark.
+    """
+    start = time.perf_counter()
+    try:
+        from iguana_ros import pipeline
+        from iguana_ros.run_metrics import metrics_of_run
+
+        result = pipeline.run(scene, adaptation=adaptation, stop_after_goal=STOP_AFTER_GOAL)
+        metrics = metrics_of_run(result, scene).as_dict()
+    except Exception as exc:                      # noqa: BLE001 - the row records the failure
+        return _error_row(scene, adaptation, exc, time.perf_counter() - start)
+    simulated = float(result.times[-1]) if len(result.times) else 0.0
+    loop = float(result.wall_seconds)
+    return {**_identity(scene, adaptation), 'wall_s': time.perf_counter() - start, 'simulated_s': simulated,
+            'realtime_factor': simulated / loop if loop > 0 else None, **metrics}
+
+
+def _init_worker() -> None:
+    """Worker set-up: one BLAS thread per process (the workers already fill the cores)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
+
+
+def run_benchmark(scenes: list[Scene], modes: tuple = (True, False), workers: int | None = None,
+                  progress: Callable[[dict, int, int], None] | None = None) -> list[dict]:
+    """Rows of every (scene, mode) pair, run on `workers` processes (default: one per core).
+
+    The rows come in scene order, modes in the given order within a scene, whatever the number of workers;
+    `progress(row, n_done, n_total)` is called as each run finishes (in finishing order). Workers are spawned
+    (fresh interpreters) and use one BLAS thread each. A worker that dies gives error rows, not an exception.
+    """
+    tasks = [(scene, bool(mode)) for scene in scenes for mode in modes]
+    if not tasks:
+        return []
+    workers = (os.cpu_count() or 1) if workers is None else workers
+    if workers < 1:
+        raise InputError(f'workers must be at least 1, got {workers}')
+    import multiprocessing
+
+    rows: list = [None] * len(tasks)
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=multiprocessing.get_context('spawn'),
+                               initializer=_init_worker)
+    try:
+        started = time.perf_counter()
+        futures = {pool.submit(run_task, scene, mode): k for k, (scene, mode) in enumerate(tasks)}
+        for n_done, future in enumerate(as_completed(futures), start=1):
+            k = futures[future]
+            try:
+                rows[k] = future.result()
+            except Exception as exc:              # noqa: BLE001 - the worker process died (BrokenProcessPool)
+                rows[k] = _error_row(*tasks[k], exc, time.perf_counter() - started)
+            if progress is not None:
+                progress(rows[k], n_done, len(tasks))
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return rows
+
+
+# ------------------------------------------------------------------------------------------ the summary
+
+def _median(values: list) -> float | None:
+    """Median of the numbers in `values`, None when there are none."""
+    return float(statistics.median(values)) if values else None
+
+
+def _is_number(value) -> bool:
+    """A finite int or float that is not a bool (the rows' scalar metrics)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _values(rows: list[dict], key: str) -> list:
+    """The numeric values of `key` over `rows` (missing, None and non-numbers left out)."""
+    return [r[key] for r in rows if _is_number(r.get(key))]
+
+
+def _ratio(numerator: float | None, denominator: float | None) -> float | None:
+    """numerator / denominator, None when either is missing or the denominator is 0."""
+    if numerator is None or not denominator:
+        return None
+    return numerator / denominator
+
+
+def _group_summary(rows: list[dict], speed_key: str) -> dict:
+    """Figures of one group of rows (one mode, one or all terrain kinds); see `summarize`."""
+    finished = [r for r in rows if not r.get('error')]
+    reached = [r for r in finished if r.get('reached_goal') is True]
+    slips = _values(finished, 'foot_slip_per_stride')
+    numeric = sorted({k for r in finished for k, v in r.items() if k not in IDENTITY_KEYS and _is_number(v)})
+    return {
+        'n': len(rows), 'reached': len(reached), 'reach_rate': len(reached) / len(rows) if rows else None,
+        'time_to_goal_median': _median(_values(reached, 'time_to_goal')),
+        'foot_slip_per_stride_median': _median(slips),
+        'foot_slip_per_stride_mean': float(np.mean(slips)) if slips else None,
+        'speed_median': _median(_values(finished, speed_key)),
+        'fell': sum(r.get('fell') is True for r in finished),
+        'stuck': sum(r.get('stuck') is True and r.get('reached_goal') is not True for r in finished),
+        'errors': len(rows) - len(finished),
+        'medians': {k: _median(_values(finished, k)) for k in numeric},
+    }
+
+
+def summarize(rows: list[dict]) -> dict:
+    """Per mode ('adapt', 'no_adapt') and per terrain kind (and 'all'): the figures, and the modes compared.
+
+    A group's figures: `n` runs (errors included), `reached`, `reach_rate` (reached / n: a run that raised counts
+    as not reached), `time_to_goal_median` (over reached runs), `foot_slip_per_stride_median` and `_mean`,
+    `speed_median` of `speed_key` (`speed_fraction` when any row has it, else `mean_forward_speed`), `fell`,
+    `stuck` (stuck and not reached), `errors`, and `medians`: the median of every numeric scalar key of the
+    finished rows (lists and other non-scalars are left out). `ratios[kind]` (both modes present):
+    `reach_rate_with_over_without`, `slip_without_over_with` (of the medians), `time_without_over_with` (of the
+    median times over the `both_reached` scenes that both modes reached, so the two medians cover the same
+    terrains); None on a zero or missing denominator.
+    """
+    speed_key = 'speed_fraction' if any('speed_fraction' in r for r in rows) else 'mean_forward_speed'
+    kinds = [k for k in BENCH_KINDS if any(r.get('kind') == k for r in rows)]
+    kinds += sorted({r.get('kind') for r in rows} - set(kinds) - {None})
+    modes = {}
+    for flag, mode in MODE_NAMES.items():
+        of_mode = [r for r in rows if r.get('adaptation') is flag]
+        if of_mode:
+            modes[mode] = {group: _group_summary([r for r in of_mode if group == 'all' or r.get('kind') == group],
+                                                 speed_key) for group in ['all'] + kinds}
+    ratios = {}
+    if len(modes) == 2:
+        for group in ['all'] + kinds:
+            w, wo = modes['adapt'][group], modes['no_adapt'][group]
+            times = _paired_times([r for r in rows if group == 'all' or r.get('kind') == group])
+            ratios[group] = {
+                'reach_rate_with_over_without': _ratio(w['reach_rate'], wo['reach_rate']),
+                'slip_without_over_with': _ratio(wo['foot_slip_per_stride_median'], w['foot_slip_per_stride_median']),
+                'time_without_over_with': _ratio(_median(times[False]), _median(times[True])),
+                'both_reached': len(times[True]),
+            }
+    return {'speed_key': speed_key, 'kinds': kinds, 'modes': modes, 'ratios': ratios}
+
+
+def _paired_times(rows: list[dict]) -> dict:
+    """{True: times to goal with adaptation, False: without}, over the scenes that both modes reached."""
+    times = {flag: {r['scene']: r['time_to_goal'] for r in rows if r.get('adaptation') is flag
+                    and not r.get('error') and r.get('reached_goal') is True and _is_number(r.get('time_to_goal'))}
+             for flag in MODE_NAMES}
+    both = sorted(set(times[True]) & set(times[False]))
+    return {flag: [times[flag][name] for name in both] for flag in MODE_NAMES}
