@@ -7,6 +7,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from iguana_ros.body.root_tracking import kabsch
+
 FALL_TILT = np.radians(60.0)
 """Root tilt (roll or pitch) beyond which the iguana counts as fallen, rad."""
 
@@ -15,6 +17,12 @@ STUCK_WINDOW = 3.0
 
 STUCK_PROGRESS = 0.05
 """Minimum progress toward the goal over STUCK_WINDOW, m."""
+
+SWING_CLEARANCE = 0.01
+"""Mid-swing height of a foot's lowest sole node above the terrain that counts as a clear swing, m."""
+
+N_FEET = 4
+"""Feet in every per-foot figure, in the order fl, fr, hl, hr."""
 
 
 @dataclass(frozen=True)
@@ -32,14 +40,53 @@ class LocomotionMetrics:
     fell: bool
     stuck: bool
     strides: int
+    gait: GaitMetrics | None = None
 
     def as_dict(self) -> dict:
-        """Plain dict for JSON and the summary line (NaN, e.g. no arrival time, becomes None)."""
-        def plain(v):
-            if isinstance(v, (float, np.floating)):
-                return float(v) if np.isfinite(v) else None
-            return v
-        return {k: plain(v) for k, v in asdict(self).items()}
+        """Plain dict for JSON and the summary line (NaN, e.g. no arrival time, becomes None); the gait
+        figures are flattened in (per-foot figures as lists in the order fl, fr, hl, hr)."""
+        values = asdict(self)
+        gait = values.pop('gait') or {}
+        return {k: _plain(v) for k, v in {**values, **gait}.items()}
+
+
+@dataclass(frozen=True)
+class GaitMetrics:
+    """Per-foot gait figures of a run against its reference motion (feet in the order fl, fr, hl, hr).
+
+    stance_fraction, reference_stance_fraction: fraction of frames a foot touches the ground (simulated) and
+    is in stance in the clip; swing_clearance: median over the foot's reference swings of the lowest sole
+    node's mid-swing height above the terrain (m); swings_clear_fraction: fraction of all swings whose
+    mid-swing clearance is at least SWING_CLEARANCE; slip_per_foot_per_stride: a foot's horizontal travel
+    while in contact, per stride (m); speed_fraction: forward speed while walking as a fraction of the
+    clips' speed; shape_error_median, shape_error_p90: RMS node distance (m) between the body and the
+    reference mesh after a rigid fit, over frames; foot_height_error: RMS (m) of the simulated minus the
+    reference foot height above the terrain.
+    """
+
+    stance_fraction: tuple
+    reference_stance_fraction: tuple
+    swing_clearance: tuple
+    swings_clear_fraction: float
+    swings: int
+    slip_per_foot_per_stride: tuple
+    speed_fraction: float
+    shape_error_median: float
+    shape_error_p90: float
+    foot_height_error: tuple
+
+
+def _plain(v):
+    """JSON-ready value: floats (NaN/Inf -> None), lists of them, everything else as is."""
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return [_plain(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return float(v) if np.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, np.bool_):
+        return bool(v)
+    return v
 
 
 def path_length(root_xy: np.ndarray) -> float:
@@ -67,13 +114,92 @@ def mean_forward_speed(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray) 
 
 
 def foot_slip(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> float:
-    """Horizontal travel of feet while in contact, per stride, m.
+    """Horizontal travel of feet while in contact, per stride, summed over feet, m.
 
     `foot_xy (n_frames, n_feet, 2)` foot centroids, `foot_contact (n_frames, n_feet)` bool.
     """
+    return float(np.sum(slip_per_foot(foot_xy, foot_contact, n_strides)))
+
+
+def slip_per_foot(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> np.ndarray:
+    """Horizontal travel `(n_feet,)` m of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames
+    in which it touches the ground (`foot_contact (n_frames, n_feet)`), per stride."""
     step = np.linalg.norm(np.diff(foot_xy, axis=0), axis=2)
     held = foot_contact[1:] & foot_contact[:-1]
-    return float(np.sum(step * held) / max(n_strides, 1))
+    return np.sum(step * held, axis=0) / max(n_strides, 1)
+
+
+def stance_fractions(foot_contact: np.ndarray) -> np.ndarray:
+    """Fraction of frames `(n_feet,)` in which each foot touches the ground, from `(n_frames, n_feet)` bool."""
+    return np.mean(foot_contact, axis=0) if len(foot_contact) else np.zeros(foot_contact.shape[1])
+
+
+def swing_intervals(reference_contact: np.ndarray) -> list[list[tuple[int, int]]]:
+    """Per foot, the (first, last) frame of every swing of `reference_contact (n_frames, n_feet)` (stance =
+    True) that starts and ends inside the run."""
+    out = []
+    for foot in range(reference_contact.shape[1]):
+        swing = ~np.asarray(reference_contact[:, foot], bool)
+        edges = np.diff(np.concatenate([[0], swing.astype(np.int8), [0]]))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        out.append([(int(a), int(b)) for a, b in zip(starts, ends) if a > 0 and b < len(swing) - 1])
+    return out
+
+
+def mid_swing_clearances(foot_height: np.ndarray, reference_contact: np.ndarray) -> list[np.ndarray]:
+    """Per foot, the clearance (m) of each reference swing: the highest `foot_height (n_frames, n_feet)` (lowest
+    sole node above the terrain) over the middle half of the swing."""
+    out = []
+    for foot, swings in enumerate(swing_intervals(reference_contact)):
+        values = []
+        for a, b in swings:
+            quarter = (b - a + 1) // 4
+            values.append(float(np.max(foot_height[a + quarter:b - quarter + 1, foot])))
+        out.append(np.array(values))
+    return out
+
+
+def speed_fraction(progress: np.ndarray, reference: np.ndarray) -> float:
+    """Total progress `(n_strides,)` m of the body along each stride's clip displacement as a fraction of the
+    clips' displacements `(n_strides,)` m (NaN when no stride moves)."""
+    total = float(np.sum(reference))
+    return float(np.sum(progress) / total) if total > 1e-9 else float('nan')
+
+
+def rigid_fit_errors(nodes: np.ndarray, reference: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """RMS distance `(n_frames,)` m between nodes `(n_frames, n, 3)` and the reference `(n_frames, n, 3)` after
+    the best rigid (weighted) fit of the reference onto the nodes, frame by frame."""
+    w = weights / weights.sum()
+    out = np.empty(len(nodes))
+    for f in range(len(nodes)):
+        rot, trans = kabsch(reference[f], nodes[f], weights)
+        residual = nodes[f] - (reference[f] @ rot.T + trans)
+        out[f] = np.sqrt(np.sum(w * np.einsum('nc,nc->n', residual, residual)))
+    return out
+
+
+def gait_metrics(foot_contact: np.ndarray, reference_contact: np.ndarray, foot_height: np.ndarray,
+                 reference_foot_height: np.ndarray, foot_xy: np.ndarray, n_strides: int,
+                 stride_progress: np.ndarray, stride_reference: np.ndarray,
+                 shape_errors: np.ndarray) -> GaitMetrics:
+    """GaitMetrics from per-frame arrays: contacts, reference stance flags, foot heights above the terrain and
+    their reference `(n_frames, 4)`, foot centroids `(n_frames, 4, 2)`; per walking stride the body's progress
+    and the clip's displacement `(n_strides,)` m; rigid-fit shape errors `(n_frames,)` m."""
+    clearances = mid_swing_clearances(foot_height, reference_contact)
+    every = np.concatenate(clearances) if clearances else np.zeros(0)
+    height_error = np.sqrt(np.mean((foot_height - reference_foot_height) ** 2, axis=0)) if len(foot_height) \
+        else np.full(N_FEET, np.nan)
+    return GaitMetrics(
+        stance_fraction=tuple(stance_fractions(foot_contact)),
+        reference_stance_fraction=tuple(stance_fractions(reference_contact)),
+        swing_clearance=tuple(float(np.median(c)) if len(c) else float('nan') for c in clearances),
+        swings_clear_fraction=float(np.mean(every >= SWING_CLEARANCE)) if len(every) else float('nan'),
+        swings=int(len(every)),
+        slip_per_foot_per_stride=tuple(slip_per_foot(foot_xy, foot_contact, n_strides)),
+        speed_fraction=speed_fraction(stride_progress, stride_reference),
+        shape_error_median=float(np.median(shape_errors)) if len(shape_errors) else float('nan'),
+        shape_error_p90=float(np.percentile(shape_errors, 90)) if len(shape_errors) else float('nan'),
+        foot_height_error=tuple(height_error))
 
 
 def lateral_bending(pelvis: np.ndarray, mid_trunk: np.ndarray, shoulders: np.ndarray) -> float:
@@ -123,7 +249,7 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
                        root_up: np.ndarray, goal_xy: np.ndarray, goal_radius: float,
                        foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int,
                        trunk_landmarks: np.ndarray, landmarks: np.ndarray, reference_landmarks: np.ndarray,
-                       landmark_pairs: np.ndarray) -> LocomotionMetrics:
+                       landmark_pairs: np.ndarray, gait: GaitMetrics | None = None) -> LocomotionMetrics:
     """All metrics of a run; shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`."""
     xy = root_positions[:, :2]
     reached, t_goal, final = goal_arrival(times, xy, goal_xy, goal_radius)
@@ -135,4 +261,4 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
         lateral_bending_amplitude_deg=lateral_bending(*np.moveaxis(trunk_landmarks, 1, 0)),
         inter_joint_distance_variation=inter_joint_variation(landmarks, reference_landmarks, landmark_pairs),
         fell=fell(root_up), stuck=stuck(times, dist, goal_radius) and not reached,
-        strides=int(n_strides))
+        strides=int(n_strides), gait=gait)

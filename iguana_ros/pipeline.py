@@ -62,6 +62,13 @@ class PlannerStage:
         """Whether a new clip must be chosen at `frame` (no clip yet, or the current one is used up)."""
         return self.clip is None or frame >= self.clip_start + len(self.clip.root_positions) - 1
 
+    def reference_contacts(self, frame: int) -> np.ndarray:
+        """The current clip's stance flags `(4,)` (fl, fr, hl, hr) at `frame` (all True before any clip)."""
+        if self.clip is None:
+            return np.ones(4, bool)
+        index = frame - self.clip_start
+        return np.asarray(self.clip.contacts[int(np.clip(index, 0, len(self.clip.contacts) - 1))], bool)
+
     def update(self, frame: int, root_position: np.ndarray, root_orientation: np.ndarray) -> AlignedClip | None:
         """At a stride end, choose and align the next clip from the body's root pose; else None."""
         self.activate_due_goals(frame / FRAME_RATE)
@@ -140,6 +147,7 @@ class RunResult:
     contacts: np.ndarray              # (F, n) bool
     reference_joints: np.ndarray      # (F, n_bones, 3) m, adapted reference pose: joint positions
     reference_rotations: np.ndarray   # (F, n_bones, 4) xyzw, adapted reference pose: bone orientations
+    reference_contacts: np.ndarray    # (F, 4) bool, the clip's stance flags per foot (fl, fr, hl, hr)
     clip_history: list = field(default_factory=list)  # (start frame, clip name)
     goals: list = field(default_factory=list)         # (time, x, y)
     wall_seconds: float = 0.0
@@ -153,7 +161,7 @@ class RunResult:
                             root_orientations=self.root_orientations, node_positions=self.node_positions,
                             contacts=self.contacts, reference_joints=self.reference_joints,
                             reference_rotations=self.reference_rotations,
-                            clip_frames=frames, clip_names=names, goals=np.array(self.goals, float),
+                            reference_contacts=self.reference_contacts, clip_frames=frames, clip_names=names, goals=np.array(self.goals, float),
                             wall_seconds=self.wall_seconds)
         return path
 
@@ -247,24 +255,37 @@ def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict |
 
 
 def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
-        progress: Callable[[int, int], None] | None = None) -> RunResult:
-    """Run `scene` for its duration (or `n_frames`) and return the trajectories."""
+        progress: Callable[[int, int], None] | None = None, stop_after_goal: float | None = None) -> RunResult:
+    """Run `scene` for its duration (or `n_frames`) and return the trajectories.
+
+    With `stop_after_goal` (s), the run ends that long after the root first comes within the goal radius of the
+    scene's last goal (the arrays then hold only the frames simulated).
+    """
     import time as _time
 
     pipe = build_pipeline(scene, adaptation)
     total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
     model = pipe.simulator.model
     rows = _allocate(total, model.n_nodes, model.skeleton.n_bones)
+    last_goal = np.array([scene.goals[-1].x, scene.goals[-1].y]) if scene.goals else None
+    stop_frame = total
     start = _time.perf_counter()
     for f in range(total):
         _, _, joints, rotations = pipe.step()
         root, quat = pipe.simulator.root_pose()
-        _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations))
+        _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations), pipe.planner.reference_contacts(f))
         if progress is not None:
             progress(f + 1, total)
+        if (stop_after_goal is not None and last_goal is not None and stop_frame == total
+                and np.hypot(*(root[:2] - last_goal)) <= scene.goal_radius):
+            stop_frame = min(total, f + 1 + int(round(stop_after_goal * FRAME_RATE)))
+        if f + 1 >= stop_frame:
+            break
     wall = _time.perf_counter() - start
+    done = f + 1 if total else 0
+    rows = {k: v[:done] for k, v in rows.items()}
     goals = [(g.at, g.x, g.y) for g in scene.goals]
-    return RunResult(times=(np.arange(total) + 1) / FRAME_RATE, clip_history=list(pipe.planner.history),
+    return RunResult(times=(np.arange(done) + 1) / FRAME_RATE, clip_history=list(pipe.planner.history),
                      goals=goals, wall_seconds=wall, **rows)
 
 
@@ -273,13 +294,16 @@ def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:
     return {'root_positions': np.zeros((n_frames, 3)), 'root_orientations': np.zeros((n_frames, 4)),
             'node_positions': np.zeros((n_frames, n_nodes, 3)), 'contacts': np.zeros((n_frames, n_nodes), bool),
             'reference_joints': np.zeros((n_frames, n_bones, 3)),
-            'reference_rotations': np.zeros((n_frames, n_bones, 4))}
+            'reference_rotations': np.zeros((n_frames, n_bones, 4)),
+            'reference_contacts': np.zeros((n_frames, 4), bool)}
 
 
-def _store(rows: dict, f: int, root, quat, sim: SoftBodySimulator, reference: tuple) -> None:
+def _store(rows: dict, f: int, root, quat, sim: SoftBodySimulator, reference: tuple,
+           reference_contacts: np.ndarray) -> None:
     """Record frame `f`."""
     rows['root_positions'][f] = root
     rows['root_orientations'][f] = quat
     rows['node_positions'][f] = sim.positions
     rows['contacts'][f] = sim.in_contact
     rows['reference_joints'][f], rows['reference_rotations'][f] = reference
+    rows['reference_contacts'][f] = reference_contacts

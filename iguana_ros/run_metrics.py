@@ -5,8 +5,10 @@ import numpy as np
 
 from iguana_ros.body.model import build_model
 from iguana_ros.body.spring_lengths import SpringLengthComputer
-from iguana_ros.geometry import quat_rotate, yaw_of
-from iguana_ros.metrics import LocomotionMetrics, locomotion_metrics
+from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
+from iguana_ros.metrics import (GaitMetrics, LocomotionMetrics, gait_metrics, goal_arrival, locomotion_metrics,
+                                rigid_fit_errors)
+from iguana_ros.terrain.from_scene import terrain_from_spec
 
 FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 TRUNK = ('pelvis', 'spine_3', 'spine_5')
@@ -26,8 +28,9 @@ def group_centroids(node_positions: np.ndarray, groups: list[np.ndarray]) -> np.
     return np.stack([node_positions[:, g].mean(axis=1) for g in groups], axis=1)
 
 
-def metrics_of_run(result, scene) -> LocomotionMetrics:
-    """LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: distance to the start)."""
+def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetrics:
+    """LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: distance to the start), with
+    the gait figures against the reference (clips from `library`, default the shipped clip library)."""
     model = build_model(scene.model.resolution, scene.model.stiffness)
     nodes = result.node_positions
     feet = [np.flatnonzero(model.node_tags[f]) for f in FEET]
@@ -37,7 +40,8 @@ def metrics_of_run(result, scene) -> LocomotionMetrics:
     chain_bones = tuple(b for chain in LIMB_CHAINS for b in chain)
     groups = bone_node_groups(model, chain_bones)
     landmarks = group_centroids(nodes, groups)
-    reference_landmarks = group_centroids(reference_mesh(model, result), groups)
+    reference = reference_mesh(model, result)
+    reference_landmarks = group_centroids(reference, groups)
     pairs, k = [], 0
     for chain in LIMB_CHAINS:
         pairs += [(k + i, k + i + 1) for i in range(len(chain) - 1)]
@@ -45,9 +49,58 @@ def metrics_of_run(result, scene) -> LocomotionMetrics:
     goal = np.array([scene.goals[-1].x, scene.goals[-1].y]) if scene.goals else np.array(
         [scene.start.x, scene.start.y])
     up = quat_rotate(result.root_orientations, np.array([0.0, 0.0, 1.0]))
+    gait = run_gait_metrics(model, result, scene, reference, feet, foot_xy, foot_contact, goal, library)
     return locomotion_metrics(result.times, result.root_positions, yaw_of(result.root_orientations), up, goal,
                               scene.goal_radius, foot_xy, foot_contact, len(result.clip_history), trunk,
-                              landmarks, reference_landmarks, np.array(pairs))
+                              landmarks, reference_landmarks, np.array(pairs), gait)
+
+
+def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain) -> np.ndarray:
+    """Height (m) of each foot's lowest sole node above the terrain, `(n_frames, n_feet)`."""
+    out = np.empty((len(node_positions), len(feet)))
+    for k, idx in enumerate(feet):
+        sole = node_positions[:, idx]
+        ground = terrain.height(sole[..., :2].reshape(-1, 2)).reshape(sole.shape[:2])
+        out[:, k] = np.min(sole[..., 2] - ground, axis=1)
+    return out
+
+
+def stride_progress(result, library: dict, until_frame: int) -> tuple:
+    """Per walking stride completed before `until_frame`: the body's root progress along the clip's
+    displacement and the clip's displacement, both `(n_strides,)` m."""
+    starts = [f for f, _ in result.clip_history] + [len(result.times)]
+    progress, reference = [], []
+    for (start, name), end in zip(result.clip_history, starts[1:]):
+        clip = library.get(name)
+        if clip is None or end > until_frame or end - start < clip.n_frames:
+            continue
+        d_ref = np.asarray(clip.root_displacement, float)[:2]
+        if np.hypot(*d_ref) < 1e-6:
+            continue                                 # idle: nothing to keep up with
+        before = result.root_positions[start - 1] if start > 0 else result.root_positions[0]
+        heading = yaw_of(result.root_orientations[start - 1] if start > 0 else result.root_orientations[0])
+        turn = heading - yaw_of(clip.local_rotations[0, 0])
+        direction = quat_rotate(quat_from_yaw(turn), np.array([*d_ref, 0.0]))[:2] / np.hypot(*d_ref)
+        progress.append(float((result.root_positions[end - 1, :2] - before[:2]) @ direction))
+        reference.append(float(np.hypot(*d_ref)))
+    return np.array(progress), np.array(reference)
+
+
+def run_gait_metrics(model, result, scene, reference: np.ndarray, feet: list[np.ndarray], foot_xy: np.ndarray,
+                     foot_contact: np.ndarray, goal: np.ndarray, library: dict | None) -> GaitMetrics:
+    """GaitMetrics of a run: per-foot contact, clearance, slip and height error, speed, shape error."""
+    if library is None:
+        from iguana_ros.motion.clips import load_clip_library
+        library = load_clip_library()
+    terrain = terrain_from_spec(scene.terrain)
+    heights = foot_heights(result.node_positions, feet, terrain)
+    reference_heights = foot_heights(reference, feet, terrain)
+    reached, t_goal, _ = goal_arrival(result.times, result.root_positions[:, :2], goal, scene.goal_radius)
+    until = int(np.searchsorted(result.times, t_goal)) + 1 if reached else len(result.times)
+    progress, clip_displacement = stride_progress(result, library, until)
+    shape = rigid_fit_errors(result.node_positions, reference, np.ones(model.n_nodes))
+    return gait_metrics(foot_contact, result.reference_contacts, heights, reference_heights, foot_xy,
+                        len(result.clip_history), progress, clip_displacement, shape)
 
 
 def reference_mesh(model, result) -> np.ndarray:

@@ -16,7 +16,7 @@ from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.fidelity import Fidelity, get_fidelity
-from iguana_ros.physics.forces import CONTACT_NONE, corotated_elastic_forces, lame_parameters, shape_gradients
+from iguana_ros.physics.forces import CONTACT_NONE, contact_forces, corotated_elastic_forces, lame_parameters, shape_gradients
 from iguana_ros.physics.cholesky import CholeskyPattern, empty_factor
 from iguana_ros.physics.solver import PRECONDITIONER_CODES, DirectSolver
 
@@ -200,6 +200,19 @@ class SoftBodySimulator:
     def in_contact(self) -> np.ndarray:
         """Per-node ground-contact flags `(n_nodes,)` bool, as of the last step."""
         return self._state[5] != CONTACT_NONE
+
+    def ground_forces(self) -> np.ndarray:
+        """Ground reaction (normal + friction) on each node `(n_nodes, 3)` N at the current state (zero without
+        terrain); evaluates the contact kernel on copies, so the simulation is not changed."""
+        forces = np.zeros_like(self._state[0])
+        if self.terrain is None:
+            return forces
+        m, fp = self._model, self._fp
+        n = len(forces)
+        contact_forces(self._state[0], self._state[1], m[16], m[8], m[9], m[10][0], m[10][1], m[10][2],
+                       fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], self._state[4].copy(),
+                       self._state[5].copy(), forces, np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
+        return forces
 
     @property
     def steps_per_frame(self) -> int:
