@@ -17,6 +17,7 @@ import numpy as np
 
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
+from iguana_ros.motion.cleanup import clean_footskate
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, local_rotations, root_positions
 
 CLIP_LIBRARY_FILE = 'clips.npz'
@@ -121,14 +122,18 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
 
 
 def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end: int,
-             frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None) -> Clip:
-    """The cyclic-ready, canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`)."""
+             frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None,
+             clean: bool = True) -> Clip:
+    """The cyclic-ready, canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`);
+    with `clean`, its stance feet are planted on the floor and its swings lifted (`motion.cleanup`)."""
     model = model or iguana_body_model()
     if not 0 <= start < end < len(theta):
         raise InputError(f'clip {name!r}: frames {start}..{end} are outside the take (0..{len(theta) - 1})')
     cyclic = canonical(make_cyclic(theta, start, end, model.dofs), model.dofs)
     clip_contacts = np.array(contacts[start:end + 1], dtype=bool, copy=True)
     clip_contacts[-1] = clip_contacts[0]
+    if clean:
+        cyclic = clean_footskate(cyclic, clip_contacts, model)
     return clip_from_theta(name, cyclic, clip_contacts, frame_rate, source, model,
                            {'start_frame': int(start), 'end_frame': int(end)})
 

@@ -230,11 +230,11 @@ def foot_targets(model: BodyModel, path: RootPath, gait: GaitParameters, t: np.n
 
 
 def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.ndarray,
-           iterations: int = 30) -> np.ndarray:
+           iterations: int = 30, tolerance: float = 5e-4) -> np.ndarray:
     """Poses `(F, n_dof)` with the 12 leg DOFs set so the foot markers reach `targets (F, 4, 3)`.
 
     Bounded Gauss-Newton over all frames at once. Stance targets (`stance (F, 4)` True) must be met within
-    0.5 mm; swing targets are a design path that joint limits may cut short (the markers follow the pose).
+    `tolerance` m; swing targets are a design path that joint limits may cut short (the markers follow the pose).
     """
     d = model.dofs
     legs = np.array([[d.index(n) for n in _leg_dof_names(leg)] for leg in LEGS])  # (4 legs, 3 dofs)
@@ -253,8 +253,8 @@ def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.
         theta[:, legs] = np.clip(theta[:, legs] + step, d.lower[legs], d.upper[legs])
     miss = np.linalg.norm(targets - model.marker_positions(theta)[:, :4], axis=-1)
     worst = miss[stance].max(initial=0.0)
-    if worst > 5e-4:
-        raise IguanaError(f'gait parameters put a stance foot out of reach: foot IK error {worst * 1e3:.1f} mm '
+    if worst > tolerance:
+        raise IguanaError(f'a stance foot target is out of reach: foot IK error {worst * 1e3:.1f} mm '
                           '(reduce stride_length or turn_per_stride)')
     return theta
 
