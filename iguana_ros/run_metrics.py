@@ -8,6 +8,7 @@ from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
 from iguana_ros.metrics import (GaitMetrics, LocomotionMetrics, gait_metrics, goal_arrival, locomotion_metrics,
                                 rigid_fit_errors)
+from iguana_ros.physics.simulator import contact_offsets
 from iguana_ros.terrain.from_scene import terrain_from_spec
 
 FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
@@ -55,13 +56,14 @@ def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetr
                               landmarks, reference_landmarks, np.array(pairs), gait)
 
 
-def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain) -> np.ndarray:
-    """Height (m) of each foot's lowest sole node above the terrain, `(n_frames, n_feet)`."""
+def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, offset: np.ndarray) -> np.ndarray:
+    """Height (m) of each foot's lowest sole point (node minus its contact `offset (n_nodes,)`) above the
+    terrain, `(n_frames, n_feet)`."""
     out = np.empty((len(node_positions), len(feet)))
     for k, idx in enumerate(feet):
         sole = node_positions[:, idx]
         ground = terrain.height(sole[..., :2].reshape(-1, 2)).reshape(sole.shape[:2])
-        out[:, k] = np.min(sole[..., 2] - ground, axis=1)
+        out[:, k] = np.min(sole[..., 2] - offset[idx] - ground, axis=1)
     return out
 
 
@@ -88,19 +90,23 @@ def stride_progress(result, library: dict, until_frame: int) -> tuple:
 
 def run_gait_metrics(model, result, scene, reference: np.ndarray, feet: list[np.ndarray], foot_xy: np.ndarray,
                      foot_contact: np.ndarray, goal: np.ndarray, library: dict | None) -> GaitMetrics:
-    """GaitMetrics of a run: per-foot contact, clearance, slip and height error, speed, shape error."""
+    """GaitMetrics of a run's walk (its frames until the goal is reached): per-foot contact, clearance, slip
+    and height error, speed, shape error."""
     if library is None:
         from iguana_ros.motion.clips import load_clip_library
         library = load_clip_library()
     terrain = terrain_from_spec(scene.terrain)
-    heights = foot_heights(result.node_positions, feet, terrain)
-    reference_heights = foot_heights(reference, feet, terrain)
     reached, t_goal, _ = goal_arrival(result.times, result.root_positions[:, :2], goal, scene.goal_radius)
     until = int(np.searchsorted(result.times, t_goal)) + 1 if reached else len(result.times)
+    walk = slice(0, until)
+    offset = contact_offsets(model)
+    heights = foot_heights(result.node_positions[walk], feet, terrain, offset)
+    reference_heights = foot_heights(reference[walk], feet, terrain, offset)
     progress, clip_displacement = stride_progress(result, library, until)
-    shape = rigid_fit_errors(result.node_positions, reference, np.ones(model.n_nodes))
-    return gait_metrics(foot_contact, result.reference_contacts, heights, reference_heights, foot_xy,
-                        len(result.clip_history), progress, clip_displacement, shape)
+    shape = rigid_fit_errors(result.node_positions[walk], reference[walk], np.ones(model.n_nodes))
+    strides = sum(1 for start, _ in result.clip_history if start < until)
+    return gait_metrics(foot_contact[walk], result.reference_contacts[walk], heights, reference_heights,
+                        foot_xy[walk], strides, progress, clip_displacement, shape)
 
 
 def reference_mesh(model, result) -> np.ndarray:

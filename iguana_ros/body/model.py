@@ -35,6 +35,7 @@ FORMAT_VERSION = 1
 """Version of the cached geometry layout; bump it when the arrays change meaning."""
 FOOT_CONTACT_HEIGHT = 0.004
 """Limb nodes lower than this (m) form the foot sole: the contact/friction region (soles lie on z = 0)."""
+
 FLANK_FRACTION = 0.35
 """Trunk surface nodes with |y| above this fraction of the local half-width are flank (push) nodes."""
 _SOURCES = ('shape.py', 'mesh.py', 'springs.py', 'skinning_weights.py', 'model.py', 'skeleton.py',
@@ -74,6 +75,7 @@ class IguanaModel:
     node_part: np.ndarray
     build_seconds: float
     from_cache: bool
+    contact_offset: np.ndarray | None = None
     info: dict = field(default_factory=dict)
 
     @property
@@ -230,6 +232,17 @@ def node_tags(shape: BodyShape, points: np.ndarray, part: np.ndarray, surface: n
     return tags
 
 
+def sole_pad_offsets(rest_positions: np.ndarray, sole: np.ndarray) -> np.ndarray:
+    """Contact offsets `(n_nodes,)` m: each sole node's rest height above z = 0, zero elsewhere.
+
+    A foot pad: every sole node touches the ground at the sole plane. The mesh puts only 2-3 of a foot's 7-10
+    sole nodes on z = 0 and the rest 2-4 mm above, so without it a loaded foot stands on two or three points.
+    """
+    offset = np.zeros(len(rest_positions))
+    offset[sole] = np.maximum(rest_positions[sole, 2], 0.0)
+    return offset
+
+
 def _assemble(g: dict, resolution: str, stiffness: str, from_cache: bool) -> IguanaModel:
     """Freeze the geometry arrays and add the stiffness of `stiffness`."""
     preset = PRESETS[stiffness]
@@ -240,6 +253,7 @@ def _assemble(g: dict, resolution: str, stiffness: str, from_cache: bool) -> Igu
     arrays['spring_stiffness'] = spring_stiffness(preset, arrays['spring_rest_lengths'], arrays['springs'], legs)
     arrays['youngs_modulus'] = youngs_moduli(preset, arrays['tets'], legs)
     tags = {str(k): np.array(m, dtype=bool) for k, m in zip(g['tag_names'], g['tag_masks'])}
+    arrays['contact_offset'] = sole_pad_offsets(arrays['rest_positions'], tags['feet'])
     for arr in list(arrays.values()) + list(tags.values()):
         arr.setflags(write=False)
     shape = iguana_shape()

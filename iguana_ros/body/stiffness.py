@@ -3,17 +3,17 @@
 `normal` is the moderate model used in every experiment of the paper and `softer` the Section VIII-D
 model with softer springs that absorb a push better. Springs follow f_s = a (l_d - l) per spring; `a` is
 normalised by rest length (a = A * L_REF / l_rest) so every spring resists the same *strain* with the same
-force: a 1 % stretch of any trunk spring pulls with A * L_REF * 0.01 N (normal: 30 kN/m * 0.02 m * 0.01
-= 6 N). Springs between two leg nodes are LEG_FACTOR times stiffer ("high-tension springs", Section V) so
+force: a 1 % stretch of any trunk spring pulls with A * L_REF * 0.01 N (normal: 300 kN/m * 0.02 m * 0.01
+= 60 N). Springs between two leg nodes are LEG_FACTOR times stiffer ("high-tension springs", Section V) so
 legs barely change length; springs from a leg node to a trunk node get the geometric mean (sqrt(LEG_FACTOR)).
 
 The springs are the actuators (they pull toward the *reference* shape), the corotated FEM pulls toward the
 *rest* shape; the presets are spring-dominated (FEM only keeps elements from degenerating), because a stiff
 FEM resists every joint bend the springs command (measured on the coarse body, suspended without gravity:
 with A = 300 N/m and E = 50 kPa the swing feet reach ~45 % of their reference lift, with A = 3 kN/m and
-E = 10 kPa 90-110 %). The spring scale is set by standing:
-at A = 300 N/m the 4 kg body lay on its belly (pelvis 0.075 -> 0.03 m); at 30 kN/m the pelvis sags
-~7 mm standing and the trot moves the body forward (README "Locomotion results").
+E = 10 kPa 90-110 %). The spring scale is set by the trot, not by standing: at A = 300 N/m the 4 kg body
+lay on its belly, at 30 kN/m it stood (pelvis sag ~7 mm) but could not lift its hind feet, at 300 kN/m it
+trots (README "Locomotion results").
 """
 from __future__ import annotations
 
@@ -39,13 +39,16 @@ class StiffnessPreset:
 
 
 PRESETS = {
-    # moderate springs (paper: "normal model"): spring-dominated body, 30 kN/m at L_REF (legs x10), weak
-    # FEM (10 kPa, about soft fat tissue) that only keeps elements from degenerating
-    'normal': StiffnessPreset(spring_a=3.0e4, leg_factor=10.0, youngs_modulus=1.0e4,
+    # moderate springs (paper: "normal model"): 300 kN/m at L_REF, legs x3 (leg-leg springs 900 kN/m), weak FEM
+    # (10 kPa, about soft fat tissue) that only keeps elements from degenerating. Set by what a trot needs
+    # (README, "Why the hind feet did not lift"): at 30 kN/m (legs x10) the loaded trunk sagged ~15 mm onto
+    # each swinging hind foot (its commanded lift over the hip is 11-15 mm) and the hind feet never lifted; x3
+    # left them 1-3 mm clear; x10 lifts every swing >= 1 cm. Legs only 3x the trunk (not 10x): stiffer legs
+    # turn millimetre misfits between the planted feet into friction-limit forces (slip +40 %).
+    'normal': StiffnessPreset(spring_a=3.0e5, leg_factor=3.0, youngs_modulus=1.0e4,
                               leg_youngs_factor=1.0, poisson_ratio=0.35),
-    # Section VIII-D "softer model": every spring 2/3x, FEM 0.5x (feet softer too, larger contact patches);
-    # at 0.4x (12 kN/m) the coarse body no longer walked (mean forward speed -0.04 m/s over 3 s)
-    'softer': StiffnessPreset(spring_a=2.0e4, leg_factor=10.0, youngs_modulus=5.0e3,
+    # Section VIII-D "softer model": every spring 2/3x, FEM 0.5x (feet softer too, larger contact patches)
+    'softer': StiffnessPreset(spring_a=2.0e5, leg_factor=3.0, youngs_modulus=5.0e3,
                               leg_youngs_factor=1.0, poisson_ratio=0.35),
 }
 """Named stiffness presets."""

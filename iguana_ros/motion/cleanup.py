@@ -1,6 +1,13 @@
 """Footskate cleanup of a stride clip (after Kovar, Schreiner and Gleicher 2002, "Footskate cleanup for
-motion capture editing"): every stance foot planted at one place on the capture floor, swings re-joined to
-the planted ends and lifted to a minimum clearance, legs re-solved by IK.
+motion capture editing"): every stance foot planted at one place on the capture floor with its sole flat,
+swings re-joined to the planted ends and lifted to a minimum clearance, legs re-solved by IK.
+
+Planting works on the foot's pivot, the wrist or ankle joint: the leg IK (three DOFs per leg) puts the pivot
+on its planted target, and `flat_soles` then turns the wrist/ankle bone so the sole lies flat with one fixed
+heading through the stance. The pivot's position does not depend on that bone's own rotation, so the
+flattening keeps it planted, and the whole foot (skinned to wrist/ankle and foot bones) stands still. Without
+it the sole tilts with the leg (only one or two of a foot's 7-10 sole nodes touched the ground in simulation)
+and the foot rolls and slides on that point, as the paper observes of its stiffer model (Section VIII-D).
 
 A sparse, noisy capture (Section IV) leaves the reference's stance feet skating (measured on the shipped
 clips: 1.4-3.1 cm per stance) and a few millimetres above or below the floor, each foot by its own offset.
@@ -15,14 +22,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from iguana_ros.body.skeleton import Skeleton, forward_kinematics
+from iguana_ros.geometry import (quat_conjugate, quat_from_rotvec, quat_from_yaw, quat_mul, quat_normalize,
+                                 quat_to_rotvec, yaw_of)
 from iguana_ros.motion.dofs import BodyModel
 from iguana_ros.motion.gait import leg_ik
+
+FOOT_PIVOTS = ('wrist_fl', 'wrist_fr', 'ankle_hl', 'ankle_hr')
+"""Bones whose joints are planted and whose rotation flattens each sole (feet in the order fl, fr, hl, hr)."""
 
 MIN_SWING_CLEARANCE = 0.02
 """Least peak height (m) of a swinging foot marker above its planted height (the synthetic gait lifts 2 cm)."""
 
-STANCE_TOLERANCE = 0.003
-"""Largest distance (m) between a planted target and the foot marker the leg IK reaches (joint limits)."""
+STANCE_TOLERANCE = 0.002
+"""Largest distance (m) between a planted target and the foot pivot the leg IK reaches (joint limits)."""
+
+TAIL_TIP_HEIGHT = -0.01
+"""Height (m) of the tail-tip joint over the floor in every frame of a cleaned clip: the tail rests on the
+ground and is pressed into it (its lower surface ~5 mm below the joint), so it bears weight. The model's
+centre of mass lies ~4.7 cm behind each diagonal support line of the trot (README, "Why the hind feet did not
+lift"); a tail that carries ~4 N closes the support triangle so the swing hind foot carries nothing."""
+
+TRIM_ROUNDS = 4
+"""Frames a stance may lose at each end where the leg cannot reach its planted point."""
 
 
 @dataclass(frozen=True)
@@ -108,21 +130,118 @@ def _clean_swing(ext: np.ndarray, targets: np.ndarray, k: int, lift: int, down: 
     targets[lift + 1:down, k] = swing
 
 
-def floor_marker_heights(model: BodyModel) -> np.ndarray:
-    """Height (m) of each foot marker `(4,)` above the floor in the rest pose (soles flat on z = 0)."""
+def foot_pivots(model: BodyModel, theta: np.ndarray) -> np.ndarray:
+    """World positions `(F, 4, 3)` of the wrist/ankle joints (FOOT_PIVOTS) of poses `theta (F, n_dof)`."""
+    return model.state(theta).positions[:, model.skeleton.indices(list(FOOT_PIVOTS))]
+
+
+def floor_pivot_heights(model: BodyModel) -> np.ndarray:
+    """Height (m) of each foot pivot `(4,)` above the floor in the rest pose (soles flat on z = 0)."""
     rest_root, _ = model.skeleton.rest_pose()
     rest = np.zeros((1, model.dofs.n_dof))
     rest[0, :3] = rest_root
-    return model.marker_positions(rest)[0, :4, 2]
+    return foot_pivots(model, rest)[0, :, 2]
 
 
 def clean_footskate(theta: np.ndarray, contacts: np.ndarray, model: BodyModel,
-                    min_clearance: float = MIN_SWING_CLEARANCE) -> np.ndarray:
-    """Poses `(N+1, n_dof)` of the cyclic clip `theta (N+1, n_dof)` with its legs re-solved so that the foot
-    markers follow `planted_foot_targets` (stance flags `contacts (N+1, 4)`); the trunk is unchanged."""
+                    min_clearance: float = MIN_SWING_CLEARANCE) -> tuple:
+    """(poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the cyclic clip `theta (N+1, n_dof)` with its legs
+    re-solved so that the foot pivots follow `planted_foot_targets` of `contacts (N+1, 4)`; trunk unchanged.
+
+    A stance frame at the start or end of a stance in which the leg cannot reach the planted point (a leg
+    stretched to lift-off: the captured foot rolled there) becomes a swing frame, up to TRIM_ROUNDS times.
+    """
     theta = np.asarray(theta, dtype=float)
+    contacts = np.array(contacts, dtype=bool, copy=True)
+    floor, stride = floor_pivot_heights(model), stride_transform(theta, model.dofs)
+    pivots = foot_pivots(model, theta)
+    for _ in range(TRIM_ROUNDS):
+        targets = planted_foot_targets(pivots, contacts, floor, stride, min_clearance)
+        solved = leg_ik(model, theta, targets, contacts, tolerance=np.inf, effectors=foot_pivots)
+        miss = contacts & (np.linalg.norm(targets - foot_pivots(model, solved), axis=-1) > STANCE_TOLERANCE)
+        ends = miss & _stance_ends(contacts)
+        if not ends.any():
+            break
+        contacts[ends] = False
+        contacts[-1] = contacts[0]
+    solved = leg_ik(model, theta, planted_foot_targets(pivots, contacts, floor, stride, min_clearance), contacts,
+                    tolerance=STANCE_TOLERANCE, effectors=foot_pivots)
+    return solved, contacts
+
+
+def _stance_ends(contacts: np.ndarray) -> np.ndarray:
+    """Flags `(N+1, n_feet)` of the first and last frame of every stance of a cyclic clip (seam-aware)."""
+    body = contacts[:-1]
+    before = np.roll(body, 1, axis=0)
+    after = np.roll(body, -1, axis=0)
+    ends = body & ~(before & after)
+    return np.concatenate([ends, ends[:1]])
+
+
+def support_tail(theta: np.ndarray, model: BodyModel, tip_height: float = TAIL_TIP_HEIGHT,
+                 iterations: int = 8) -> np.ndarray:
+    """Poses `(F, n_dof)` with `tail_pitch_base` set per frame so the tail-tip joint is at `tip_height` m
+    (secant iterations on the one DOF; the tail's sway and the rest of the pose are unchanged)."""
+    theta = np.array(theta, dtype=float, copy=True)
+    dof, tip = model.dofs.index('tail_pitch_base'), model.skeleton.index('tail_tip')
+
+    def error(th):
+        return model.state(th).positions[:, tip, 2] - tip_height
+    eps = 1e-4
+    for _ in range(iterations):
+        e = error(theta)
+        bumped = theta.copy()
+        bumped[:, dof] += eps
+        slope = (error(bumped) - e) / eps
+        theta[:, dof] -= np.where(np.abs(slope) > 1e-6, e / np.where(slope == 0, 1.0, slope), 0.0)
+    lo, hi = model.dofs.lower[dof], model.dofs.upper[dof]
+    theta[:, dof] = np.clip(theta[:, dof], lo, hi)
+    return theta
+
+
+def _slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Rotations `(n, 4)` from `a (4,)` to `b (4,)` at fractions `t (n,)`."""
+    delta = quat_mul(quat_conjugate(a), b)
+    delta = np.where(delta[3] < 0.0, -delta, delta)
+    return quat_normalize(quat_mul(a, quat_from_rotvec(quat_to_rotvec(delta)[None, :] * t[:, None])))
+
+
+def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float) -> np.ndarray:
+    """World rotations `(N+1, 4)` of one foot's pivot bone in a cyclic clip: flat (heading only, the stance's
+    mean heading) in stance, and in swing the original rotations `world (N+1, 4)` corrected by a rotation
+    eased from the lift-off correction to the touch-down one. `contacts (N+1,)`, `turn` the stride's heading
+    change (rad)."""
+    n = len(world) - 1
+    spin = [quat_from_yaw(np.full(n, k * turn)) for k in (-1, 0, 1)]
+    ext = np.concatenate([quat_mul(spin[k], world[:n]) for k in range(3)])
+    flags = np.concatenate([contacts[:n]] * 3)
+    out = ext.copy()
+    runs = _runs(flags)
+    for a, b in runs:
+        heading = np.unwrap(yaw_of(ext[a:b + 1]))
+        out[a:b + 1] = quat_from_yaw(np.full(b - a + 1, heading.mean()))
+    for (_, lift), (down, _) in zip(runs[:-1], runs[1:]):
+        if down - lift < 2:
+            continue
+        fix_lift = quat_mul(out[lift], quat_conjugate(ext[lift]))
+        fix_down = quat_mul(out[down], quat_conjugate(ext[down]))
+        s = _smoothstep((np.arange(lift + 1, down) - lift) / (down - lift))
+        out[lift + 1:down] = quat_mul(_slerp(fix_lift, fix_down, s), ext[lift + 1:down])
+    middle = out[n:2 * n]
+    return np.concatenate([middle, quat_mul(quat_from_yaw(turn), middle[:1])])
+
+
+def flat_soles(skeleton: Skeleton, root_positions: np.ndarray, local_rotations: np.ndarray,
+               contacts: np.ndarray, turn: float) -> np.ndarray:
+    """Local rotations `(N+1, n_bones, 4)` of a cyclic clip with every stance sole flat on the floor (see
+    `flat_sole_rotations`); only the FOOT_PIVOTS bones change, so no joint position moves but the feet's."""
+    local = np.array(local_rotations, dtype=float, copy=True)
     contacts = np.asarray(contacts, dtype=bool)
-    feet = model.marker_positions(theta)[:, :4]
-    targets = planted_foot_targets(feet, contacts, floor_marker_heights(model),
-                                   stride_transform(theta, model.dofs), min_clearance)
-    return leg_ik(model, theta, targets, contacts, tolerance=STANCE_TOLERANCE)
+    _, world = forward_kinematics(skeleton, root_positions, local)
+    for k, bone in enumerate(skeleton.indices(list(FOOT_PIVOTS))):
+        if not contacts[:, k].any():
+            continue
+        flat = flat_sole_rotations(world[:, bone], contacts[:, k], turn)
+        parent = skeleton.parents[bone]
+        local[:, bone] = quat_normalize(quat_mul(quat_conjugate(world[:, parent]), flat))
+    return local

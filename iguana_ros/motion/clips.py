@@ -17,7 +17,7 @@ import numpy as np
 
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
-from iguana_ros.motion.cleanup import clean_footskate
+from iguana_ros.motion.cleanup import clean_footskate, flat_soles, support_tail
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, local_rotations, root_positions
 
 CLIP_LIBRARY_FILE = 'clips.npz'
@@ -30,7 +30,7 @@ FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 @dataclass(frozen=True)
 class Clip:
     """One stride: root positions `(N+1, 3)`, local rotations `(N+1, n_bones, 4)` (root entry = world root
-    orientation), contacts `(N+1, 4)`, per-stride `root_displacement (2,)` (m, start heading frame) and
+    orientation; the wrist/ankle entries keep stance soles flat, `motion.cleanup.flat_soles`), contacts `(N+1, 4)`, per-stride `root_displacement (2,)` (m, start heading frame) and
     `heading_change` (rad), `residual_heights` {'feet': `(N+1, 4)`, 'tail_tip': `(N+1,)`} (m above the
     capture floor, Section VI-A), `duty_factor`, `stride_length` (m), active DOFs `theta (N+1, n_dof)`."""
 
@@ -113,8 +113,11 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
     displacement = np.array([c * displacement[0] + s * displacement[1], -s * displacement[0] + c * displacement[1]])
     heights = {'feet': state.positions[:, model.skeleton.indices(list(FEET)), 2],
                'tail_tip': state.positions[:, model.skeleton.index('tail_tip'), 2]}
-    return Clip(name=name, frame_rate=float(frame_rate), root_positions=root_positions(d, theta),
-                local_rotations=local_rotations(d, theta), contacts=contacts,
+    roots = root_positions(d, theta)
+    rotations = flat_soles(model.skeleton, roots, local_rotations(d, theta), contacts,
+                           float(theta[-1, yaw] - theta[0, yaw]))
+    return Clip(name=name, frame_rate=float(frame_rate), root_positions=roots,
+                local_rotations=rotations, contacts=contacts,
                 root_displacement=displacement, heading_change=float(theta[-1, yaw] - theta[0, yaw]),
                 residual_heights=heights, duty_factor=float(contacts[:-1].mean()),
                 stride_length=float(np.hypot(*displacement)), theta=theta, source=source,
@@ -125,7 +128,8 @@ def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end
              frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None,
              clean: bool = True) -> Clip:
     """The cyclic-ready, canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`);
-    with `clean`, its stance feet are planted on the floor and its swings lifted (`motion.cleanup`)."""
+    with `clean`, its tail rests on the floor and its stance feet are planted on it with swings lifted
+    (`motion.cleanup`)."""
     model = model or iguana_body_model()
     if not 0 <= start < end < len(theta):
         raise InputError(f'clip {name!r}: frames {start}..{end} are outside the take (0..{len(theta) - 1})')
@@ -133,7 +137,7 @@ def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end
     clip_contacts = np.array(contacts[start:end + 1], dtype=bool, copy=True)
     clip_contacts[-1] = clip_contacts[0]
     if clean:
-        cyclic = clean_footskate(cyclic, clip_contacts, model)
+        cyclic, clip_contacts = clean_footskate(support_tail(cyclic, model), clip_contacts, model)
     return clip_from_theta(name, cyclic, clip_contacts, frame_rate, source, model,
                            {'start_frame': int(start), 'end_frame': int(end)})
 

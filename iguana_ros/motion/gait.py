@@ -229,29 +229,35 @@ def foot_targets(model: BodyModel, path: RootPath, gait: GaitParameters, t: np.n
     return targets, contacts, touchdowns
 
 
-def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.ndarray,
-           iterations: int = 30, tolerance: float = 5e-4) -> np.ndarray:
-    """Poses `(F, n_dof)` with the 12 leg DOFs set so the foot markers reach `targets (F, 4, 3)`.
+def foot_markers(model: BodyModel, theta: np.ndarray) -> np.ndarray:
+    """The four foot-marker positions `(F, 4, 3)` of poses `theta (F, n_dof)` (fl, fr, hl, hr)."""
+    return model.marker_positions(theta)[:, :4]
 
-    Bounded Gauss-Newton over all frames at once. Stance targets (`stance (F, 4)` True) must be met within
-    `tolerance` m; swing targets are a design path that joint limits may cut short (the markers follow the pose).
+
+def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.ndarray,
+           iterations: int = 30, tolerance: float = 5e-4, effectors=foot_markers) -> np.ndarray:
+    """Poses `(F, n_dof)` with the 12 leg DOFs set so the feet reach `targets (F, 4, 3)`.
+
+    The feet are `effectors(model, theta) -> (F, 4, 3)` (default: the foot markers). Bounded Gauss-Newton over
+    all frames at once. Stance targets (`stance (F, 4)` True) must be met within `tolerance` m; swing targets
+    are a design path that joint limits may cut short (the feet follow the pose).
     """
     d = model.dofs
     legs = np.array([[d.index(n) for n in _leg_dof_names(leg)] for leg in LEGS])  # (4 legs, 3 dofs)
     theta = np.array(theta, dtype=float, copy=True)
     eps = 1e-6
     for _ in range(iterations):
-        feet = model.marker_positions(theta)[:, :4]
+        feet = effectors(model, theta)
         error = targets - feet
         jac = np.empty(error.shape + (3,))  # (F, 4, 3 xyz, 3 dofs)
         for k in range(3):
             bumped = theta.copy()
             bumped[:, legs[:, k]] += eps
-            jac[..., k] = (model.marker_positions(bumped)[:, :4] - feet) / eps
+            jac[..., k] = (effectors(model, bumped) - feet) / eps
         jtj = np.einsum('flik,flij->flkj', jac, jac) + 1e-6 * np.eye(3)
         step = np.linalg.solve(jtj, np.einsum('flik,fli->flk', jac, error)[..., None])[..., 0]
         theta[:, legs] = np.clip(theta[:, legs] + step, d.lower[legs], d.upper[legs])
-    miss = np.linalg.norm(targets - model.marker_positions(theta)[:, :4], axis=-1)
+    miss = np.linalg.norm(targets - effectors(model, theta), axis=-1)
     worst = miss[stance].max(initial=0.0)
     if worst > tolerance:
         raise IguanaError(f'a stance foot target is out of reach: foot IK error {worst * 1e3:.1f} mm '

@@ -89,7 +89,7 @@ def profile_step(sim, repeats: int = 100) -> dict:
     from iguana_ros.physics.solver import block_jacobi_pcg
 
     (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
-     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass) = sim._model
+     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass, contact_offset) = sim._model
     state = tuple(a.copy() for a in sim._state)
     x, v, dv, quats, anchors, contact, blocks = state[:7]
     forces, work, diag_k, diag_c = state[9], state[11], state[12], state[13]
@@ -104,8 +104,8 @@ def profile_step(sim, repeats: int = 100) -> dict:
         'spring_forces': lambda: spring_forces(x, springs, spring_k, ld, forces, blocks, spring_blocks, 0.0),
         'spring_forces_and_stiffness': lambda: spring_forces(x, springs, spring_k, ld, forces, blocks,
                                                              spring_blocks, scale),
-        'contact_forces': lambda: contact_forces(x, v, contact_mass, friction, heights, terrain[0], terrain[1], terrain[2],
-                                                 fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT],
+        'contact_forces': lambda: contact_forces(x, v, contact_mass, contact_offset, friction, heights, terrain[0],
+                                                 terrain[1], terrain[2], fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT],
                                                  anchors, contact, forces, diag_k, diag_c),
     }
     out = {name: _time_us(fn, repeats) for name, fn in parts.items()}

@@ -263,11 +263,12 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
 
 # ----------------------------------------------------------------------------------------------- contact
 @numba.njit(cache=True, fastmath=FASTMATH)
-def contact_forces(x, v, contact_mass, friction, heights, ox, oy, spacing, kn, cn, kt, ct,
+def contact_forces(x, v, contact_mass, contact_offset, friction, heights, ox, oy, spacing, kn, cn, kt, ct,
                    anchors, state, forces, diag_k, diag_c):
     """Penalty contact on the height field: normal k·d + c·ḋ (≥ 0), Coulomb friction via stick anchors.
 
-    Per node: `kn, kt` stiffness and `cn, ct` damping per kg of `contact_mass (n,)` (1/s², 1/s);
+    Per node: `kn, kt` stiffness and `cn, ct` damping per kg of `contact_mass (n,)` (1/s², 1/s); a node touches
+    the terrain `contact_offset (n,)` m before its position reaches it (the sole pad of a foot node);
     `friction (n,)` μ; `anchors (n, 3)`
     and `state (n,)` (CONTACT_*) persist between steps. Adds forces, writes stiffness `diag_k (n, 3, 3)` (N/m) and
     damping `diag_c (n, 3, 3)` (N s/m) of each node's own block.
@@ -284,7 +285,7 @@ def contact_forces(x, v, contact_mass, friction, heights, ox, oy, spacing, kn, c
         h, gx, gy = bilinear_height_gradient(heights, ox, oy, spacing, x[i, 0], x[i, 1])
         inv = 1.0 / np.sqrt(1.0 + gx * gx + gy * gy)
         n0, n1, n2 = -gx * inv, -gy * inv, inv
-        depth = (h - x[i, 2]) * n2                   # distance below the local tangent plane
+        depth = (h + contact_offset[i] - x[i, 2]) * n2   # distance below the (offset) local tangent plane
         if depth <= 0.0:
             state[i] = CONTACT_NONE
             continue

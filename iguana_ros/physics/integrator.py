@@ -44,7 +44,7 @@ STATUS_SOLVER = 4
 def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info):
     """Forces, (maybe) the system matrix, and the right-hand side of one step; returns (status, refreshed)."""
     (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
-     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass) = model
+     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass, contact_offset) = model
     (x, v, dv, quats, anchors, contact, blocks, dextra, pinv, forces, rhs, work, diag_k, diag_c, in_a) = state
     h = fp[FP_DT]
     alpha = fp[FP_ALPHA]
@@ -63,8 +63,8 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     spring_forces(x, springs, spring_k, desired_lengths, forces, blocks, spring_blocks, scale)
     if ip[IP_HAS_GROUND]:
         n_contact, deepest, depth = contact_forces(
-            x, v, contact_mass, friction, heights, terrain[0], terrain[1], terrain[2], fp[FP_KN], fp[FP_CN],
-            fp[FP_KT], fp[FP_CT], anchors, contact, forces, diag_k, diag_c)
+            x, v, contact_mass, contact_offset, friction, heights, terrain[0], terrain[1], terrain[2], fp[FP_KN],
+            fp[FP_CN], fp[FP_KT], fp[FP_CT], anchors, contact, forces, diag_k, diag_c)
         counters[C_CONTACTS] = n_contact
         if depth > fp[FP_MAX_DEPTH]:
             info[0] = deepest
@@ -196,8 +196,20 @@ def _solve(model, state, fp, ip, chol, kind):
 
 
 @numba.njit(cache=True)
-def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_steps, info, chol):
+def ramp_lengths(ld_from, ld_to, out, fraction):
+    """out = ld_from + fraction (ld_to − ld_from): the desired lengths `(n_springs,)` part-way through a ramp."""
+    for s in range(out.shape[0]):
+        out[s] = ld_from[s] + fraction * (ld_to[s] - ld_from[s])
+
+
+@numba.njit(cache=True)
+def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, external, n_steps, info, chol,
+                 ramp_offset, ramp_steps):
     """Advance `n_steps` steps with preconditioned CG; stops at the first failure. Returns (status, steps done).
+
+    Desired lengths ramp linearly from `ld_from` to `ld_to` `(n_springs,)`: step k of the call uses the
+    fraction (ramp_offset + k + 1) / ramp_steps (capped at 1), written into `ld_work`; `ramp_steps` <= 0
+    holds `ld_to` throughout.
 
     `chol` = (pattern arrays, values, diag_inv, work (n, 3), factor state (3,)) of the block Cholesky
     preconditioner. The system matrix is current every step; its factor is reused for up to `factor_every`
@@ -207,7 +219,11 @@ def run_steps_cg(model, state, fp, ip, counters, desired_lengths, external, n_st
     """
     kind = ip[IP_PRECONDITIONER]
     factor_state = chol[4]
+    desired_lengths = ld_to
     for step in range(n_steps):
+        if ramp_steps > 0:
+            ramp_lengths(ld_from, ld_to, ld_work, min(1.0, (ramp_offset + step + 1) / ramp_steps))
+            desired_lengths = ld_work
         status, refreshed = prepare_step(model, state, fp, ip, counters, desired_lengths, external, info)
         if status != STATUS_OK:
             return status, step

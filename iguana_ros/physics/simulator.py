@@ -20,6 +20,9 @@ from iguana_ros.physics.forces import CONTACT_NONE, contact_forces, corotated_el
 from iguana_ros.physics.cholesky import CholeskyPattern, empty_factor
 from iguana_ros.physics.solver import PRECONDITIONER_CODES, DirectSolver
 
+LENGTH_HOLDS = ('linear', 'zero')
+"""How desired lengths change within a frame: ramped from the previous frame's (first-order hold) or stepped."""
+
 _CAUSES = {itg.STATUS_NAN: 'nan', itg.STATUS_SPEED: 'speed', itg.STATUS_PENETRATION: 'penetration',
            itg.STATUS_SOLVER: 'solver'}
 
@@ -44,6 +47,16 @@ def friction_per_node(model, friction) -> np.ndarray:
     return mu
 
 
+def contact_offsets(model) -> np.ndarray:
+    """Per-node contact offset `(n_nodes,)` m: the model's `contact_offset` (sole pads), zeros if it has none."""
+    n = len(model.rest_positions)
+    offset = getattr(model, 'contact_offset', None)
+    offset = np.zeros(n) if offset is None else np.asarray(offset, dtype=np.float64)
+    if offset.shape != (n,) or not np.all(np.isfinite(offset)) or np.any(offset < 0):
+        raise InputError('simulator: model.contact_offset must be (n_nodes,) finite offsets >= 0 m')
+    return np.ascontiguousarray(offset)
+
+
 def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
     """Each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along
     (the FEM force is invariant to relabelling): every (a < b) stiffness block then lands untransposed in the
@@ -59,14 +72,24 @@ class SoftBodySimulator:
     `terrain` is a `HeightField` (None = no ground). `fidelity` is a preset name or `Fidelity`; `overrides`
     replace its fields (dt, solver, cg_tol, cg_max_iter, jacobian_every, polar_iters). With `cg_fallback`, a step
     whose CG solve fails (not converged within cg_max_iter, or breakdown) is solved directly instead.
+
+    `length_hold` says how the 30 Hz desired lengths drive the steps of a frame: 'linear' (default) ramps them
+    from the previous call's lengths to the new ones over the call's steps (a first-order hold), 'zero' holds
+    the new ones from the first step. A stiff body under a zero-order hold is jerked every frame (measured on
+    the walking medium body: the feet's summed horizontal ground force swings from +10 N to -7 N within each
+    frame, against 0.0-0.6 N with the ramp), which makes planted feet slide.
     """
 
     def __init__(self, model, terrain=None, fidelity='balanced', *, friction=None, gravity: float = GRAVITY,
                  rayleigh_alpha: float = RAYLEIGH_ALPHA, rayleigh_beta: float = RAYLEIGH_BETA,
                  contact_stiffness: float = CONTACT_STIFFNESS, contact_damping_ratio: float = CONTACT_DAMPING_RATIO,
                  friction_stiffness: float = FRICTION_STIFFNESS, max_speed: float = MAX_NODE_SPEED,
-                 max_penetration: float = MAX_PENETRATION, cg_fallback: bool = True, **overrides) -> None:
+                 max_penetration: float = MAX_PENETRATION, cg_fallback: bool = True, length_hold: str = 'linear',
+                 **overrides) -> None:
         ensure_fresh_kernel_cache()
+        if length_hold not in LENGTH_HOLDS:
+            raise InputError(f'simulator: length_hold must be one of {LENGTH_HOLDS}, got {length_hold!r}')
+        self.length_hold = length_hold
         self.model = model
         self.terrain = terrain
         self.fidelity: Fidelity = get_fidelity(fidelity, **overrides)
@@ -101,12 +124,14 @@ class SoftBodySimulator:
         self.desired_lengths_rest = np.ascontiguousarray(model.spring_rest_lengths, dtype=np.float64)
         heights, ox, oy, spacing = terrain.kernel_args() if terrain is not None else (np.zeros((2, 2)), 0., 0., 1.)
         self.friction = friction_per_node(model, friction)
+        self.contact_offset = contact_offsets(model)
         self._model = (mass, tets, grads, volume, np.ascontiguousarray(mu), np.ascontiguousarray(lam), springs,
                        np.ascontiguousarray(np.broadcast_to(model.spring_stiffness, (len(springs),)),
                                             dtype=np.float64),
                        self.friction, heights, np.array([ox, oy, spacing]), self.pattern.row_ptr,
                        self.pattern.cols, self.pattern.diag, self.pattern.tet_blocks, self.pattern.spring_blocks,
-                       np.maximum(mass, mass.mean()))      # contact mass: light (sliver) nodes get the mean
+                       np.maximum(mass, mass.mean()),      # contact mass: light (sliver) nodes get the mean
+                       self.contact_offset)
 
     def _build_params(self, gravity, alpha, beta, kn, zeta, kt, max_speed, max_depth) -> None:
         """Float/int parameter vectors of the compiled kernels."""
@@ -147,6 +172,8 @@ class SoftBodySimulator:
         self._counters = np.zeros(itg.N_COUNTERS, dtype=np.int64)
         self._info = np.zeros(2)
         self._zero_external = np.zeros((n, 3))
+        self._lengths_work = np.zeros(len(self.desired_lengths_rest))
+        self._held_lengths: np.ndarray | None = None
 
     def _build_factor(self) -> tuple:
         """The `chol` tuple of the compiled step loop: the block Cholesky pattern and factor storage when the
@@ -173,6 +200,7 @@ class SoftBodySimulator:
         self._counters[:] = 0
         self._chol[4][:] = 0
         self._fallback_steps = 0
+        self._held_lengths = None
         self.time = 0.0
         self._diverged = None
         m = self._model
@@ -209,7 +237,7 @@ class SoftBodySimulator:
             return forces
         m, fp = self._model, self._fp
         n = len(forces)
-        contact_forces(self._state[0], self._state[1], m[16], m[8], m[9], m[10][0], m[10][1], m[10][2],
+        contact_forces(self._state[0], self._state[1], m[16], m[17], m[8], m[9], m[10][0], m[10][1], m[10][2],
                        fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], self._state[4].copy(),
                        self._state[5].copy(), forces, np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
         return forces
@@ -233,8 +261,9 @@ class SoftBodySimulator:
 
     # -------------------------------------------------------------------------------------------- stepping
     def advance_frame(self, desired_lengths=None, external_forces=None, n_steps: int | None = None) -> None:
-        """Advance `n_steps` (default one 1/30 s frame) with spring desired lengths `(n_springs,)` m and
-        constant external forces `(n_nodes, 3)` N (None = none); raises SimulationDiverged on failure."""
+        """Advance `n_steps` (default one 1/30 s frame) with spring desired lengths `(n_springs,)` m (reached at the
+        last step, see `length_hold`) and constant external forces `(n_nodes, 3)` N (None = none); raises
+        SimulationDiverged on failure."""
         if self._diverged is not None:
             raise self._diverged
         ld = self.desired_lengths_rest if desired_lengths is None else np.asarray(desired_lengths, np.float64)
@@ -243,10 +272,13 @@ class SoftBodySimulator:
                              f'lengths >= 0 m, got shape {ld.shape}')
         ext = self._zero_external if external_forces is None else self._checked(external_forces, 'external_forces')
         n_steps = self.steps_per_frame if n_steps is None else int(n_steps)
+        ld_from = ld if self._held_lengths is None or self.length_hold == 'zero' else self._held_lengths
+        ramp = n_steps if ld_from is not ld else 0
         if self._direct is None:
-            status, done = self._run_cg(ld, ext, n_steps)
+            status, done = self._run_cg(ld_from, ld, ext, n_steps, ramp)
         else:
-            status, done = self._run_direct(ld, ext, n_steps)
+            status, done = self._run_direct(ld_from, ld, ext, n_steps, ramp)
+        self._held_lengths = np.array(ld, dtype=np.float64)
         self.time = self._counters[itg.C_STEP] * self.fidelity.dt
         if status != itg.STATUS_OK:
             self._diverged = self._divergence(status)
@@ -256,12 +288,13 @@ class SoftBodySimulator:
         """Advance by `duration` s (rounded to whole steps) with fixed inputs."""
         self.advance_frame(desired_lengths, external_forces, int(round(duration / self.fidelity.dt)))
 
-    def _run_cg(self, ld, ext, n_steps) -> tuple:
+    def _run_cg(self, ld_from, ld, ext, n_steps, ramp) -> tuple:
         """Steps in one compiled call; a step whose CG fails is solved by sparse LU (if `cg_fallback`)."""
         done_total = 0
         while True:
             status, done = itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters,
-                                            ld, ext, n_steps - done_total, self._info, self._chol)
+                                            ld_from, ld, self._lengths_work, ext, n_steps - done_total, self._info,
+                                            self._chol, done_total, ramp)
             done_total += done
             if status != itg.STATUS_SOLVER or self._fallback is None:
                 return status, done_total
@@ -276,10 +309,14 @@ class SoftBodySimulator:
             if status != itg.STATUS_OK or done_total >= n_steps:
                 return status, done_total
 
-    def _run_direct(self, ld, ext, n_steps) -> tuple:
+    def _run_direct(self, ld_from, ld_to, ext, n_steps, ramp) -> tuple:
         """Step loop around scipy's sparse LU (refactorised when the Jacobian is refreshed)."""
         state = self._state
+        ld = ld_to
         for step in range(n_steps):
+            if ramp:
+                itg.ramp_lengths(ld_from, ld_to, self._lengths_work, min(1.0, (step + 1) / ramp))
+                ld = self._lengths_work
             status, refreshed = itg.prepare_step(self._model, state, self._fp, self._ip, self._counters, ld, ext,
                                                  self._info)
             if status != itg.STATUS_OK:
