@@ -49,32 +49,25 @@ def run_inspect(args: argparse.Namespace) -> int:
 
 def run_export(args: argparse.Namespace) -> int:
     """Write the named clip (repeated) or take as BVH."""
-    import numpy as np
-
     from iguana_ros.body.skeleton import iguana_skeleton
     from iguana_ros.constants import FRAME_RATE
     from iguana_ros.errors import InputError
     from iguana_ros.motion.bvh import write_bvh
-    from iguana_ros.motion.clips import load_clip_library, load_take_motions, planar_transform
+    from iguana_ros.motion.clips import load_clip_library, load_take_motions, repeated_clip
     from iguana_ros.motion.dofs import iguana_active_dofs, local_rotations, root_positions
 
     dofs = iguana_active_dofs()
     library = load_clip_library(args.library)
     if args.name in library:
-        theta = library[args.name].theta
-        parts = [theta]
-        for _ in range(max(args.repeat, 1) - 1):
-            parts.append(planar_transform(parts[-1][1:], theta[0], parts[-1][-1], dofs))
-        theta = np.concatenate(parts)
+        roots, rotations = repeated_clip(library[args.name], max(args.repeat, 1))
     else:
         takes = load_take_motions(args.library)
         if args.name not in takes:
             raise InputError(f'no clip or take named {args.name!r}; clips: {", ".join(library)}; '
                              f'takes: {", ".join(takes)}')
-        theta = takes[args.name]
-    write_bvh(args.output, iguana_skeleton(), root_positions(dofs, theta), local_rotations(dofs, theta),
-              FRAME_RATE)
-    print(f'wrote {args.output}: {len(theta)} frames')
+        roots, rotations = root_positions(dofs, takes[args.name]), local_rotations(dofs, takes[args.name])
+    write_bvh(args.output, iguana_skeleton(), roots, rotations, FRAME_RATE)
+    print(f'wrote {args.output}: {len(roots)} frames')
     return 0
 
 

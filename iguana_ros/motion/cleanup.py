@@ -95,8 +95,9 @@ def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarr
     stance flags `(N+1, n_feet)` and each foot's marker height on the floor `(n_feet,)` m.
 
     Each stance is planted at its mean horizontal position, at floor height; each swing keeps its shape,
-    offset smoothly from the correction at lift-off to the one at touch-down, and is raised (by a sine bump)
-    to peak at least `min_clearance` above the floor. A foot that never leaves the ground stays planted.
+    offset smoothly from the correction at lift-off to the one at touch-down, kept above the floor, and raised
+    (by the smallest sine bump that does it) to peak at `min_clearance` above the floor if it is lower. A foot
+    that never leaves the ground stays planted.
     """
     n = len(feet) - 1
     # three strides unrolled (previous, this, next), so runs across the seam are whole
@@ -124,9 +125,11 @@ def _clean_swing(ext: np.ndarray, targets: np.ndarray, k: int, lift: int, down: 
     start_fix = targets[lift, k] - ext[lift, k]
     end_fix = targets[down, k] - ext[down, k]
     swing = ext[lift + 1:down, k] + (1.0 - e) * start_fix + e * end_fix
-    peak = float(np.max(swing[:, 2])) - floor
-    if peak < min_clearance:
-        swing[:, 2] += (min_clearance - peak) * np.sin(np.pi * s)
+    swing[:, 2] = np.maximum(swing[:, 2], floor)            # a re-joined swing never dips below the floor
+    lift_above = swing[:, 2] - floor
+    if np.max(lift_above) < min_clearance:                  # the smallest sine bump that peaks at the minimum
+        bump = np.sin(np.pi * s)
+        swing[:, 2] += np.min((min_clearance - lift_above) / bump) * bump
     targets[lift + 1:down, k] = swing
 
 

@@ -15,9 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from iguana_ros.body.skeleton import forward_kinematics
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
-from iguana_ros.motion.cleanup import clean_footskate, flat_soles, support_tail
+from iguana_ros.geometry import quat_from_yaw, quat_mul
+from iguana_ros.motion.cleanup import clean_footskate, flat_soles, stride_transform, support_tail
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, local_rotations, root_positions
 
 CLIP_LIBRARY_FILE = 'clips.npz'
@@ -105,17 +107,17 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
     if theta.ndim != 2 or theta.shape[1] != d.n_dof or len(theta) < 2 or contacts.shape != (len(theta), 4):
         raise InputError(f'clip {name!r}: theta must be (N+1, {d.n_dof}) and contacts (N+1, 4), '
                          f'got {theta.shape} and {contacts.shape}')
-    state = model.state(theta)
     yaw = d.index('root_yaw')
     displacement = theta[-1, [d.index('root_x'), d.index('root_y')]] - theta[0, [d.index('root_x'),
                                                                                  d.index('root_y')]]
     c, s = np.cos(theta[0, yaw]), np.sin(theta[0, yaw])
     displacement = np.array([c * displacement[0] + s * displacement[1], -s * displacement[0] + c * displacement[1]])
-    heights = {'feet': state.positions[:, model.skeleton.indices(list(FEET)), 2],
-               'tail_tip': state.positions[:, model.skeleton.index('tail_tip'), 2]}
     roots = root_positions(d, theta)
     rotations = flat_soles(model.skeleton, roots, local_rotations(d, theta), contacts,
                            float(theta[-1, yaw] - theta[0, yaw]))
+    joints = forward_kinematics(model.skeleton, roots, rotations)[0]
+    heights = {'feet': joints[:, model.skeleton.indices(list(FEET)), 2],
+               'tail_tip': joints[:, model.skeleton.index('tail_tip'), 2]}
     return Clip(name=name, frame_rate=float(frame_rate), root_positions=roots,
                 local_rotations=rotations, contacts=contacts,
                 root_displacement=displacement, heading_change=float(theta[-1, yaw] - theta[0, yaw]),
@@ -140,6 +142,21 @@ def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end
         cyclic, clip_contacts = clean_footskate(support_tail(cyclic, model), clip_contacts, model)
     return clip_from_theta(name, cyclic, clip_contacts, frame_rate, source, model,
                            {'start_frame': int(start), 'end_frame': int(end)})
+
+
+def repeated_clip(clip: Clip, repeat: int) -> tuple:
+    """(root positions `(n*N+1, 3)`, local rotations `(n*N+1, n_bones, 4)`) of `clip` played `repeat` = n times
+    in a row, each stride moved by the clip's own stride motion (the poses the planner would play)."""
+    dofs = iguana_body_model().dofs
+    stride = stride_transform(clip.theta, dofs)
+    roots, rotations = [clip.root_positions], [clip.local_rotations]
+    turn = quat_from_yaw(stride.turn)
+    for _ in range(repeat - 1):
+        roots.append(stride.apply(roots[-1][1:]))
+        last = rotations[-1][1:].copy()
+        last[:, 0] = quat_mul(turn, last[:, 0])
+        rotations.append(last)
+    return np.concatenate(roots), np.concatenate(rotations)
 
 
 def save_clip_library(path: str | Path, clips: dict, extra: dict | None = None) -> None:

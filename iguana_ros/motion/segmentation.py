@@ -18,7 +18,7 @@ def _debounce(flags: np.ndarray, min_run: int) -> np.ndarray:
     """`(F,)` bool with runs shorter than `min_run` flipped (inner runs only, gaps first then contacts)."""
     out = flags.copy()
     for value in (False, True):
-        edges = np.flatnonzero(np.diff(np.concatenate([[not value], out == value, [not value]]).astype(int)))
+        edges = np.flatnonzero(np.diff(np.concatenate([[False], out == value, [False]]).astype(int)))
         for start, stop in zip(edges[::2], edges[1::2]):
             if stop - start < min_run and start > 0 and stop < len(out):
                 out[start:stop] = not value

@@ -2,6 +2,8 @@
 import numpy as np
 import pytest
 
+from iguana_ros.body.stiffness import stiffness_preset
+
 from iguana_ros.body.markers import marker_positions
 from iguana_ros.body.mesh import face_adjacency, surface_topology, tet_volumes
 from iguana_ros.body.model import IguanaModel, build_model
@@ -105,7 +107,9 @@ def test_legs_are_stiffer_than_body(model):
     both = legs[model.springs].all(axis=1)
     none = ~legs[model.springs].any(axis=1)
     per_strain = model.spring_stiffness * model.spring_rest_lengths
-    assert np.median(per_strain[both]) == pytest.approx(10 * np.median(per_strain[none]), rel=1e-6)
+    factor = stiffness_preset(model.stiffness).leg_factor
+    assert factor > 1.0
+    assert np.median(per_strain[both]) == pytest.approx(factor * np.median(per_strain[none]), rel=1e-6)
 
 
 def test_skin_weights_nonnegative_and_normalised(model):

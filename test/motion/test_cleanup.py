@@ -3,8 +3,11 @@ known answers, the shipped (cleaned) clip library, and cut_clip's `clean` switch
 import numpy as np
 import pytest
 
-from iguana_ros.motion.cleanup import MIN_SWING_CLEARANCE, StrideTransform, planted_foot_targets, stride_transform
-from iguana_ros.motion.clips import canonical, cut_clip, load_clip_library, make_cyclic, planar_transform
+from iguana_ros.body.skeleton import forward_kinematics
+from iguana_ros.geometry import quat_rotate
+from iguana_ros.motion.cleanup import (FOOT_PIVOTS, MIN_SWING_CLEARANCE, TAIL_TIP_HEIGHT, StrideTransform,
+                                       floor_pivot_heights, planted_foot_targets, stride_transform)
+from iguana_ros.motion.clips import canonical, cut_clip, load_clip_library, make_cyclic, repeated_clip
 from iguana_ros.motion.dofs import iguana_body_model
 from iguana_ros.motion.gait import SYNTHETIC_TAKES, generate_take
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
@@ -143,25 +146,20 @@ def library():
     return load_clip_library()
 
 
-def _floor_marker_heights(model) -> np.ndarray:
-    """Height (m) of each foot marker `(4,)` in the rest pose, soles flat on z = 0: where a planted one is."""
-    rest_root, _ = model.skeleton.rest_pose()
-    rest = np.zeros((1, model.dofs.n_dof))
-    rest[0, :3] = rest_root
-    return model.marker_positions(rest)[0, :4, 2]
-
-
-def _one_cycle(clip, model):
-    """Foot markers `(N, 4, 3)` and stance flags `(N, 4)` of the clip unrolled into the next stride, per foot
-    from its first lift-off (so no stance or swing is cut by the window), with the foot's floor height."""
+def _one_cycle(clip, skeleton):
+    """Foot pivots `(N, 4, 3)`, their bones' world rotations `(N, 4, 4)` and stance flags `(N, 4)` of the clip
+    as played (its local rotations, flat soles included) unrolled into the next stride, per foot from its first
+    lift-off (so no stance or swing is cut by the window)."""
     n = clip.n_frames
-    nxt = planar_transform(clip.theta, clip.theta[0], clip.theta[-1], model.dofs)
-    feet = model.marker_positions(np.concatenate([clip.theta, nxt[1:]]))[:, :4]
+    roots, rotations = repeated_clip(clip, 2)
+    joints, world = forward_kinematics(skeleton, roots, rotations)
+    bones = skeleton.indices(list(FOOT_PIVOTS))
     flags = np.concatenate([clip.contacts, clip.contacts[1:]])
     for k in range(4):
         lifts = [f for f in range(n) if flags[f - 1 if f else n - 1, k] and not flags[f, k]]
         start = lifts[0] if lifts else 0
-        yield k, feet[start:start + n + (not lifts), k], flags[start:start + n + (not lifts), k]
+        window = slice(start, start + n + (not lifts))
+        yield k, joints[window, bones[k]], world[window, bones[k]], flags[window, k]
 
 
 def _runs(flags):
@@ -171,37 +169,40 @@ def _runs(flags):
 
 
 @pytest.mark.parametrize('name', ['forward', 'turn_left', 'turn_right', 'idle'])
-def test_shipped_clips_plant_their_stance_feet_on_the_floor(library, name):
-    """Measured after the cleanup: horizontal travel per stance 0 mm (forward, turn_right), <= 1.10 mm
-    (turn_left fr: IK at a joint limit), 0.71-1.83 mm for idle (its never-lifting feet are moved by its
-    0.3 mm / -0.41 deg stride at the seam); stance heights within 0.87 mm of the floor marker height
-    (turn_left fr, frame 2), 0 elsewhere. Before the cleanup: 3.9-29.9 mm per stance, -6.7..+7.0 mm."""
+def test_shipped_clips_plant_their_stance_feet_flat_on_the_floor(library, name):
+    """Each stance foot's pivot (wrist/ankle joint) stands still at its floor height and its sole is flat (the
+    pivot bone's up axis is the world's). Measured after the cleanup: pivot travel per stance <= 0.6 mm
+    (idle: its never-lifting feet follow its 0.3 mm stride at the seam, <= 1.9 mm), heights within 0.53 mm
+    (turn_left hl at its last stance frame, the leg at its reach), tilt 0. Before the cleanup the foot markers travelled 3.9-29.9 mm per stance, heights -6.7..+7.0 mm."""
     model = iguana_body_model()
-    floor = _floor_marker_heights(model)
-    for k, feet, stance in _one_cycle(library[name], model):
+    floor = floor_pivot_heights(model)
+    limit = 0.0025 if name == 'idle' else 0.001
+    for k, pivots, world, stance in _one_cycle(library[name], model.skeleton):
         for a, b in _runs(stance):
-            travel = np.sum(np.linalg.norm(np.diff(feet[a:b + 1, :2], axis=0), axis=1))
-            assert travel < 0.0025, (name, k, a, b, travel)
-        assert np.abs(feet[stance, 2] - floor[k]).max() < 0.0015, (name, k)
+            travel = np.sum(np.linalg.norm(np.diff(pivots[a:b + 1, :2], axis=0), axis=1))
+            assert travel < limit, (name, k, a, b, travel)
+        assert np.abs(pivots[stance, 2] - floor[k]).max() < 1e-3, (name, k)
+        up = quat_rotate(world[stance], np.array([0.0, 0.0, 1.0]))
+        assert up[:, 2].min() > np.cos(np.radians(0.1)), (name, k)
 
 
 @pytest.mark.parametrize('name', ['forward', 'turn_left', 'turn_right'])
 def test_shipped_walking_clips_lift_every_swing(library, name):
-    """Measured swing peaks above the floor marker height after the cleanup: forward 20.0-21.5 mm,
-    turn_left 19.9-20.3 mm (including a one-frame hr 'swing' at frame 3, a contact-detection gap, lifted to
-    20 mm), turn_right 18.0-21.0 mm (hr: 18.04 mm -- the sine bump peaks between frames, so the target itself
-    stays below MIN_SWING_CLEARANCE). Before the cleanup: 2.0 (that gap), 5.3-24.1 mm."""
+    """Every swing of a walking clip peaks at least MIN_SWING_CLEARANCE above the floor (the sine bump is
+    scaled so the peak frame reaches it) and hardly dips below it: at a lift-off where the leg is stretched to
+    its reach the pivot stays up to 3.2 mm low for a frame (turn_left fr; forward fl 0.6 mm)."""
     model = iguana_body_model()
-    floor = _floor_marker_heights(model)
+    floor = floor_pivot_heights(model)
     swings = 0
-    for k, feet, stance in _one_cycle(library[name], model):
+    for k, pivots, _, stance in _one_cycle(library[name], model.skeleton):
         for a, b in _runs(~stance):
             swings += 1
-            assert feet[a:b + 1, 2].max() - floor[k] > 0.0175, (name, k, a, b)
+            assert pivots[a:b + 1, 2].max() - floor[k] > MIN_SWING_CLEARANCE - 5e-4, (name, k, a, b)
+            assert pivots[a:b + 1, 2].min() - floor[k] > -0.004, (name, k, a, b)
     assert swings >= 4
 
 
-def test_cut_clip_cleans_only_the_legs():
+def test_cut_clip_cleans_only_the_legs_and_the_tail_pitch():
     model = iguana_body_model()
     take = generate_take(SYNTHETIC_TAKES[0])
     contacts = detect_contacts(take.markers[:, :4], take.frame_rate)
@@ -213,12 +214,14 @@ def test_cut_clip_cleans_only_the_legs():
     limbs = ('shoulder', 'elbow', 'hip', 'knee')
     legs = [i for i, dof in enumerate(model.dofs.names) if dof.split('_')[0] in limbs]
     assert len(legs) == 12
-    trunk = np.setdiff1d(np.arange(model.dofs.n_dof), legs)
+    tail = model.dofs.index('tail_pitch_base')
+    trunk = np.setdiff1d(np.arange(model.dofs.n_dof), legs + [tail])
     assert np.array_equal(clean.theta[:, trunk], raw.theta[:, trunk])
-    assert np.abs(clean.theta[:, legs] - raw.theta[:, legs]).max() > 0.01  # measured 0.070 rad (knee)
-    assert np.array_equal(clean.contacts, raw.contacts)
-    # the make_cyclic blend skates the raw hind stance feet (measured 1.33 mm in a frame); cleaned: 0
-    held = raw.contacts[1:] & raw.contacts[:-1]
-    raw_step, clean_step = (np.linalg.norm(np.diff(model.marker_positions(c.theta)[:, :4, :2], axis=0),
-                                           axis=2)[held] for c in (raw, clean))
-    assert raw_step.max() > 0.001 and clean_step.max() < 1e-4
+    assert np.abs(clean.theta[:, legs] - raw.theta[:, legs]).max() > 0.01
+    tip = model.state(clean.theta).positions[:, model.skeleton.index('tail_tip'), 2]
+    assert tip == pytest.approx(np.full(len(tip), TAIL_TIP_HEIGHT), abs=1e-5)   # the tail rests, pressed
+    assert not np.any(clean.contacts & ~raw.contacts)    # stances may only lose unreachable end frames
+    held = clean.contacts[1:] & clean.contacts[:-1]
+    pivots = forward_kinematics(model.skeleton, clean.root_positions, clean.local_rotations)[0][
+        :, model.skeleton.indices(list(FOOT_PIVOTS))]
+    assert np.linalg.norm(np.diff(pivots[..., :2], axis=0), axis=2)[held].max() < 1e-4
