@@ -62,6 +62,9 @@ class AdaptationSettings:
     most its residual height), never below the surface."""
     max_root_lift: float = 0.03
     """m the root may be raised or lowered by residual fitting."""
+    max_tail_press: float = 0.02
+    """m the tail may be pressed into the terrain: a clip's negative tail-tip residual height (a weight-bearing
+    tail) is kept down to this depth, a deeper one (a tail dug into the floor) is lifted to it."""
     max_iterations: int = 200
     gradient_tolerance: float = 1e-7
     function_tolerance: float = 1e-5
@@ -170,10 +173,14 @@ def terrain_targets(terrain: HeightField, points: np.ndarray, residual_heights: 
 
 
 def residual_heights_of(skeleton: Skeleton, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
-    """Residual heights of the clip pose: feet `(4,)` and tail tip (float), z above the capture floor, >= 0."""
+    """Residual heights of the clip pose: feet `(4,)` (>= 0) and tail tip (float), z above the capture floor.
+
+    The tail tip's may be negative: a clip whose tail bears weight presses it into the floor
+    (`motion.cleanup.TAIL_TIP_HEIGHT`), and the adapted tail is pressed as deep into the terrain.
+    """
     positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
-    z = np.maximum(positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE]), 2], 0.0)
-    return z[:4], float(z[4])
+    z = positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE]), 2]
+    return np.maximum(z[:4], 0.0), float(z[4])
 
 
 def plane_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.ndarray,
@@ -412,13 +419,15 @@ def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.nda
     local_rotations = np.asarray(local_rotations, dtype=float)
     positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
     points = positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE])]
-    heights = np.maximum(np.append(foot_residual_heights, tail_residual_height), 0.0)
+    heights = np.append(np.maximum(foot_residual_heights, 0.0), max(tail_residual_height, -settings.max_tail_press))
     targets = terrain_targets(terrain, points, heights)
     stance = np.ones(4, dtype=bool) if stance is None else np.asarray(stance, dtype=bool)
     weights = np.append(np.where(stance, settings.stance_foot_weight, settings.swing_foot_weight),
                         settings.tail_weight)
     clearance = np.clip(positions[:, 2] - terrain.height(positions[:, :2]), 0.0, settings.clearance)
     clearance[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE])] = np.minimum(settings.clearance, heights)
+    tail = np.array([name.startswith('tail_') for name in skeleton.names])
+    clearance[tail] = np.minimum(clearance[tail], heights[4])   # a pressed tail may sink as deep as its tip
     problem = _ResidualProblem(skeleton, terrain, root_position, local_rotations, targets, weights,
                                clearance, settings)
     with _single_threaded_blas():  # a 70-variable L-BFGS-B is slower with BLAS threads than without

@@ -40,13 +40,19 @@ def _stance(skel, clip):
 
 
 def _check_adapted(skel, terrain, clip, adapted, foot_tol=0.002, depth_tol=1e-4):
-    """Stance feet within `foot_tol` of terrain + residual height; no joint deeper than `depth_tol`."""
+    """Stance feet within `foot_tol` of terrain + residual height; no joint deeper than `depth_tol`, but the
+    tail's, which a weight-bearing clip presses in as deep as its tip's residual height (at most
+    max_tail_press)."""
     feet_h, tail_h = ad.residual_heights_of(skel, *clip)
     p = adapted.joint_positions
     feet = p[skel.indices(list(ad.FOOT_BONES))]
     foot_err = (feet[:, 2] - terrain.height(feet[:, :2]) - feet_h)[_stance(skel, clip)]
     assert foot_err.size and np.max(np.abs(foot_err)) < foot_tol
-    assert np.min(p[:, 2] - terrain.height(p[:, :2])) > -depth_tol
+    tail = np.array([name.startswith('tail_') for name in skel.names])
+    press = min(0.0, max(tail_h, -ad.AdaptationSettings().max_tail_press))
+    depth = p[:, 2] - terrain.height(p[:, :2])
+    assert np.min(depth[~tail]) > -depth_tol
+    assert np.min(depth[tail]) > press - 2e-3
     np.testing.assert_allclose(forward_kinematics(skel, adapted.root_position, adapted.local_rotations)[0],
                                p, atol=1e-12)
 
