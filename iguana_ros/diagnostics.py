@@ -5,8 +5,9 @@ Four measurements of a model variant (ROS-free; `iguana bench statics` prints th
 * `support_margins`: in every two-foot (diagonal) phase of a clip, how far the reference centre of mass lies
   outside the line between the two stance feet (toward the swinging hind foot), whether the tail's lowest
   point closes a support triangle around it, and the tail load that triangle needs.
-* `static_sag`: the body standing in the idle clip's first pose for a while; how far each region hangs below
-  the reference mesh of that pose, and how the ground load splits between feet and tail.
+* `static_sag`: the body standing in a held pose for a while (the idle clip's first pose on four feet, or a
+  two-foot frame of the trot); how far each region hangs below the reference mesh of that pose, and how the
+  ground load splits between feet and tail.
 * `spring_capacity`: per vertical plane, the bending moment the springs crossing it exert at 1 % strain next
   to the gravity moment of the body part beyond it (the strain the springs need to hold that part up).
 * `planted_feet`: the pipeline walking a scene; per foot in its stance frames, how many sole nodes touch, how
@@ -17,6 +18,7 @@ Foot order everywhere: fl, fr, hl, hr. Every length is in m, force in N, moment 
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 
@@ -27,10 +29,13 @@ from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.body.stiffness import stiffness_preset, spring_stiffness
 from iguana_ros.constants import FRAME_RATE, GRAVITY
 from iguana_ros.errors import InputError
+from iguana_ros.motion.clips import Clip, load_clip_library
+from iguana_ros.physics.simulator import SoftBodySimulator
+from iguana_ros.pipeline import Pipeline, SimulatorStage, build_pipeline, place_on_terrain
 from iguana_ros.run_metrics import FEET, TRUNK, bone_node_groups
+from iguana_ros.scene import ModelSpec, Scene, load_scene
+from iguana_ros.terrain.heightfield import HeightField
 
-FOOT_NAMES = tuple(f.split('_')[1] for f in FEET)
-"""Short foot names in foot order: fl, fr, hl, hr."""
 DIAGONALS = {(True, False, False, True): ('fl+hr', 2), (False, True, True, False): ('fr+hl', 3)}
 """Clip stance flags of a diagonal (two-foot) phase -> (name, index of the swinging hind foot)."""
 TRUNK_REGIONS = dict(zip(('pelvis', 'mid_trunk', 'shoulders'), TRUNK))
@@ -111,7 +116,7 @@ def inside_triangle(point_xy: np.ndarray, a_xy: np.ndarray, b_xy: np.ndarray, c_
     return bool(np.all(signs >= -scale) or np.all(signs <= scale))
 
 
-def support_margins(model: IguanaModel, clip) -> dict:
+def support_margins(model: IguanaModel, clip: Clip) -> dict:
     """Centre of mass against the diagonal support lines of `clip` (a `motion.clips.Clip`: `root_positions
     (N+1, 3)`, `local_rotations (N+1, n_bones, 4)`, `contacts (N+1, 4)`), on `model`'s reference mesh.
 
@@ -185,7 +190,7 @@ def ground_load_groups(model: IguanaModel) -> dict:
     return groups
 
 
-def place_by_feet(positions: np.ndarray, feet: np.ndarray, terrain) -> np.ndarray:
+def place_by_feet(positions: np.ndarray, feet: np.ndarray, terrain: HeightField) -> np.ndarray:
     """Nodes `(n_nodes, 3)` moved vertically so the lowest of the `feet` nodes (indices) stands on `terrain`."""
     gap = positions[feet, 2] - terrain.height(positions[feet, :2])
     out = np.array(positions, float)
@@ -193,7 +198,7 @@ def place_by_feet(positions: np.ndarray, feet: np.ndarray, terrain) -> np.ndarra
     return out
 
 
-def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanced', clip=None,
+def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanced', clip: Clip | None = None,
                frame: int = 0) -> dict:
     """The body standing on flat ground for `seconds`, its desired lengths held at pose `frame` of `clip` (a
     `motion.clips.Clip`; default the idle clip, whose first pose stands on all four feet; a frame of a
@@ -206,11 +211,6 @@ def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanc
     vertical offset (m, negative = lower than the reference) of its nodes, averaged over the frames of the
     last quarter of the run; the ground load (N) per foot and on the tail over the same frames.
     """
-    from iguana_ros.motion.clips import load_clip_library
-    from iguana_ros.physics.simulator import SoftBodySimulator
-    from iguana_ros.pipeline import place_on_terrain
-    from iguana_ros.terrain.heightfield import HeightField
-
     if not (np.isfinite(seconds) and seconds > 0):
         raise InputError(f'static sag: seconds must be positive, got {seconds!r}')
     clip = load_clip_library()['idle'] if clip is None else clip
@@ -227,16 +227,16 @@ def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanc
     window = max(1, n_frames // 4)
     regions, loads = sag_regions(model), ground_load_groups(model)
     offsets, forces = [], []
-    for frame in range(n_frames):
+    for step in range(n_frames):
         sim.advance_frame(lengths)
-        if frame >= n_frames - window:
+        if step >= n_frames - window:
             offsets.append(sim.positions[:, 2] - reference[:, 2])
             forces.append(sim.ground_forces()[:, 2])
     dz, fz = np.mean(offsets, axis=0), np.mean(forces, axis=0)
     load = {name: float(fz[idx].sum()) for name, idx in loads.items()}
     load['total'] = float(fz.sum())
     return {'clip': getattr(clip, 'name', ''), 'frame': int(frame),
-            'stance': [bool(c) for c in np.asarray(clip.contacts)[frame]] if hasattr(clip, 'contacts') else None,
+            'stance': [bool(c) for c in np.asarray(clip.contacts)[frame]],
             'seconds': n_frames / FRAME_RATE, 'window_s': window / FRAME_RATE, 'fidelity': fidelity,
             'offset_m': {name: float(dz[idx].mean()) if len(idx) else float('nan') for name, idx in regions.items()},
             'ground_load_n': load, 'weight_n': float(np.sum(model.node_mass)) * GRAVITY}
@@ -250,7 +250,8 @@ def capacity_planes(model: IguanaModel) -> dict:
     return {name: float(joints[model.skeleton.index(bone), 0]) for name, bone in CAPACITY_PLANES.items()}
 
 
-def spring_capacity(model: IguanaModel, x_planes=None, strain: float = CAPACITY_STRAIN) -> list[dict]:
+def spring_capacity(model: IguanaModel, x_planes: dict | tuple | list | None = None,
+                    strain: float = CAPACITY_STRAIN) -> list[dict]:
     """Per vertical plane x = x0 of the rest mesh: the springs' bending moment at `strain` against gravity.
 
     `x_planes`: plane x positions (m), a {name: x} mapping, or None for `capacity_planes(model)`. Each spring
@@ -303,13 +304,10 @@ def _bending_moment(a: np.ndarray, b: np.ndarray, force: np.ndarray, x0: float) 
 
 # ---------------------------------------------------------------------------------------------- planted feet
 
-def statics_pipeline(scene, model: IguanaModel | None = None):
+def statics_pipeline(scene: Scene | str, model: IguanaModel | None = None) -> Pipeline:
     """`pipeline.build_pipeline` of `scene` (a Scene or a scene name), its simulator (and spring-length
     stage) built for `model` instead of the scene's model when given; the scene then names `model`'s
     resolution and preset."""
-    from iguana_ros.pipeline import SimulatorStage, build_pipeline
-    from iguana_ros.scene import ModelSpec, load_scene
-
     scene = load_scene(scene) if isinstance(scene, str) else scene
     if model is not None:
         scene = dataclasses.replace(scene, model=ModelSpec(model.resolution, model.stiffness))
@@ -322,7 +320,7 @@ def statics_pipeline(scene, model: IguanaModel | None = None):
     return pipe
 
 
-def planted_feet(model: IguanaModel | None = None, scene='flat_walk', seconds: float = 4.0,
+def planted_feet(model: IguanaModel | None = None, scene: Scene | str = 'flat_walk', seconds: float = 4.0,
                  settle: float | None = None) -> dict:
     """The pipeline walking `scene` for `seconds` (with `model`, default the scene's), sampled every frame.
 
@@ -376,7 +374,7 @@ def planted_feet(model: IguanaModel | None = None, scene='flat_walk', seconds: f
 
 # ---------------------------------------------------------------------------------------------------- report
 
-def mid_diagonal_frame(clip, stance: str = 'fl+hr') -> int:
+def mid_diagonal_frame(clip: Clip, stance: str = 'fl+hr') -> int:
     """The middle frame of the first run of `clip`'s frames whose stance flags are exactly the diagonal
     `stance` ('fl+hr' or 'fr+hl'); InputError if the clip has none."""
     frames = [i for i, flags in enumerate(np.asarray(clip.contacts, bool))
@@ -392,15 +390,11 @@ def mid_diagonal_frame(clip, stance: str = 'fl+hr') -> int:
 
 
 def statics_report(model: IguanaModel, clip_name: str = 'forward', sag_seconds: float = 2.0,
-                   walk_seconds: float = 4.0, fidelity: str = 'balanced', scene='flat_walk') -> dict:
+                   walk_seconds: float = 4.0, fidelity: str = 'balanced', scene: Scene | str = 'flat_walk') -> dict:
     """All four measurements of `model`: {'model', 'support', 'sag', 'sag_diagonal', 'springs', 'planted',
     'wall_s'} (see each function). Support margins over the library clip `clip_name`; the sag over
     `sag_seconds` standing in the idle clip's first pose ('sag') and holding the middle fl+hr frame of
     `clip_name` ('sag_diagonal'); the walk over `walk_seconds` of `scene`; wall seconds of each part."""
-    import time
-
-    from iguana_ros.motion.clips import load_clip_library
-
     library = load_clip_library()
     if clip_name not in library:
         raise InputError(f'no clip {clip_name!r} in the clip library; clips: {", ".join(sorted(library))}')

@@ -1,13 +1,14 @@
-"""`iguana bench sim|tradeoff|stability|pipeline|locomotion`: simulator speed, speed–accuracy trade, stability
-at the extremes, the node pipeline's realtime factor next to the library loop, and the randomized locomotion
-benchmark (its handler in cli/bench_locomotion.py)."""
+"""`iguana bench sim|tradeoff|stability|pipeline|locomotion|statics`: simulator speed, speed–accuracy trade,
+stability at the extremes, the node pipeline's realtime factor next to the library loop, the randomized
+locomotion benchmark (its handler in cli/bench_locomotion.py) and the statics diagnostics of a model variant
+(cli/bench_statics.py)."""
 from __future__ import annotations
 
 import argparse
 import json
 from fractions import Fraction
 
-from iguana_ros.cli import bench_locomotion
+from iguana_ros.cli import bench_locomotion, bench_statics
 
 
 def _time_step(text: str) -> float:
@@ -22,9 +23,9 @@ def _time_step(text: str) -> float:
 
 
 def register(subparsers) -> None:
-    """Add `bench` with its `sim`, `tradeoff`, `stability`, `pipeline` and `locomotion` sub-commands."""
+    """Add `bench` with its `sim`, `tradeoff`, `stability`, `pipeline`, `locomotion` and `statics` sub-commands."""
     parser = subparsers.add_parser('bench', help='benchmarks: simulator speed, speed-accuracy trade, stability, '
-                                                 'node pipeline, randomized locomotion')
+                                                 'node pipeline, randomized locomotion, statics of a model')
     sub = parser.add_subparsers(dest='bench', metavar='BENCH', required=True)
     sim = sub.add_parser('sim', help='simulate the iguana walking (lateral-bend gait) on hills; report speed')
     sim.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
@@ -59,6 +60,7 @@ def register(subparsers) -> None:
     pipe.add_argument('--json', action='store_true', help='print one JSON object')
     pipe.set_defaults(func=run_pipeline_bench)
     bench_locomotion.register(sub)
+    bench_statics.register(sub)
 
 
 def run_pipeline_bench(args) -> int:

@@ -110,7 +110,7 @@ def _support_lines(s: dict) -> list:
 
 def _sag_lines(idle: dict, diagonal: dict) -> list:
     """Standing-sag lines: both runs side by side."""
-    stance = '+'.join(n for n, on in zip(('fl', 'fr', 'hl', 'hr'), diagonal['stance'] or ()) if on)
+    stance = '+'.join(n for n, on in zip(('fl', 'fr', 'hl', 'hr'), diagonal['stance']) if on)
     lines = [f"Standing sag: vertical offset from the reference mesh of the held pose (mm, - = lower), mean over "
              f"the last {idle['window_s']:.2f} s of {idle['seconds']:.1f} s",
              f"  {'region':12s} {'idle, 4 feet':>13s} {diagonal['clip'] + ' frame ' + str(diagonal['frame']):>17s}"
