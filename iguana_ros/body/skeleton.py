@@ -21,6 +21,10 @@ from iguana_ros.geometry import quat_identity, quat_mul, quat_rotate
 ROOT_HEIGHT = 0.075
 """Height of the pelvis joint above flat ground in the rest pose, m."""
 
+FOOT_PIVOTS = ('wrist_fl', 'wrist_fr', 'ankle_hl', 'ankle_hr')
+"""The bone of each foot (order fl, fr, hl, hr) whose joint a planted foot pivots about and whose rotation
+sets the sole's orientation (the sole nodes are skinned to it and to the foot bone below it)."""
+
 
 def _deg(roll: float, pitch: float, yaw: float) -> tuple:
     """Symmetric joint limits in degrees -> ((lo, hi) x 3) in radians."""

@@ -22,14 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from iguana_ros.body.skeleton import Skeleton, forward_kinematics
+from iguana_ros.body.skeleton import FOOT_PIVOTS, Skeleton, forward_kinematics
 from iguana_ros.geometry import (quat_conjugate, quat_from_rotvec, quat_from_yaw, quat_mul, quat_normalize,
                                  quat_to_rotvec, yaw_of)
 from iguana_ros.motion.dofs import BodyModel
 from iguana_ros.motion.gait import leg_ik
 
-FOOT_PIVOTS = ('wrist_fl', 'wrist_fr', 'ankle_hl', 'ankle_hr')
-"""Bones whose joints are planted and whose rotation flattens each sole (feet in the order fl, fr, hl, hr)."""
 
 MIN_SWING_CLEARANCE = 0.02
 """Least peak height (m) of a swinging foot marker above its planted height (the synthetic gait lifts 2 cm)."""

@@ -20,15 +20,17 @@ terrain at height c only raises the root by c.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numba
 import numpy as np
 
-from iguana_ros.body.skeleton import Skeleton
+from iguana_ros.body.skeleton import FOOT_PIVOTS, Skeleton
 from iguana_ros.errors import IguanaError, InputError
-from iguana_ros.geometry import matrix_to_quat, quat_from_rotvec, quat_mul, quat_to_matrix, quat_to_rotvec
+from iguana_ros.geometry import (matrix_to_quat, quat_conjugate, quat_from_rotvec, quat_mul, quat_normalize,
+                                 quat_rotate, quat_to_matrix, quat_to_rotvec)
 from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.terrain.heightfield import HeightField, bilinear_height_gradient
 
@@ -479,5 +481,32 @@ def adapt_pose(skeleton: Skeleton, terrain: HeightField | None, root_position: n
     if feet_h.shape != (4,):
         raise InputError(f'foot_residual_heights must have shape (4,) (fl, fr, hl, hr), got {feet_h.shape}')
     fit = plane_fit(skeleton, terrain, root_position, local_rotations, feet_h)
-    return residual_fit(skeleton, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
-                        stance=stance, state=state, settings=settings)
+    adapted = residual_fit(skeleton, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
+                           stance=stance, state=state, settings=settings)
+    return align_soles(skeleton, terrain, adapted, np.ones(4, bool) if stance is None else stance)
+
+
+def align_soles(skeleton: Skeleton, terrain: HeightField, pose: AdaptedPose, stance: np.ndarray) -> AdaptedPose:
+    """The pose with each stance foot's sole turned parallel to the terrain under its pivot (`stance (4,)`).
+
+    The clips plant their soles flat on the capture floor; on a slope a horizontal sole would stand on its
+    edge (on the flat-soled model, 2 of 7-10 sole nodes) and roll. The pivot bone (FOOT_PIVOTS) is turned by
+    the smallest rotation taking its up axis to the terrain normal; its joint, and every joint but the
+    foot's own, stay where they are.
+    """
+    local = np.array(pose.local_rotations, dtype=float, copy=True)
+    for k, bone in enumerate(skeleton.indices(list(FOOT_PIVOTS))):
+        if not stance[k]:
+            continue
+        world = pose.joint_rotations[bone]
+        up = quat_rotate(world, np.array([0.0, 0.0, 1.0]))
+        normal = terrain.normal(pose.joint_positions[bone, :2])
+        axis = np.cross(up, normal)
+        angle = np.arctan2(np.linalg.norm(axis), float(up @ normal))
+        if angle < 1e-9:
+            continue
+        turn = quat_from_rotvec(axis / np.linalg.norm(axis) * angle)
+        parent = pose.joint_rotations[skeleton.parents[bone]]
+        local[bone] = quat_normalize(quat_mul(quat_conjugate(parent), quat_mul(turn, world)))
+    positions, rotations = pose_kinematics(skeleton, pose.root_position, local)
+    return dataclasses.replace(pose, local_rotations=local, joint_positions=positions, joint_rotations=rotations)

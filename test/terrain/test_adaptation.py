@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from iguana_ros.body.skeleton import forward_kinematics, iguana_skeleton
+from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics, iguana_skeleton
 from iguana_ros.errors import InputError
-from iguana_ros.geometry import quat_from_rotvec, quat_to_matrix
+from iguana_ros.geometry import quat_from_rotvec, quat_rotate, quat_to_matrix
 from iguana_ros.terrain import adaptation as ad
 from iguana_ros.terrain.heightfield import HeightField
 
@@ -39,19 +39,26 @@ def _stance(skel, clip):
     return ad.residual_heights_of(skel, *clip)[0] < 0.01
 
 
-def _check_adapted(skel, terrain, clip, adapted, foot_tol=0.002, depth_tol=1e-4):
-    """Stance feet within `foot_tol` of terrain + residual height; no joint deeper than `depth_tol`, but the
-    tail's, which a weight-bearing clip presses in as deep as its tip's residual height (at most
-    max_tail_press)."""
+def _check_adapted(skel, terrain, clip, adapted, foot_tol=0.004, depth_tol=1e-4):
+    """Stance feet (their pivots) as far above the terrain as above the capture floor in the clip, within
+    `foot_tol`; no joint deeper than `depth_tol`, but the
+    feet's (the sole alignment turns a stance foot about its pivot, moving the foot joint, an end site in the
+    sole, up to 2.6 mm into a 15 deg slope) and the tail's, which a weight-bearing clip presses in as deep as
+    its tip's residual height (at most max_tail_press)."""
     feet_h, tail_h = ad.residual_heights_of(skel, *clip)
     p = adapted.joint_positions
-    feet = p[skel.indices(list(ad.FOOT_BONES))]
-    foot_err = (feet[:, 2] - terrain.height(feet[:, :2]) - feet_h)[_stance(skel, clip)]
+    pivots = skel.indices(list(FOOT_PIVOTS))
+    clip_pivots = forward_kinematics(skel, *clip)[0][pivots]
+    normal = terrain.normal(p[pivots, :2])
+    above = (p[pivots, 2] - terrain.height(p[pivots, :2])) * normal[:, 2]      # distance along the normal
+    foot_err = (above - clip_pivots[:, 2])[_stance(skel, clip)]
     assert foot_err.size and np.max(np.abs(foot_err)) < foot_tol
     tail = np.array([name.startswith('tail_') for name in skel.names])
     press = min(0.0, max(tail_h, -ad.AdaptationSettings().max_tail_press))
     depth = p[:, 2] - terrain.height(p[:, :2])
-    assert np.min(depth[~tail]) > -depth_tol
+    foot = np.isin(np.arange(skel.n_bones), skel.indices(list(ad.FOOT_BONES)))
+    assert np.min(depth[~tail & ~foot]) > -depth_tol
+    assert np.min(depth[foot]) > -0.003
     assert np.min(depth[tail]) > press - 2e-3
     np.testing.assert_allclose(forward_kinematics(skel, adapted.root_position, adapted.local_rotations)[0],
                                p, atol=1e-12)
@@ -117,8 +124,12 @@ def test_hills_feet_tail_and_no_penetration(skel):
         tip = out.joint_positions[tail]
         assert abs(tip[2] - terrain.height(tip[:2]) - ad.residual_heights_of(skel, *clip)[1]) < 0.002
         assert np.linalg.norm(tip - out.tail_target) < 0.005
-        feet = out.joint_positions[skel.indices(list(ad.FOOT_BONES))]
-        np.testing.assert_allclose(feet[stance], out.foot_targets[stance], atol=0.002)
+        feet_h, tail_h = ad.residual_heights_of(skel, *clip)
+        fit = ad.plane_fit(skel, terrain, *clip, feet_h)
+        fitted = ad.residual_fit(skel, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
+                                 stance=stance)
+        feet = fitted.joint_positions[skel.indices(list(ad.FOOT_BONES))]      # residual fitting's effectors
+        np.testing.assert_allclose(feet[stance], fitted.foot_targets[stance], atol=0.002)
 
 
 def test_residual_fit_lifts_a_penetrating_tail_and_respects_joint_limits(skel):
@@ -212,3 +223,23 @@ def test_synthetic_trot_on_hills_and_bench_command(capsys):
         assert 0 < fig['plane_fit_ms'] and 0 < fig['residual_fit_ms'] and 0 < fig['dqs_spring_lengths_ms']
     assert main(['bench-adaptation', '--frames', '1']) == 1
     assert 'at least 2' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize('slope_deg', [12.0, -15.0])
+def test_stance_soles_lie_parallel_to_the_terrain(skel, slope_deg):
+    """align_soles turns each stance foot's pivot bone so its up axis is the terrain normal; every joint but
+    the feet stays where residual fitting put it."""
+    terrain = HeightField.tilted_plane(slope_deg, direction=(1.0, 0.3))
+    clip = _clip_pose(skel, 0)
+    stance = _stance(skel, clip)
+    out = ad.adapt_pose(skel, terrain, *clip, stance=stance)
+    pivots = skel.indices(list(FOOT_PIVOTS))
+    up = quat_rotate(out.joint_rotations[pivots], np.array([0.0, 0.0, 1.0]))
+    normal = terrain.normal(out.joint_positions[pivots, :2])
+    angle = np.degrees(np.arccos(np.clip(np.sum(up * normal, axis=1), -1.0, 1.0)))
+    assert stance.any() and np.all(angle[stance] < 0.5)
+    feet_h, tail_h = ad.residual_heights_of(skel, *clip)
+    fit = ad.plane_fit(skel, terrain, *clip, feet_h)
+    fitted = ad.residual_fit(skel, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h, stance=stance)
+    others = np.setdiff1d(np.arange(skel.n_bones), skel.indices(list(ad.FOOT_BONES)))
+    np.testing.assert_allclose(out.joint_positions[others], fitted.joint_positions[others], atol=1e-12)
