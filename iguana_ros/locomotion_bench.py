@@ -137,6 +137,42 @@ def _init_worker() -> None:
     threadpool_limits(limits=1)
 
 
+def parallel_map(fn: Callable, tasks: list[tuple], workers: int | None = None,
+                 progress: Callable[[object, int, int], None] | None = None,
+                 on_error: Callable[[tuple, BaseException, float], object] | None = None) -> list:
+    """`fn(*task)` for every task, on `workers` spawned processes (default: one per core), results in task order.
+
+    `progress(result, n_done, n_total)` is called as each finishes; a worker that dies gives
+    `on_error(task, exc, wall_s)` (or re-raises without it). Workers use one BLAS thread each.
+    """
+    if not tasks:
+        return []
+    workers = (os.cpu_count() or 1) if workers is None else workers
+    if workers < 1:
+        raise InputError(f'workers must be at least 1, got {workers}')
+    import multiprocessing
+
+    results: list = [None] * len(tasks)
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=multiprocessing.get_context('spawn'),
+                               initializer=_init_worker)
+    try:
+        started = time.perf_counter()
+        futures = {pool.submit(fn, *task): k for k, task in enumerate(tasks)}
+        for n_done, future in enumerate(as_completed(futures), start=1):
+            k = futures[future]
+            try:
+                results[k] = future.result()
+            except Exception as exc:              # noqa: BLE001 - the worker process died (BrokenProcessPool)
+                if on_error is None:
+                    raise
+                results[k] = on_error(tasks[k], exc, time.perf_counter() - started)
+            if progress is not None:
+                progress(results[k], n_done, len(tasks))
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return results
+
+
 def run_benchmark(scenes: list[Scene], modes: tuple = (True, False), workers: int | None = None,
                   progress: Callable[[dict, int, int], None] | None = None) -> list[dict]:
     """Rows of every (scene, mode) pair, run on `workers` processes (default: one per core).
@@ -146,30 +182,7 @@ def run_benchmark(scenes: list[Scene], modes: tuple = (True, False), workers: in
     (fresh interpreters) and use one BLAS thread each. A worker that dies gives error rows, not an exception.
     """
     tasks = [(scene, bool(mode)) for scene in scenes for mode in modes]
-    if not tasks:
-        return []
-    workers = (os.cpu_count() or 1) if workers is None else workers
-    if workers < 1:
-        raise InputError(f'workers must be at least 1, got {workers}')
-    import multiprocessing
-
-    rows: list = [None] * len(tasks)
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=multiprocessing.get_context('spawn'),
-                               initializer=_init_worker)
-    try:
-        started = time.perf_counter()
-        futures = {pool.submit(run_task, scene, mode): k for k, (scene, mode) in enumerate(tasks)}
-        for n_done, future in enumerate(as_completed(futures), start=1):
-            k = futures[future]
-            try:
-                rows[k] = future.result()
-            except Exception as exc:              # noqa: BLE001 - the worker process died (BrokenProcessPool)
-                rows[k] = _error_row(*tasks[k], exc, time.perf_counter() - started)
-            if progress is not None:
-                progress(rows[k], n_done, len(tasks))
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-    return rows
+    return parallel_map(run_task, tasks, workers, progress, on_error=lambda task, exc, wall: _error_row(*task, exc, wall))
 
 
 # ------------------------------------------------------------------------------------------ the summary

@@ -1,6 +1,8 @@
 """Locomotion metrics of a pipeline run: landmarks of the soft body (node groups by bone) -> metrics."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from iguana_ros.body.model import build_model
@@ -31,7 +33,8 @@ def group_centroids(node_positions: np.ndarray, groups: list[np.ndarray]) -> np.
 
 def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetrics:
     """LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: distance to the start), with
-    the gait figures against the reference (clips from `library`, default the shipped clip library)."""
+    the gait figures against the reference (clips from `library`, default the shipped clip library); foot slip
+    per stride (four feet summed) is that of the walk, until the goal is reached."""
     model = build_model(scene.model.resolution, scene.model.stiffness)
     nodes = result.node_positions
     feet = [np.flatnonzero(model.node_tags[f]) for f in FEET]
@@ -51,9 +54,11 @@ def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetr
         [scene.start.x, scene.start.y])
     up = quat_rotate(result.root_orientations, np.array([0.0, 0.0, 1.0]))
     gait = run_gait_metrics(model, result, scene, reference, feet, foot_xy, foot_contact, goal, library)
-    return locomotion_metrics(result.times, result.root_positions, yaw_of(result.root_orientations), up, goal,
-                              scene.goal_radius, foot_xy, foot_contact, len(result.clip_history), trunk,
-                              landmarks, reference_landmarks, np.array(pairs), gait)
+    metrics = locomotion_metrics(result.times, result.root_positions, yaw_of(result.root_orientations), up, goal,
+                                 scene.goal_radius, foot_xy, foot_contact, len(result.clip_history), trunk,
+                                 landmarks, reference_landmarks, np.array(pairs), gait)
+    # slip over the walk only: strides spent standing at the goal would dilute it
+    return dataclasses.replace(metrics, foot_slip_per_stride=float(np.sum(gait.slip_per_foot_per_stride)))
 
 
 def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, offset: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""`iguana bench sim|tradeoff|stability|pipeline|locomotion|statics`: simulator speed, speed–accuracy trade,
+"""`iguana bench sim|tradeoff|stability|pipeline|locomotion|statics|pushes`: simulator speed, speed–accuracy trade,
 stability at the extremes, the node pipeline's realtime factor next to the library loop, the randomized
 locomotion benchmark (its handler in cli/bench_locomotion.py) and the statics diagnostics of a model variant
 (cli/bench_statics.py)."""
@@ -8,7 +8,7 @@ import argparse
 import json
 from fractions import Fraction
 
-from iguana_ros.cli import bench_locomotion, bench_statics
+from iguana_ros.cli import bench_locomotion, bench_pushes, bench_statics
 
 
 def _time_step(text: str) -> float:
@@ -61,6 +61,7 @@ def register(subparsers) -> None:
     pipe.set_defaults(func=run_pipeline_bench)
     bench_locomotion.register(sub)
     bench_statics.register(sub)
+    bench_pushes.register(sub)
 
 
 def run_pipeline_bench(args) -> int:
