@@ -103,7 +103,8 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
 
 def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, executor):
     from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg
-    from iguana_ros.terrain.adaptation import FOOT_BONES, residual_heights_of
+    from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics
+    from iguana_ros.terrain.adaptation import FOOT_BONES, AdaptationSettings, residual_heights_of
     from iguana_ros.terrain.from_scene import terrain_from_spec
     from iguana_ros.scene import load_scene
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 12.0, 'direction_deg': 30.0})
@@ -124,12 +125,20 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
     assert frame == 0
     terrain = terrain_from_spec(load_scene(str(scene_file)).terrain)
     feet_h, _ = residual_heights_of(skeleton, clip.root_positions[0], clip.local_rotations[0])
-    feet = joints[skeleton.indices(list(FOOT_BONES))]
-    height_above = feet[:, 2] - terrain.height(feet[:, :2])
     stance = feet_h < 0.006
     assert stance.any()
-    assert np.all(np.abs(height_above[stance] - feet_h[stance]) < 0.002)
-    assert np.all(joints[:, 2] - terrain.height(joints[:, :2]) > -1e-3)
+    # stance soles stand on the plane as on the capture floor: their pivots (wrist/ankle joints) are as far
+    # above it along its normal as above the floor in the clip (the sole turned parallel to the slope)
+    pivots = skeleton.indices(list(FOOT_PIVOTS))
+    clip_pivots = forward_kinematics(skeleton, clip.root_positions[0], clip.local_rotations[0])[0][pivots]
+    above = (joints[pivots, 2] - terrain.height(joints[pivots, :2])) * terrain.normal(joints[pivots, :2])[:, 2]
+    assert np.all(np.abs(above[stance] - clip_pivots[stance, 2]) < 0.002)
+    # nothing sinks in, but the pressed tail (at most max_tail_press) and the foot end sites in the soles
+    depth = joints[:, 2] - terrain.height(joints[:, :2])
+    tail = np.array([name.startswith('tail_') for name in skeleton.names])
+    foot = np.isin(np.arange(skeleton.n_bones), skeleton.indices(list(FOOT_BONES)))
+    assert np.all(depth[~tail & ~foot] > -1e-3)
+    assert np.all(depth[tail] > -AdaptationSettings().max_tail_press - 2e-3) and np.all(depth[foot] > -3e-3)
 
 
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
