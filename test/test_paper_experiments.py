@@ -1,7 +1,6 @@
 """The paper's experiments as measured effects that must not vanish: terrain adaptation on hills (Figure 11)
 and 40 N pushes on the walking trunk at six stride phases, normal vs softer model (Section VIII-D, Figure 12).
 Medium mesh, as in the README tables; the runs take ~40 s of wall time on two cores."""
-import dataclasses
 
 import pytest
 

@@ -10,33 +10,11 @@ import json
 import sys
 import time
 
+from iguana_ros.cli.argtypes import count, positive
+
 KINDS = ('hills', 'tilted', 'steps', 'noise')
 """The benchmark's terrain kinds (iguana_ros.locomotion_bench.BENCH_KINDS, kept here so --help imports little)."""
 MODES = {'both': (True, False), 'adapt': (True,), 'no-adapt': (False,)}
-
-
-def _count(minimum: int):
-    """argparse type: an integer >= `minimum`."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f'expected an integer, got {text!r}') from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f'expected an integer >= {minimum}, got {value}')
-        return value
-    return parse
-
-
-def _seconds(text: str) -> float:
-    """argparse type: a positive, finite number of seconds."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected seconds, got {text!r}') from None
-    if not 0 < value < float('inf'):
-        raise argparse.ArgumentTypeError(f'expected a positive number of seconds, got {text!r}')
-    return value
 
 
 def _kinds(text: str) -> tuple:
@@ -52,12 +30,12 @@ def register(sub) -> None:
     """Add `locomotion` to the `bench` sub-commands."""
     loco = sub.add_parser('locomotion', help='walk to a goal 3 m away on random terrains, with and without '
                                              'terrain adaptation; reach rate, time, slip per mode and terrain')
-    loco.add_argument('--terrains', type=_count(1), default=30, help='number of random terrains (default 30)')
-    loco.add_argument('--seed', type=_count(0), default=0, help='seed of the terrains and goals (default 0)')
-    loco.add_argument('--duration', type=_seconds, default=40.0,
+    loco.add_argument('--terrains', type=count(1), default=30, help='number of random terrains (default 30)')
+    loco.add_argument('--seed', type=count(0), default=0, help='seed of the terrains and goals (default 0)')
+    loco.add_argument('--duration', type=positive('duration'), default=40.0,
                       help='simulated seconds per run at most; a run ends 2 s after reaching its goal (default 40)')
     loco.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
-    loco.add_argument('--workers', type=_count(1), default=None, help='worker processes (default: one per core)')
+    loco.add_argument('--workers', type=count(1), default=None, help='worker processes (default: one per core)')
     loco.add_argument('--modes', choices=tuple(MODES), default='both', help='with and/or without adaptation')
     loco.add_argument('--kinds', type=_kinds, default=KINDS, help=f'terrain kinds to cycle (default {",".join(KINDS)})')
     loco.add_argument('--json', action='store_true', help='print one JSON object (summary and rows) on stdout')

@@ -5,28 +5,17 @@ import argparse
 import json
 import sys
 
-from iguana_ros.cli.bench_locomotion import _count
-
-
-def _newtons(text: str) -> float:
-    """argparse type: a positive, finite force in N."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f'expected a force in N, got {text!r}') from None
-    if not 0 < value < float('inf'):
-        raise argparse.ArgumentTypeError(f'expected a positive force in N, got {text!r}')
-    return value
+from iguana_ros.cli.argtypes import count, positive
 
 
 def register(subparsers) -> None:
     """Add the `pushes` sub-command to `iguana bench`."""
     parser = subparsers.add_parser('pushes', help='40 N, 0.1 s pushes on the left trunk at several stride phases, '
                                                   'normal vs softer model (paper Section VIII-D)')
-    parser.add_argument('--phases', type=_count(1), default=6, help='push phases per stride (default 6)')
+    parser.add_argument('--phases', type=count(1), default=6, help='push phases per stride (default 6)')
     parser.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
-    parser.add_argument('--force', type=_newtons, default=None, metavar='N', help='push force (default 40 N)')
-    parser.add_argument('--workers', type=_count(1), default=None, help='worker processes (default: all cores)')
+    parser.add_argument('--force', type=positive('force'), default=None, metavar='N', help='push force (default 40 N)')
+    parser.add_argument('--workers', type=count(1), default=None, help='worker processes (default: all cores)')
     parser.add_argument('--json', action='store_true', help='print one JSON object')
     parser.set_defaults(func=run)
 

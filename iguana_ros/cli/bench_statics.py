@@ -11,17 +11,7 @@ import json
 import math
 import time
 
-def _positive(what: str):
-    """argparse type: a positive, finite number called `what` in the error."""
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f'{what} must be a number, got {text!r}') from None
-        if not 0 < value < math.inf:
-            raise argparse.ArgumentTypeError(f'{what} must be a positive number, got {text!r}')
-        return value
-    return parse
+from iguana_ros.cli.argtypes import positive
 
 
 def register(sub) -> None:
@@ -30,11 +20,11 @@ def register(sub) -> None:
                                              'of a model variant: why it does or does not trot')
     statics.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
     statics.add_argument('--stiffness', choices=('normal', 'softer'), default='normal', help='stiffness preset')
-    statics.add_argument('--spring-scale', type=_positive('spring scale'), default=1.0,
+    statics.add_argument('--spring-scale', type=positive('spring scale'), default=1.0,
                          help="multiply every spring's stiffness by this (default 1)")
-    statics.add_argument('--leg-factor', type=_positive('leg factor'), default=None,
+    statics.add_argument('--leg-factor', type=positive('leg factor'), default=None,
                          help="replace the preset's leg factor (leg-leg springs; leg-trunk get its square root)")
-    statics.add_argument('--seconds', type=_positive('seconds'), default=4.0,
+    statics.add_argument('--seconds', type=positive('seconds'), default=4.0,
                          help='simulated seconds of the flat_walk run; each standing run lasts half (default 4)')
     statics.add_argument('--json', action='store_true', help='print one JSON object')
     statics.set_defaults(func=run_statics)
