@@ -39,6 +39,7 @@ class SoftBodyMesh:
     poisson_ratio: float
     surface_triangles: np.ndarray       # (n_tris, 3) int64, outward
     node_tags: dict = field(default_factory=dict)  # name -> (n_nodes,) bool
+    contact_offset: np.ndarray | None = None       # (n_nodes,) m a node touches the ground early; None = 0
 
 
 def tet_volumes(positions: np.ndarray, tets: np.ndarray) -> np.ndarray:

@@ -16,7 +16,8 @@ from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.fidelity import Fidelity, get_fidelity
-from iguana_ros.physics.forces import CONTACT_NONE, contact_forces, corotated_elastic_forces, lame_parameters, shape_gradients
+from iguana_ros.physics.forces import (CONTACT_NONE, contact_forces, corotated_elastic_forces, lame_parameters,
+                                       shape_gradients)
 from iguana_ros.physics.cholesky import CholeskyPattern, empty_factor
 from iguana_ros.physics.solver import PRECONDITIONER_CODES, DirectSolver
 

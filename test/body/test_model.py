@@ -179,3 +179,12 @@ def test_softer_preset_only_changes_stiffness():
     assert ratio < 1.0
     assert np.allclose(softer.spring_stiffness, ratio * normal.spring_stiffness)
     assert np.all(softer.youngs_modulus < normal.youngs_modulus)
+
+
+def test_sole_pads_put_every_sole_node_on_the_sole_plane(model):
+    """contact_offset is each sole node's rest height (so all touch the ground at z = 0 together), zero elsewhere."""
+    sole = model.node_tags['feet']
+    offset = model.contact_offset
+    assert offset.shape == (model.n_nodes,) and np.all(offset[~sole] == 0.0)
+    np.testing.assert_allclose(offset[sole], np.maximum(model.rest_positions[sole, 2], 0.0))
+    assert 0.0 < offset.max() < 0.004
