@@ -2,14 +2,15 @@
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
 from iguana_ros.body.model import build_model
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
-from iguana_ros.metrics import (GaitMetrics, LocomotionMetrics, gait_metrics, goal_arrival, locomotion_metrics,
-                                rigid_fit_errors)
+from iguana_ros.metrics import (N_FEET, GaitMetrics, LocomotionMetrics, gait_metrics, goal_arrival,
+                                locomotion_metrics, rigid_fit_errors)
 from iguana_ros.physics.simulator import contact_offsets
 from iguana_ros.terrain.from_scene import terrain_from_spec
 
@@ -36,10 +37,11 @@ def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetr
     the gait figures against the reference (clips from `library`, default the shipped clip library); foot slip
     per stride (four feet summed) is that of the walk, until the goal is reached."""
     model = build_model(scene.model.resolution, scene.model.stiffness)
+    terrain = terrain_from_spec(scene.terrain)
     nodes = result.node_positions
-    feet = [np.flatnonzero(model.node_tags[f]) for f in FEET]
-    foot_xy = group_centroids(nodes, feet)[..., :2]
-    foot_contact = np.stack([result.contacts[:, f].any(axis=1) for f in feet], axis=1)
+    feet = foot_groups(model)
+    heights, foot_contact, soles = foot_probe(nodes, result.contacts, feet, terrain, contact_offsets(model))
+    foot_xy = soles[..., :2]
     trunk = group_centroids(nodes, bone_node_groups(model, TRUNK))
     chain_bones = tuple(b for chain in LIMB_CHAINS for b in chain)
     groups = bone_node_groups(model, chain_bones)
@@ -50,15 +52,19 @@ def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetr
     for chain in LIMB_CHAINS:
         pairs += [(k + i, k + i + 1) for i in range(len(chain) - 1)]
         k += len(chain)
-    goal = np.array([scene.goals[-1].x, scene.goals[-1].y]) if scene.goals else np.array(
-        [scene.start.x, scene.start.y])
+    goal = scene_goal(scene)
     up = quat_rotate(result.root_orientations, np.array([0.0, 0.0, 1.0]))
-    gait = run_gait_metrics(model, result, scene, reference, feet, foot_xy, foot_contact, goal, library)
+    gait = run_gait_metrics(model, result, scene, reference, heights, foot_xy, foot_contact, goal, library, terrain)
     metrics = locomotion_metrics(result.times, result.root_positions, yaw_of(result.root_orientations), up, goal,
                                  scene.goal_radius, foot_xy, foot_contact, len(result.clip_history), trunk,
                                  landmarks, reference_landmarks, np.array(pairs), gait)
     # slip over the walk only: strides spent standing at the goal would dilute it
     return dataclasses.replace(metrics, foot_slip_per_stride=float(np.sum(gait.slip_per_foot_per_stride)))
+
+
+def foot_groups(model) -> list[np.ndarray]:
+    """Sole node indices of each foot (fl, fr, hl, hr: the model's `foot_*` tags)."""
+    return [np.flatnonzero(model.node_tags[f]) for f in FEET]
 
 
 def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, offset: np.ndarray) -> np.ndarray:
@@ -72,50 +78,191 @@ def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, of
     return out
 
 
-def stride_progress(result, library: dict, until_frame: int) -> tuple:
-    """Per walking stride completed before `until_frame`: the body's root progress along the clip's
-    displacement and the clip's displacement, both `(n_strides,)` m."""
-    starts = [f for f, _ in result.clip_history] + [len(result.times)]
-    progress, reference = [], []
-    for (start, name), end in zip(result.clip_history, starts[1:]):
+def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np.ndarray], terrain,
+               offset: np.ndarray) -> tuple:
+    """The foot probe of node trajectories `(n_frames, n, 3)` with contact flags `(n_frames, n)`: per frame and
+    foot, the height of the lowest sole point above the terrain `(n_frames, n_feet)` m (`foot_heights`), whether
+    any sole node touches the ground `(n_frames, n_feet)` bool, and the sole centroid `(n_frames, n_feet, 3)` m."""
+    contact = np.stack([in_contact[:, f].any(axis=1) for f in feet], axis=1)
+    return foot_heights(node_positions, feet, terrain, offset), contact, group_centroids(node_positions, feet)
+
+
+class FootProbe:
+    """One frame's foot probe of a model on a terrain: of the simulated body (what `simulator_node` publishes on
+    foot_state / foot_positions) and of the reference mesh skinned to an adapted pose, the same figures
+    `metrics_of_run` computes from a library run's trajectories."""
+
+    def __init__(self, model, terrain) -> None:
+        """Probe the feet (`foot_groups`) of `model` on `terrain`."""
+        self.model = model
+        self.terrain = terrain
+        self.feet = foot_groups(model)
+        self.offset = contact_offsets(model)
+        self._skinning: SpringLengthComputer | None = None
+
+    def body(self, positions: np.ndarray, in_contact: np.ndarray) -> tuple:
+        """(heights `(4,)` m, contact `(4,)` bool, sole centroids `(4, 3)` m) of nodes `(n, 3)` with contact
+        flags `(n,)` (the simulator's `positions` and `in_contact`)."""
+        heights, contact, soles = foot_probe(np.asarray(positions, float)[None], np.asarray(in_contact, bool)[None],
+                                             self.feet, self.terrain, self.offset)
+        return heights[0], contact[0], soles[0]
+
+    def reference_heights(self, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """Reference foot heights `(n_frames, 4)` m: the reference mesh skinned (DQS) to adapted poses (joint
+        positions `(n_frames, n_bones, 3)`, bone rotations `(n_frames, n_bones, 4)`), by `foot_heights`."""
+        if self._skinning is None:
+            self._skinning = SpringLengthComputer(self.model)
+        mesh = skinned_meshes(self._skinning, joints, rotations)
+        return foot_heights(mesh, self.feet, self.terrain, self.offset)
+
+
+@dataclass(frozen=True)
+class Stride:
+    """One stride of a run: the frame its clip starts, the frames it advances, and the clip's root displacement
+    `(2,)` m with the heading (rad) of its first frame, both in one frame of reference (canonical for a library
+    clip, the world for a placed one); displacement None = unknown clip."""
+
+    start: int
+    n_frames: int
+    displacement: np.ndarray | None
+    heading: float = 0.0
+
+
+def library_strides(clip_history: list, library: dict) -> list[Stride]:
+    """Strides of a run's clip history (start frame, clip name) from the clips of `library`."""
+    out = []
+    for start, name in clip_history:
         clip = library.get(name)
-        if clip is None or end > until_frame or end - start < clip.n_frames:
+        out.append(Stride(int(start), 0, None) if clip is None else Stride(
+            int(start), clip.n_frames, np.asarray(clip.root_displacement, float)[:2],
+            float(yaw_of(clip.local_rotations[0, 0]))))
+    return out
+
+
+def stride_progress(strides: list[Stride], root_positions: np.ndarray, root_orientations: np.ndarray,
+                    until_frame: int) -> tuple:
+    """Per walking stride of `strides` completed before `until_frame`: the body's root progress along the clip's
+    displacement and the clip's displacement, both `(n_strides,)` m, from the root after each frame of the run
+    `(n_frames, 3)`, `(n_frames, 4)`."""
+    starts = [s.start for s in strides] + [len(root_positions)]
+    progress, reference = [], []
+    for stride, end in zip(strides, starts[1:]):
+        start = stride.start
+        if stride.displacement is None or end > until_frame or end - start < stride.n_frames:
             continue
-        d_ref = np.asarray(clip.root_displacement, float)[:2]
+        d_ref = stride.displacement
         if np.hypot(*d_ref) < 1e-6:
             continue                                 # idle: nothing to keep up with
-        before = result.root_positions[start - 1] if start > 0 else result.root_positions[0]
-        heading = yaw_of(result.root_orientations[start - 1] if start > 0 else result.root_orientations[0])
-        turn = heading - yaw_of(clip.local_rotations[0, 0])
+        before = root_positions[start - 1] if start > 0 else root_positions[0]
+        heading = yaw_of(root_orientations[start - 1] if start > 0 else root_orientations[0])
+        turn = heading - stride.heading
         direction = quat_rotate(quat_from_yaw(turn), np.array([*d_ref, 0.0]))[:2] / np.hypot(*d_ref)
-        progress.append(float((result.root_positions[end - 1, :2] - before[:2]) @ direction))
+        progress.append(float((root_positions[end - 1, :2] - before[:2]) @ direction))
         reference.append(float(np.hypot(*d_ref)))
     return np.array(progress), np.array(reference)
 
 
-def run_gait_metrics(model, result, scene, reference: np.ndarray, feet: list[np.ndarray], foot_xy: np.ndarray,
-                     foot_contact: np.ndarray, goal: np.ndarray, library: dict | None) -> GaitMetrics:
+def walk_frames(times: np.ndarray, root_positions: np.ndarray, goal: np.ndarray, goal_radius: float) -> tuple:
+    """(frames of a run's walk, whether it reached the goal): until (and with) the first frame within
+    `goal_radius` of `goal` (2,), else every frame of `times (n,)`, root `(n, 3)`."""
+    reached, t_goal, _ = goal_arrival(times, root_positions[:, :2], goal, goal_radius)
+    return (int(np.searchsorted(times, t_goal)) + 1 if reached else len(times)), reached
+
+
+def scene_goal(scene) -> np.ndarray:
+    """The goal `(2,)` a run of `scene` is measured against: its last goal (no goal: the start)."""
+    if scene.goals:
+        return np.array([scene.goals[-1].x, scene.goals[-1].y])
+    return np.array([scene.start.x, scene.start.y])
+
+
+@dataclass
+class GaitTracks:
+    """Per-frame arrays of a run for its gait figures; row f = the body after frame f (times `(F,)` s, root
+    `(F, 3)`, `(F, 4)`, foot probe) and the reference of frame f (the clip's stance flags, reference foot
+    heights); None = not known (e.g. a topic missing from a node run's bag)."""
+
+    times: np.ndarray
+    root_positions: np.ndarray
+    root_orientations: np.ndarray
+    foot_contact: np.ndarray | None = None       # (F, 4) bool
+    foot_heights: np.ndarray | None = None       # (F, 4) m
+    foot_xy: np.ndarray | None = None            # (F, 4, 2) m, sole centroids
+    reference_contacts: np.ndarray | None = None  # (F, 4) bool
+    reference_heights: np.ndarray | None = None  # (F, 4) m
+    strides: list | None = None                  # [Stride]
+
+    def missing(self) -> set[str]:
+        """Names of the tracks that are not known."""
+        return {f.name for f in dataclasses.fields(self) if getattr(self, f.name) is None}
+
+
+GAIT_NEEDS = {
+    'stance_fraction': {'foot_contact'}, 'reference_stance_fraction': {'reference_contacts'},
+    'swing_clearance': {'foot_heights', 'reference_contacts'},
+    'swings_clear_fraction': {'foot_heights', 'reference_contacts'},
+    'swings': {'foot_heights', 'reference_contacts'},
+    'slip_per_foot_per_stride': {'foot_contact', 'foot_xy', 'strides'}, 'speed_fraction': {'strides'},
+    'shape_error_median': {'shape_errors'}, 'shape_error_p90': {'shape_errors'},
+    'foot_height_error': {'foot_heights', 'reference_heights'}}
+"""The tracks each GaitMetrics figure is computed from (shape errors need every node's position)."""
+
+
+def tracks_gait_metrics(tracks: GaitTracks, until: int, shape_errors: np.ndarray | None = None) -> GaitMetrics:
+    """GaitMetrics of the first `until` frames (the walk) of `tracks`, with the rigid-fit shape errors of those
+    frames; a figure whose tracks (GAIT_NEEDS) are not known is NaN (per foot: NaN each; swings: 0)."""
+    n = len(tracks.times)
+    walk = slice(0, until)
+
+    def known(value, placeholder):
+        return placeholder if value is None else value
+    strides = known(tracks.strides, [])
+    progress, clip_displacement = stride_progress(strides, tracks.root_positions, tracks.root_orientations, until)
+    gait = gait_metrics(known(tracks.foot_contact, np.zeros((n, N_FEET), bool))[walk],
+                        known(tracks.reference_contacts, np.ones((n, N_FEET), bool))[walk],
+                        known(tracks.foot_heights, np.zeros((n, N_FEET)))[walk],
+                        known(tracks.reference_heights, np.zeros((n, N_FEET)))[walk],
+                        known(tracks.foot_xy, np.zeros((n, N_FEET, 2)))[walk],
+                        sum(1 for s in strides if s.start < until), progress, clip_displacement,
+                        known(shape_errors, np.zeros(0)))
+    missing = tracks.missing() | ({'shape_errors'} if shape_errors is None else set())
+    blank = {name: _unknown(getattr(gait, name)) for name, needs in GAIT_NEEDS.items() if needs & missing}
+    return dataclasses.replace(gait, **blank)
+
+
+def _unknown(value):
+    """The 'not known' value of a GaitMetrics field like `value`."""
+    if isinstance(value, tuple):
+        return tuple(float('nan') for _ in value)
+    return 0 if isinstance(value, int) else float('nan')
+
+
+def run_gait_metrics(model, result, scene, reference: np.ndarray, heights: np.ndarray, foot_xy: np.ndarray,
+                     foot_contact: np.ndarray, goal: np.ndarray, library: dict | None, terrain) -> GaitMetrics:
     """GaitMetrics of a run's walk (its frames until the goal is reached): per-foot contact, clearance, slip
     and height error, speed, shape error."""
     if library is None:
         from iguana_ros.motion.clips import load_clip_library
         library = load_clip_library()
-    terrain = terrain_from_spec(scene.terrain)
-    reached, t_goal, _ = goal_arrival(result.times, result.root_positions[:, :2], goal, scene.goal_radius)
-    until = int(np.searchsorted(result.times, t_goal)) + 1 if reached else len(result.times)
+    until, _ = walk_frames(result.times, result.root_positions, goal, scene.goal_radius)
     walk = slice(0, until)
-    offset = contact_offsets(model)
-    heights = foot_heights(result.node_positions[walk], feet, terrain, offset)
-    reference_heights = foot_heights(reference[walk], feet, terrain, offset)
-    progress, clip_displacement = stride_progress(result, library, until)
+    tracks = GaitTracks(result.times, result.root_positions, result.root_orientations, foot_contact, heights,
+                        foot_xy, result.reference_contacts,
+                        foot_heights(reference, foot_groups(model), terrain, contact_offsets(model)),
+                        library_strides(result.clip_history, library))
     shape = rigid_fit_errors(result.node_positions[walk], reference[walk], np.ones(model.n_nodes))
-    strides = sum(1 for start, _ in result.clip_history if start < until)
-    return gait_metrics(foot_contact[walk], result.reference_contacts[walk], heights, reference_heights,
-                        foot_xy[walk], strides, progress, clip_displacement, shape)
+    return tracks_gait_metrics(tracks, until, shape)
 
 
 def reference_mesh(model, result) -> np.ndarray:
     """The reference mesh skinned (DQS) to each frame's adapted pose, `(n_frames, n_nodes, 3)`."""
-    computer = SpringLengthComputer(model)
-    return np.stack([computer.skin_bones_to(rot, pos)
-                     for pos, rot in zip(result.reference_joints, result.reference_rotations)])
+    return skinned_meshes(SpringLengthComputer(model), result.reference_joints, result.reference_rotations)
+
+
+def skinned_meshes(computer: SpringLengthComputer, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+    """The reference mesh skinned by `computer` to each pose (joint positions `(n_frames, n_bones, 3)`, bone
+    rotations `(n_frames, n_bones, 4)`), `(n_frames, n_nodes, 3)`."""
+    out = np.empty((len(joints), len(computer.rest_positions), 3))
+    for f, (pos, rot) in enumerate(zip(joints, rotations)):
+        out[f] = computer.skin_bones_to(rot, pos)
+    return out

@@ -5,16 +5,24 @@ from iguana_ros.topics import TopicConfigError, default_topics, load_topics, top
 
 DESIGN_KEYS = {'goal_pose', 'motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana_state',
                'mesh_marker', 'scene_markers', 'push', 'clock'}
+PROBE_KEYS = {'foot_state', 'foot_positions', 'reference_stance'}
+"""Per-frame gait probes the run summary reads from the bag."""
 
 
 def test_table_has_every_design_topic():
-    assert set(default_topics()) == DESIGN_KEYS
+    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS
 
 
 def test_latched_topics_are_transient_local():
     assert topic('scene_markers').qos.durability == 'transient_local'
     assert topic('motion_clip').qos.durability == 'transient_local'
     assert topic('clock').name == '/clock'
+
+
+def test_probe_topics_are_reliable_volatile_and_sent_every_frame_like_the_state():
+    for key in PROBE_KEYS:
+        assert topic(key).qos == topic('iguana_state').qos and topic(key).rate_hz == 30.0
+        assert 'position' in topic(key).description or 'pose' in topic(key).description
 
 
 def test_unknown_key_lists_known_keys():
@@ -41,7 +49,7 @@ def test_bad_table_names_file_and_field(tmp_path, body, field):
 def test_ros_profiles_resolve():
     ros_topics = pytest.importorskip('iguana_ros.nodes.ros_topics')
     from rclpy.qos import DurabilityPolicy
-    for key in DESIGN_KEYS:
+    for key in DESIGN_KEYS | PROBE_KEYS:
         name, cls, qos = ros_topics.resolve(key)
         assert name and cls.__name__ == topic(key).type.split('/')[-1]
     assert ros_topics.resolve('scene_markers')[2].durability == DurabilityPolicy.TRANSIENT_LOCAL

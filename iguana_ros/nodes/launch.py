@@ -12,6 +12,7 @@ import numpy as np
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.process import NodeProcess
+from iguana_ros.nodes.run_gait import RunGait
 from iguana_ros.scene import Scene, load_scene, scene_path
 
 NODE_KINDS = ('planner_node', 'terrain_adaptation_node', 'spring_length_node', 'simulator_node')
@@ -50,6 +51,7 @@ class RunSummary:
     final_goal_distance: float
     exit_code: int
     message: str = ''
+    gait: RunGait | None = None
 
     @property
     def realtime_factor(self) -> float:
@@ -60,10 +62,11 @@ class RunSummary:
         """Human-readable summary lines."""
         goal = (f'goal reached at t={self.time_to_goal:.2f} s' if self.reached_goal
                 else f'goal not reached (final distance {self.final_goal_distance:.2f} m)')
+        gait = self.gait.lines() if self.gait is not None else []
         return [f'scene {self.scene}: {goal}',
                 f'simulated {self.simulated_s:.2f} s in {self.wall_s:.2f} s wall '
                 f'(realtime factor {self.realtime_factor:.2f})',
-                f'bag: {self.bag}', f'logs: {self.logs}']
+                *gait, f'bag: {self.bag}', f'logs: {self.logs}']
 
 
 def ros_args(params: dict) -> list[str]:
@@ -157,27 +160,46 @@ class SceneRun:
             recorder.stop(timeout=20.0)
 
     def summary(self, code: int) -> RunSummary:
-        """Read the run's outcome from the simulator log and the recorded iguana_state."""
+        """Read the run's outcome: wall time from the simulator log; goal and gait figures from the messages
+        recorded in the bag (what a bag lacks is named in the gait lines, never raised)."""
+        from iguana_ros.bag.trajectory import read_topics, root_trajectory
+        from iguana_ros.nodes.run_gait import GAIT_TOPICS, run_gait
+
         found = _FINISHED.findall(self.simulator().output)
         simulated, wall = (float(found[-1][0]), float(found[-1][1])) if found else (0.0, 0.0)
-        reached, when, final = goal_outcome(self.bag, self.scene)
         message = '' if code == 0 else self.simulator().tail()
+        try:
+            recorded = read_topics(self.bag, GAIT_TOPICS)
+        except IguanaError as exc:
+            return RunSummary(self.scene.name, self.bag, self.logs, simulated, wall, False, float('nan'),
+                              float('nan'), code, message, RunGait(None, notes=[f'bag unreadable: {exc}']))
+        times, positions, _ = root_trajectory(recorded.messages['iguana_state'])
+        reached, when, final = goal_outcome_of(times, positions, self.scene)
+        try:
+            gait = run_gait(recorded, self.scene)
+        except Exception as exc:  # noqa: BLE001 -- a summary after a long run must still print its other lines
+            gait = RunGait(None, notes=[f'gait figures failed: {type(exc).__name__}: {exc}'])
         return RunSummary(self.scene.name, self.bag, self.logs, simulated, wall, reached, when, final, code,
-                          message)
+                          message, gait)
 
 
 def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
     """(reached, time, final distance) of the last scene goal from the bag's iguana_state."""
     from iguana_ros.bag.trajectory import read_root_trajectory
+    return goal_outcome_of(*read_root_trajectory(bag), scene)
+
+
+def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene) -> tuple[bool, float, float]:
+    """(reached, time, final distance) of the last scene goal from a recorded root trajectory: times `(n,)` s,
+    positions `(n, 3)` m."""
     from iguana_ros.metrics import goal_arrival
 
-    if not scene.goals:
-        return False, float('nan'), float('nan')
-    times, positions = read_root_trajectory(bag)
-    if len(times) == 0:
+    if not scene.goals or len(times) == 0:
         return False, float('nan'), float('nan')
     goal = scene.goals[-1]
     after = times >= goal.at
+    if not after.any():  # the run ended before the goal was set
+        return False, float('nan'), float(np.hypot(*(positions[-1, :2] - [goal.x, goal.y])))
     return goal_arrival(times[after], positions[after, :2], np.array([goal.x, goal.y]), scene.goal_radius)
 
 

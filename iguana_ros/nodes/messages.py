@@ -1,15 +1,19 @@
 """The pipeline's values as the topic table's messages, and back, with validation (float64 end to end)."""
 from __future__ import annotations
 
+import array
+
 import numpy as np
 
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import InputError
+from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
 from iguana_ros.nodes.base import frame_stamp, stamp_frame
 from iguana_ros.nodes.conversions import (joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                           multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy,
                                           pose_array_msg, pose_array_to_numpy, validate_array)
+from iguana_ros.run_metrics import FEET, Stride
 
 
 def check_frame_id(what: str, frame_id: str) -> None:
@@ -43,6 +47,19 @@ def clip_from_msg(msg, skeleton) -> tuple[int, AlignedClip]:
     clip = AlignedClip(name='motion_clip', root_positions=translations[:, 0].copy(),
                        local_rotations=rotations, contacts=np.zeros((len(rotations), 4), bool), source=None)
     return stamp_frame(msg.header.stamp), clip
+
+
+def stride_from_msg(msg) -> tuple[int, Stride]:
+    """(start frame, Stride) of a motion_clip message: the frames it advances and its root's displacement `(2,)`
+    (first to last point) and first heading, in the world; InputError if it does not fit."""
+    check_frame_id('motion_clip', msg.header.frame_id)
+    _times, _names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
+    if len(translations) < 2 or translations.shape[1] < 1:
+        raise InputError(f'motion_clip has {len(translations)} points, expected at least 2')
+    root = validate_array('motion_clip root translations', translations[:, 0], (None, 3))
+    heading = float(yaw_of(validate_array('motion_clip root rotation', rotations[0, 0], (4,))))
+    start = stamp_frame(msg.header.stamp)
+    return start, Stride(start, len(root) - 1, root[-1, :2] - root[0, :2], heading)
 
 
 def reference_pose_to_msg(joint_positions: np.ndarray, joint_rotations: np.ndarray, frame: int):
@@ -85,3 +102,64 @@ def state_from_msg(msg) -> tuple[int, np.ndarray, np.ndarray]:
     validate_array('iguana_state position', position, (3,))
     validate_array('iguana_state orientation', orientation, (4,))
     return stamp_frame(msg.header.stamp), position, orientation
+
+
+def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):
+    """foot_state: JointState named FEET, position = sole heights above the terrain `(4,)` m, effort = contact
+    flags `(4,)` as 1.0 / 0.0, stamped with `frame` (the state after `frame` frames)."""
+    return _feet_msg(heights, contact, frame)
+
+
+def foot_state_from_msg(msg) -> tuple[int, np.ndarray, np.ndarray]:
+    """(frame, heights `(4,)` m, contact `(4,)` bool) of a foot_state message; InputError if it does not fit."""
+    heights, contact = _feet_from_msg('foot_state', msg, with_position=True)
+    return stamp_frame(msg.header.stamp), heights, contact
+
+
+def reference_stance_to_msg(stance: np.ndarray, frame: int):
+    """reference_stance: JointState named FEET, effort = the clip's stance flags `(4,)` as 1.0 / 0.0 at `frame`."""
+    return _feet_msg(None, stance, frame)
+
+
+def reference_stance_from_msg(msg) -> tuple[int, np.ndarray]:
+    """(frame, stance flags `(4,)` bool) of a reference_stance message; InputError if it does not fit."""
+    return stamp_frame(msg.header.stamp), _feet_from_msg('reference_stance', msg, with_position=False)[1]
+
+
+def foot_positions_to_msg(centroids: np.ndarray, frame: int):
+    """foot_positions: PoseArray of the sole centroids `(4, 3)` m (fl, fr, hl, hr; identity orientations)."""
+    quats = np.zeros((len(FEET), 4))
+    quats[:, 3] = 1.0
+    return pose_array_msg(validate_array('foot positions', centroids, (len(FEET), 3)), quats,
+                          stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
+
+
+def foot_positions_from_msg(msg) -> tuple[int, np.ndarray]:
+    """(frame, sole centroids `(4, 3)` m) of a foot_positions message; InputError if it does not fit."""
+    check_frame_id('foot_positions', msg.header.frame_id)
+    positions, _ = pose_array_to_numpy(msg)
+    return stamp_frame(msg.header.stamp), validate_array('foot_positions', positions, (len(FEET), 3))
+
+
+def _feet_msg(values: np.ndarray | None, flags: np.ndarray, frame: int):
+    """JointState named FEET: position = `values` (None = empty), effort = `flags` as 1.0 / 0.0."""
+    shape = (0,) if values is None else (len(FEET),)
+    msg = joint_state_msg(validate_array('foot values', np.zeros(0) if values is None else values, shape),
+                          stamp=frame_stamp(frame))
+    msg.name = list(FEET)
+    flags = np.asarray(flags, bool)
+    if flags.shape != (len(FEET),):
+        raise InputError(f'foot flags have shape {flags.shape}, expected ({len(FEET)},)')
+    msg.effort = array.array('d', flags.astype(np.float64).tobytes())
+    return msg
+
+
+def _feet_from_msg(what: str, msg, with_position: bool) -> tuple[np.ndarray | None, np.ndarray]:
+    """(position `(4,)` or None, effort flags `(4,)` bool) of a JointState named FEET."""
+    if tuple(msg.name) != FEET:
+        raise InputError(f'{what} names are {list(msg.name)}, expected {list(FEET)}')
+    flags = validate_array(f'{what} effort', np.array(msg.effort, dtype=np.float64), (len(FEET),))
+    if not np.all((flags == 0.0) | (flags == 1.0)):
+        raise InputError(f'{what} effort holds {flags.tolist()}, expected flags 0.0 or 1.0')
+    heights = validate_array(f'{what} position', joint_state_positions(msg), (len(FEET),)) if with_position else None
+    return heights, flags == 1.0

@@ -1,4 +1,5 @@
-"""Planner node (Section IV): goal_pose + iguana_state in, one motion_clip per stride out."""
+"""Planner node (Section IV): goal_pose + iguana_state in, one motion_clip per stride and the clip's stance
+flags per frame (reference_stance) out."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,7 +9,7 @@ from iguana_ros.errors import InputError
 from iguana_ros.motion.motion_graph import MotionGraph, PolicyParams
 from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.nodes.conversions import pose_stamped_to_numpy, time_from_msg, validate_array
-from iguana_ros.nodes.messages import check_frame_id, clip_to_msg, state_from_msg
+from iguana_ros.nodes.messages import check_frame_id, clip_to_msg, reference_stance_to_msg, state_from_msg
 from iguana_ros.pipeline import PlannerStage
 
 
@@ -37,6 +38,7 @@ class PlannerNode(IguanaNode):
         self.goals_received = 0
         self.held_state = None
         self.clip_pub = self.publisher('motion_clip')
+        self.stance_pub = self.publisher('reference_stance')
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
         self.get_logger().info(f'planner ready: {len(library)} clips, goal radius {radius:.2f} m')
@@ -62,7 +64,7 @@ class PlannerNode(IguanaNode):
             self.on_state(held)
 
     def on_state(self, msg) -> None:
-        """At a stride end, publish the next clip aligned to the body's root."""
+        """At a stride end, publish the next clip aligned to the body's root; then the frame's stance flags."""
         frame, root, orientation = state_from_msg(msg)
         if self.goals_received < self.param('wait_for_goals'):
             self.held_state = msg  # decided once the scene's goals are in (see wait_for_goals)
@@ -77,6 +79,7 @@ class PlannerNode(IguanaNode):
         if clip is not None:
             self.clip_pub.publish(clip_to_msg(clip, self.skeleton, frame))
             self.get_logger().info(f'frame {frame}: clip {clip.name!r} ({len(clip.root_positions)} frames)')
+        self.stance_pub.publish(reference_stance_to_msg(self.stage.reference_contacts(frame), frame))
 
 
 main = node_main(PlannerNode)

@@ -1,6 +1,6 @@
 """Simulator node (Section V): spring_rest_lengths + push in; mesh_marker, scene_markers, iguana_state,
-/clock out. `lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the wall
-clock with the latest lengths.
+foot_state, foot_positions, /clock out. `lockstep` advances a frame only when that frame's lengths arrive;
+`realtime` paces to the wall clock with the latest lengths.
 """
 from __future__ import annotations
 
@@ -17,10 +17,12 @@ from iguana_ros.errors import InputError
 from iguana_ros.nodes.base import IguanaNode, frame_stamp, node_main
 from iguana_ros.nodes.conversions import (marker_array_msg, pose_stamped_to_numpy, triangle_list_marker,
                                           triangle_list_marker_cdr, validate_array)
-from iguana_ros.nodes.messages import check_frame_id, lengths_from_msg, state_to_msg
+from iguana_ros.nodes.messages import (check_frame_id, foot_positions_to_msg, foot_state_to_msg, lengths_from_msg,
+                                       state_to_msg)
 from iguana_ros.nodes.ros_topics import resolve
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.pipeline import SimulatorStage, push_forces
+from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
 from iguana_ros.visuals import body_colors, terrain_mesh
 
@@ -32,6 +34,11 @@ FINISH_ACK_TIMEOUT = 2.0
 
 GOAL_MARKER_RADIUS = 0.05
 """Radius of the goal sphere in scene_markers, m."""
+
+RECORDED_FROM_START = ('iguana_state', 'mesh_marker', 'clock', 'foot_state', 'foot_positions', 'motion_clip',
+                       'reference_pose', 'reference_stance')
+"""Topics the bag recorder must subscribe to before frame 0 (with wait_for_recorder): the run's summary reads
+the gait figures from them."""
 
 
 def root_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarray) -> tuple:
@@ -68,6 +75,7 @@ class SimulatorNode(IguanaNode):
         duration = self.param('duration') or scene.duration
         self.end_frame = int(round(duration * FRAME_RATE))
         self.n_springs = len(self.model.springs)
+        self.probe = FootProbe(self.model, self.terrain)
         self.latest_lengths: np.ndarray | None = None
         self.live_pushes: list[PushSpec] = []
         self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals]
@@ -90,6 +98,8 @@ class SimulatorNode(IguanaNode):
         self.clock_pub = self.publisher('clock')
         self.mesh_pub = self.publisher('mesh_marker')
         self.scene_pub = self.publisher('scene_markers')
+        self.foot_pub = self.publisher('foot_state')
+        self.foot_positions_pub = self.publisher('foot_positions')
         self.subscription('spring_rest_lengths', self.guarded('spring_rest_lengths', self.on_lengths))
         self.subscription('push', self.guarded('push', self.on_push))
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
@@ -168,7 +178,7 @@ class SimulatorNode(IguanaNode):
             return f'{self.param("wait_for_goals")} goals on goal_pose ({self.goals_received} so far)'
         recorder_ok = not self.param('wait_for_recorder') or all(
             any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(resolve(k)[0]))
-            for k in ('iguana_state', 'mesh_marker', 'clock'))
+            for k in RECORDED_FROM_START)
         return '' if recorder_ok else 'the bag recorder'
 
     def on_lockstep_timeout(self, waited: float) -> None:
@@ -211,13 +221,13 @@ class SimulatorNode(IguanaNode):
         from rclpy.duration import Duration
         self.exit_code = code
         self.timer.cancel()
-        for pub in (self.state_pub, self.clock_pub, self.mesh_pub):
+        for pub in (self.state_pub, self.clock_pub, self.mesh_pub, self.foot_pub, self.foot_positions_pub):
             pub.wait_for_all_acked(Duration(seconds=FINISH_ACK_TIMEOUT))
         rclpy.try_shutdown(context=self.context)
 
     # ------------------------------------------------------------------------------------------ outputs
     def publish_state(self) -> None:
-        """iguana_state, /clock and (every n frames) the mesh marker of the current frame."""
+        """iguana_state, /clock, the foot probe and (every n frames) the mesh marker of the current frame."""
         frame = self.stage.frame
         root, orientation = self.stage.root_pose()
         nodes = self.stage.tracker.nodes
@@ -225,6 +235,9 @@ class SimulatorNode(IguanaNode):
                                         self.model.node_mass[nodes])
         self.clock_pub.publish(ClockMsg(clock=frame_stamp(frame)))
         self.state_pub.publish(state_to_msg(root, orientation, linear, angular, frame))
+        heights, contact, soles = self.probe.body(self.stage.sim.positions, self.stage.sim.in_contact)
+        self.foot_pub.publish(foot_state_to_msg(heights, contact, frame))
+        self.foot_positions_pub.publish(foot_positions_to_msg(soles, frame))
         if frame % self.param('mesh_every_n_frames') == 0:
             self.mesh_pub.publish(triangle_list_marker_cdr(
                 self.stage.sim.positions, self.model.surface_triangles,

@@ -1,5 +1,6 @@
 """End to end: a short lockstep run of the four node processes equals `pipeline.run` of the same scene
-bit for bit, and its bag replays to a real subscriber."""
+bit for bit, its summary's gait figures (read from the bag) equal the library run's, and its bag replays to a
+real subscriber."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,7 +12,8 @@ from iguana_ros.bag.trajectory import read_root_trajectory
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.nodes.launch import RunOptions, run_scene
 from iguana_ros.pipeline import run as run_pipeline
-from iguana_ros.scene import load_scene
+from iguana_ros.run_metrics import metrics_of_run
+from iguana_ros.scene import load_scene, scene_path
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -44,6 +46,33 @@ def test_lockstep_nodes_equal_library_run(tmp_path, scene_file, library_run, sin
     assert np.allclose(times, np.arange(FRAMES + 1) / FRAME_RATE)
     # iguana_state of frame k is the root after k frames; the library stores it after each frame
     assert np.array_equal(roots[1:], library_run.root_positions)
+
+
+@pytest.fixture(scope='module')
+def walk_file(tmp_path_factory):
+    """flat_walk on the coarse mesh, 2 s."""
+    raw = yaml.safe_load(scene_path('flat_walk').read_text())
+    path = tmp_path_factory.mktemp('scene') / 'walk.yaml'
+    path.write_text(yaml.safe_dump({**raw, 'name': 'walk', 'model': {**raw.get('model', {}), 'resolution': 'coarse'},
+                                    'duration': 2.0}))
+    return path
+
+
+def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(tmp_path, walk_file):
+    summary = run_scene(RunOptions(scene=str(walk_file), record=tmp_path / 'run', timeout=240))
+    assert summary.exit_code == 0, summary.message
+    scene = load_scene(str(walk_file))
+    expected = metrics_of_run(run_pipeline(scene), scene)
+    gait = summary.gait
+    assert gait.missing_topics == [] and gait.notes == [], gait.lines()
+    assert gait.strides == expected.strides >= 2 and gait.metrics.swings > 0
+    for name in ('stance_fraction', 'reference_stance_fraction', 'swing_clearance', 'swings_clear_fraction',
+                 'swings', 'slip_per_foot_per_stride', 'speed_fraction', 'foot_height_error'):
+        np.testing.assert_allclose(getattr(gait.metrics, name), getattr(expected.gait, name), rtol=0, atol=1e-9,
+                                   err_msg=name)
+    lines = summary.lines()
+    assert any(line.startswith('  stance fraction fl ') and '(clip ' in line for line in lines), lines
+    assert any(line.startswith("  speed: ") and "% of the clips'" in line for line in lines), lines
 
 
 def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):

@@ -77,8 +77,10 @@ def _state(frame, xy=(0.0, 0.0), yaw=0.0):
 def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
     from iguana_ros.nodes.goal_sender import goal_message
     from iguana_ros.nodes.messages import clip_from_msg
+    from iguana_ros.nodes.messages import reference_stance_from_msg
     probe = Probe(make_node('probe'), executor)
     probe.listen('motion_clip')
+    probe.listen('reference_stance')
     goal_pub, state_pub = probe.pub('goal_pose'), probe.pub('iguana_state')
     with _node('planner_node', _scene(tmp_path), tmp_path) as planner:
         probe.wait_matched('goal_pose')
@@ -92,9 +94,14 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
         probe.spin(0.5)
         state_pub.publish(_state(0))
         clip_msg = probe.wait('motion_clip')[0]
+        stance_msg = probe.wait('reference_stance')[0]
         assert planner.running
     start, clip = clip_from_msg(clip_msg, iguana_skeleton())
     assert start == 0
+    # the stance flags of frame 0: the chosen library clip's first contacts
+    library_clip = load_clip_library()[planner.output.split("frame 0: clip '")[1].split("'")[0]]
+    assert reference_stance_from_msg(stance_msg)[0] == 0
+    assert np.array_equal(reference_stance_from_msg(stance_msg)[1], library_clip.contacts[0])
     turn = yaw_of(clip.local_rotations[-1, 0]) - yaw_of(clip.local_rotations[0, 0])
     assert turn > 0.1, f'expected a left turn, heading change {turn:.3f} rad'
     assert 'rejected goal_pose' in planner.output and 'non-finite' in planner.output
@@ -175,6 +182,8 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
     probe.listen('mesh_marker')
     probe.listen('scene_markers')
+    probe.listen('foot_state')
+    probe.listen('foot_positions')
     lengths_pub = probe.pub('spring_rest_lengths')
     push_pub = probe.pub('push')
     scene_file = _scene(tmp_path, terrain={'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0})
@@ -194,6 +203,11 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
         markers = probe.wait('mesh_marker', 2)
         scene = probe.wait('scene_markers')[0]
+        from iguana_ros.nodes.messages import foot_positions_from_msg, foot_state_from_msg
+        after_one = {}  # the foot probe of the state after frame 0 (stamped 1)
+        for key, decode in (('foot_state', foot_state_from_msg), ('foot_positions', foot_positions_from_msg)):
+            assert spin_until(executor, lambda: any(decode(x)[0] == 1 for x in probe.got[key]), 30), key
+            after_one[key] = next(decode(x) for x in probe.got[key] if decode(x)[0] == 1)
         assert sim.running
     marker = markers[-1]
     assert marker.type == Marker.TRIANGLE_LIST and marker.color.a == 1.0
@@ -205,6 +219,10 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     terrain = terrain_from_spec(load_scene(str(scene_file)).terrain)
     assert np.all(points[:, 2] - terrain.height(points[:, :2]) > -0.01)
     assert [m.ns for m in scene.markers] == ['terrain']
+    _, heights, contact = after_one['foot_state']
+    assert np.all(np.abs(heights) < 0.02) and contact.any()  # standing: soles on (or pressed into) the hills
+    centroids = after_one['foot_positions'][1]
+    assert np.all(np.abs(centroids[:, 2] - terrain.height(centroids[:, :2])) < 0.05)
     assert 'rejected spring_rest_lengths' in sim.output and 'future frame 5' in sim.output
     assert "rejected push: push region 'wing' is not a node tag" in sim.output
     assert 'push [0.0, -40.0, 0.0] N on trunk_left' in sim.output
