@@ -30,7 +30,7 @@ from iguana_ros.motion.gait import leg_ik
 
 
 MIN_SWING_CLEARANCE = 0.02
-"""Least peak height (m) of a swinging foot marker above its planted height (the synthetic gait lifts 2 cm)."""
+"""Least peak height (m) of a swinging foot pivot above its planted height (the synthetic gait lifts 2 cm)."""
 
 STANCE_TOLERANCE = 0.002
 """Largest distance (m) between a planted target and the foot pivot the leg IK reaches (joint limits)."""
