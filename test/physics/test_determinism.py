@@ -28,3 +28,32 @@ def test_fresh_compile_and_cached_kernels_give_the_same_state(tmp_path):
     warm = _state_digest(tmp_path)                  # the same kernels loaded from the cache
     assert cold == warm
     assert len(cold) == len(hashlib.sha256().hexdigest())
+
+
+PIPELINE_SCRIPT = '''
+import dataclasses, hashlib
+from iguana_ros.pipeline import run
+from iguana_ros.scene import load_scene
+scene = load_scene('hills')
+scene = dataclasses.replace(scene, duration=0.5, model=dataclasses.replace(scene.model, resolution='coarse'))
+result = run(scene)
+print(hashlib.sha256(result.node_positions.tobytes() + result.reference_joints.tobytes()).hexdigest())
+'''
+
+
+def test_first_run_after_install_equals_later_runs(tmp_path):
+    """The whole frame loop over hills (terrain adaptation's compiled IK and height-field kernels included),
+    first with empty numba and model caches -- as after `make install` -- then warm, bitwise. Issue 12 reported
+    a 2.5e-14 m difference from frame 1 between such runs; it did not reproduce at the commit it was filed
+    against (bea95f5) nor since, with the package's own cache or NUMBA_CACHE_DIR, for 1 s or the whole 25 s
+    `hills` run; this test keeps it so."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / 'numba'), IGUANA_CACHE_DIR=str(tmp_path / 'models'))
+
+    def digest():
+        done = subprocess.run([sys.executable, '-c', PIPELINE_SCRIPT], env=env, capture_output=True, text=True,
+                              timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return done.stdout.strip().splitlines()[-1]
+    cold = digest()
+    assert any((tmp_path / 'models').glob('model-coarse-*.npz')), 'the cold run should have built the model'
+    assert digest() == cold

@@ -174,3 +174,15 @@ def test_bad_frame_inputs_raise_input_error(block):
         sim.advance_frame(np.full(3, 0.1))
     with pytest.raises(InputError, match='external_forces'):
         sim.advance_frame(None, np.full((len(block.rest_positions), 3), np.nan))
+
+
+def test_free_fall_with_the_default_mass_damping_follows_the_damped_solution(block):
+    """α = 0.2 /s damps absolute motion (README "Forces"): the drop in 1.5 s is (g/α)(t − (1 − e^(−αt))/α) =
+    10.0 m, not g t²/2 = 11.0 m; β K does not act on a rigid translation."""
+    sim = SoftBodySimulator(block, terrain=None, fidelity='balanced', cg_tol=1e-10)
+    z0 = sim.center_of_mass()[2]
+    sim.advance(1.5)
+    alpha, t = 0.2, sim.time
+    expected = GRAVITY / alpha * (t - (1.0 - np.exp(-alpha * t)) / alpha)
+    assert z0 - sim.center_of_mass()[2] == pytest.approx(expected, rel=2e-3)
+    assert expected == pytest.approx(10.0, abs=0.01) and 0.5 * GRAVITY * t ** 2 == pytest.approx(11.03, abs=0.01)
