@@ -5,8 +5,11 @@ record — and only what it names is built (DESIGN.md, "model only what a scene 
 """
 from __future__ import annotations
 
+import codecs
 import dataclasses
 import math
+import re
+import reprlib
 import types
 import typing
 from dataclasses import dataclass, field
@@ -15,7 +18,7 @@ from pathlib import Path
 import yaml
 
 from iguana_ros.config import config_path
-from iguana_ros.constants import PUSH_DURATION
+from iguana_ros.constants import FRAME_RATE, PUSH_DURATION
 from iguana_ros.errors import InputError
 
 TERRAIN_KINDS = ('flat', 'tilted', 'hills', 'heightmap', 'steps', 'noise')
@@ -134,30 +137,99 @@ _CHOICES = {
 }
 _POSITIVE = {'duration', 'goal_radius', 'terrain.wavelength', 'terrain.extent', 'terrain.spacing',
              'terrain.scale', 'terrain.block_size', 'pushes.duration', 'record.mesh_every_n_frames'}
-_NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude', 'terrain.step_min', 'terrain.step_max'}
-MAX_GRID_NODES = 4000 ** 2
-"""Largest grid (nodes) a generated steps or noise terrain may have: `(extent / spacing + 1)²`."""
+_NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude', 'terrain.step_min', 'terrain.step_max', 'terrain.seed'}
+
+# --- resource limits: everything a run allocates or loops over in proportion to a scene value is bounded here
+MAX_SCENE_BYTES = 64 * 1024
+"""Largest scene file read, bytes (the shipped scenes are under 1 kB); checked before parsing."""
+MAX_NESTING = 16
+"""Deepest nesting of YAML collections in a scene file (the schema needs 3); checked before composing."""
+MAX_YAML_NODES = 100_000
+"""Most YAML nodes a scene file may expand to, an alias counted at the size of what it names ('billion laughs')."""
+MAX_DURATION = 600.0
+"""Longest run a scene may ask for, s (the trajectories of a fine-mesh run take ~30 kB per frame)."""
+MAX_GOALS = 100
+"""Most goals in a scene."""
+MAX_PUSHES = 100
+"""Most pushes in a scene."""
+MAX_EXTENT = 1000.0
+"""Largest terrain side and length of any terrain feature, m."""
+MAX_RELIEF = 100.0
+"""Largest terrain height figure (amplitude, step heights, height-map scale), m."""
+MAX_PUSH_FORCE = 1000.0
+"""Largest push force magnitude, N (25 x the paper's 40 N push)."""
+MAX_ANGLE_DEG = 360.0
+"""Largest |angle| of a heading or terrain direction, deg."""
+MAX_SEED = 2 ** 63 - 1
+"""Largest terrain seed."""
+MAX_TEXT = 4096
+"""Longest string field (description, height-map path), characters."""
+NAME_PATTERN = re.compile(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,63}')
+"""A scene name: it names the bag folder of a run, so 1-64 letters, digits, '_', '.', '-', no leading '.'."""
+
+_AT_MOST = {
+    'duration': (MAX_DURATION, 's'), 'goals.at': (MAX_DURATION, 's'), 'pushes.at': (MAX_DURATION, 's'),
+    'pushes.duration': (MAX_DURATION, 's'), 'terrain.extent': (MAX_EXTENT, 'm'), 'terrain.spacing': (MAX_EXTENT, 'm'),
+    'terrain.wavelength': (MAX_EXTENT, 'm'), 'terrain.block_size': (MAX_EXTENT, 'm'), 'goal_radius': (MAX_EXTENT, 'm'),
+    'terrain.amplitude': (MAX_RELIEF, 'm'), 'terrain.step_min': (MAX_RELIEF, 'm'),
+    'terrain.step_max': (MAX_RELIEF, 'm'), 'terrain.scale': (MAX_RELIEF, 'm'), 'terrain.seed': (MAX_SEED, ''),
+    'record.mesh_every_n_frames': (int(MAX_DURATION * FRAME_RATE), 'frames'),
+}
+_WITHIN = {'start.yaw_deg': (MAX_ANGLE_DEG, 'deg'), 'goals.yaw_deg': (MAX_ANGLE_DEG, 'deg'),
+           'terrain.direction_deg': (MAX_ANGLE_DEG, 'deg')}
+_MAX_ITEMS = {'goals': MAX_GOALS, 'pushes': MAX_PUSHES}
 
 
 def _fail(source: str, path: str, message: str) -> typing.NoReturn:
-    """Raise a SceneError naming file and field."""
+    """Raise a SceneError naming file and field (a long field name shortened, so the message stays one line)."""
+    if len(path) > 80:
+        path = path[:77] + '...'
     raise SceneError(f'{source}: field {path!r}: {message}')
 
 
+def _show(value) -> str:
+    """A short one-line repr of a (possibly huge or deeply shared) YAML value for an error message."""
+    short = reprlib.Repr()
+    short.maxstring = short.maxother = short.maxlong = 60
+    short.maxlist = short.maxtuple = short.maxdict = short.maxset = 6
+    short.maxlevel = 3
+    return short.repr(value).replace('\n', ' ')
+
+
+def _limit(value: float) -> str:
+    """A limit for a message: integers in full, other numbers in %g."""
+    return str(int(value)) if float(value).is_integer() else f'{value:g}'
+
+
 def _check_number(value, source: str, path: str, expected: type):
-    """Validate a finite number (ints accepted for floats)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        _fail(source, path, f'expected a number, got {value!r}')
-    if not math.isfinite(value):
-        _fail(source, path, f'expected a finite number, got {value!r}')
-    if expected is int and not float(value).is_integer():
-        _fail(source, path, f'expected an integer, got {value!r}')
-    key = _generic(path)
-    if key in _POSITIVE and value <= 0:
-        _fail(source, path, f'expected a positive number, got {value!r}')
-    if key in _NON_NEGATIVE and value < 0:
-        _fail(source, path, f'expected a number >= 0, got {value!r}')
+    """Validate a finite number within the field's range (ints accepted for floats) and convert it."""
+    problem = _number_problem(value, _generic(path), expected)
+    if problem:
+        _fail(source, path, problem)
     return expected(value)
+
+
+def _number_problem(value, key: str, expected: type) -> str:
+    """What is wrong with `value` as number field `key` ('goals.at'; ranges in _POSITIVE ... _WITHIN), or ''."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f'expected a number, got {_show(value)}'
+    if isinstance(value, float) and not math.isfinite(value):
+        return f'expected a finite number, got {value!r}'
+    if expected is int and isinstance(value, float) and not value.is_integer():
+        return f'expected an integer, got {value!r}'
+    if key in _POSITIVE and value <= 0:
+        return f'expected a positive number, got {_show(value)}'
+    if key in _NON_NEGATIVE and value < 0:
+        return f'expected a number >= 0, got {_show(value)}'
+    if key in _AT_MOST and value > _AT_MOST[key][0]:
+        limit, unit = _AT_MOST[key]
+        return f'expected at most {_limit(limit)}{" " + unit if unit else ""}, got {_show(value)}'
+    if key in _WITHIN and abs(value) > _WITHIN[key][0]:
+        limit, unit = _WITHIN[key]
+        return f'expected a number within [-{_limit(limit)}, {_limit(limit)}] {unit}, got {_show(value)}'
+    if abs(value) > 1e308:
+        return f'expected a number of magnitude below 1e308, got {_show(value)}'
+    return ''
 
 
 def _generic(path: str) -> str:
@@ -171,18 +243,28 @@ def _check_value(value, annotation, source: str, path: str):
         return _build(annotation, value, source, path)
     if annotation is bool:
         if not isinstance(value, bool):
-            _fail(source, path, f'expected true or false, got {value!r}')
+            _fail(source, path, f'expected true or false, got {_show(value)}')
         return value
     if annotation in (int, float):
         return _check_number(value, source, path, annotation)
     if annotation is str:
-        if not isinstance(value, str):
-            _fail(source, path, f'expected a string, got {value!r}')
-        choices = _CHOICES.get(_generic(path))
-        if choices and value not in choices:
-            _fail(source, path, f'expected one of {", ".join(choices)}, got {value!r}')
-        return value
+        return _check_string(value, source, path)
     return _check_tuple(value, source, path)
+
+
+def _check_string(value, source: str, path: str) -> str:
+    """Validate a string field: one of its choices, a scene name, or text of at most MAX_TEXT characters."""
+    if not isinstance(value, str):
+        _fail(source, path, f'expected a string, got {_show(value)}')
+    choices = _CHOICES.get(_generic(path))
+    if choices and value not in choices:
+        _fail(source, path, f'expected one of {", ".join(choices)}, got {_show(value)}')
+    if path == 'name' and not NAME_PATTERN.fullmatch(value):
+        _fail(source, path, f"expected 1-64 letters, digits, '_', '.' or '-' (it names the run's bag folder), "
+                            f'got {_show(value)}')
+    if len(value) > MAX_TEXT:
+        _fail(source, path, f'expected at most {MAX_TEXT} characters, got {len(value)}')
+    return value
 
 
 def _check_tuple(value, source: str, path: str) -> tuple:
@@ -190,16 +272,36 @@ def _check_tuple(value, source: str, path: str) -> tuple:
     if isinstance(value, str) and path == 'record.topics':
         value = [value]
     if not isinstance(value, (list, tuple)):
-        _fail(source, path, f'expected a list, got {value!r}')
-    item_type = _ITEM_TYPES.get(path.split('.')[-1])
+        _fail(source, path, f'expected a list, got {_show(value)}')
+    name = path.split('.')[-1]
+    item_type = _ITEM_TYPES.get(name)
     if item_type is not None:
+        if len(value) > _MAX_ITEMS[name]:
+            _fail(source, path, f'expected at most {_MAX_ITEMS[name]} {name}, got {len(value)}')
         return tuple(_build(item_type, item, source, f'{path}[{i}]') for i, item in enumerate(value))
     if path.endswith('force'):
         if len(value) != 3:
-            _fail(source, path, f'expected 3 numbers [fx, fy, fz] in N, got {value!r}')
-        return tuple(_check_number(v, source, f'{path}[{i}]', float) for i, v in enumerate(value))
+            _fail(source, path, f'expected 3 numbers [fx, fy, fz] in N, got {_show(value)}')
+        force = tuple(_check_number(v, source, f'{path}[{i}]', float) for i, v in enumerate(value))
+        if math.hypot(*force) > MAX_PUSH_FORCE:
+            _fail(source, path, f'expected a force of at most {_limit(MAX_PUSH_FORCE)} N, got |f| = '
+                                f'{math.hypot(*force):g} N')
+        return force
+    if path == 'record.topics':
+        return _check_topics(value, source, path)
     if not all(isinstance(v, str) for v in value):
-        _fail(source, path, f'expected a list of strings, got {value!r}')
+        _fail(source, path, f'expected a list of strings, got {_show(value)}')
+    return tuple(value)
+
+
+def _check_topics(value: list, source: str, path: str) -> tuple:
+    """Validate record.topics: 'all' or topic keys of msg_configs/topics.yaml."""
+    from iguana_ros.topics import default_topics
+
+    known = default_topics()
+    for i, key in enumerate(value):
+        if not isinstance(key, str) or (key != 'all' and key not in known):
+            _fail(source, f'{path}[{i}]', f'expected all or a topic key ({", ".join(known)}), got {_show(key)}')
     return tuple(value)
 
 
@@ -208,10 +310,10 @@ def _build(cls: type, raw, source: str, prefix: str = ''):
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
-        _fail(source, prefix or '<top level>', f'expected a mapping, got {raw!r}')
+        _fail(source, prefix or '<top level>', f'expected a mapping, got {_show(raw)}')
     hints = typing.get_type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(raw) - names)
+    unknown = sorted((str(key) for key in set(raw) - names))
     if unknown:
         where = f'{prefix}.{unknown[0]}' if prefix else unknown[0]
         _fail(source, where, f'unknown field; known fields here: {", ".join(sorted(names))}')
@@ -230,27 +332,55 @@ def _annotation(hint):
 
 
 def _cross_checks(scene: Scene, source: str) -> None:
-    """Rules that span fields."""
-    if scene.terrain.kind == 'heightmap' and not scene.terrain.file:
-        _fail(source, 'terrain.file', 'a heightmap terrain needs a file (.npy or 16-bit .png)')
-    if abs(scene.terrain.slope_deg) >= 60.0:
-        _fail(source, 'terrain.slope_deg', f'expected |slope| < 60 deg, got {scene.terrain.slope_deg}')
-    if scene.terrain.kind in ('steps', 'noise'):
-        _check_generated_terrain(scene.terrain, source)
-    half = scene.terrain.extent / 2.0
+    """Rules that span fields: terrain grid and height-map size, slope, start and goals on the terrain."""
+    from iguana_ros.terrain.heightfield import HILLS_SAMPLES   # the terrain floor, imported when needed (numba)
+
+    terrain = scene.terrain
+    if terrain.kind == 'heightmap':
+        _check_heightmap(terrain, source)
+    if abs(terrain.slope_deg) >= 60.0:
+        _fail(source, 'terrain.slope_deg', f'expected |slope| < 60 deg, got {terrain.slope_deg}')
+    if terrain.kind == 'hills':
+        _check_grid(terrain.extent, terrain.wavelength / HILLS_SAMPLES, 'terrain.wavelength',
+                    f'wavelength {terrain.wavelength:g} m (hills sample it {HILLS_SAMPLES} times)', source)
+    if terrain.kind in ('steps', 'noise'):
+        _check_grid(terrain.extent, terrain.spacing, 'terrain.spacing', f'spacing {terrain.spacing:g} m', source)
+        _check_generated_terrain(terrain, source)
+    half = terrain.extent / 2.0
+    if max(abs(scene.start.x), abs(scene.start.y)) > half:
+        _fail(source, 'start', f'start ({scene.start.x:g}, {scene.start.y:g}) is off the terrain '
+                               f'(|x|, |y| <= {half:g})')
     for i, goal in enumerate(scene.goals):
         if max(abs(goal.x), abs(goal.y)) > half:
-            _fail(source, f'goals[{i}]', f'goal ({goal.x}, {goal.y}) is off the terrain (|x|, |y| <= {half})')
+            _fail(source, f'goals[{i}]', f'goal ({goal.x:g}, {goal.y:g}) is off the terrain (|x|, |y| <= {half:g})')
+
+
+def _check_grid(extent: float, spacing: float, field_path: str, what: str, source: str) -> None:
+    """A generated terrain of side `extent` m sampled every `spacing` m has at most MAX_GRID_NODES nodes."""
+    from iguana_ros.terrain.heightfield import MAX_GRID_NODES, grid_nodes
+
+    nodes = grid_nodes(extent / 2.0, spacing)
+    if nodes > MAX_GRID_NODES:
+        _fail(source, field_path, f'a {extent:g} m terrain at {what} has {nodes} grid nodes, at most '
+                                  f'{MAX_GRID_NODES} allowed; use a smaller extent or a larger spacing')
+
+
+def _check_heightmap(terrain: TerrainSpec, source: str) -> None:
+    """A heightmap terrain names a file that exists and whose header promises at most MAX_GRID_NODES values."""
+    from iguana_ros.terrain.heightfield import heightmap_shape
+
+    if not terrain.file:
+        _fail(source, 'terrain.file', 'a heightmap terrain needs a file (.npy or 16-bit .png)')
+    try:
+        heightmap_shape(terrain.file)
+    except InputError as exc:
+        _fail(source, 'terrain.file', str(exc).removeprefix('height field: '))
 
 
 def _check_generated_terrain(terrain: TerrainSpec, source: str) -> None:
-    """Rules of the `steps` and `noise` grids: block and step ranges, samples per wavelength, grid size."""
+    """Rules of the `steps` and `noise` grids: block and step ranges, samples per wavelength."""
     from iguana_ros.terrain.heightfield import NOISE_MIN_SAMPLES
 
-    nodes = (math.ceil(terrain.extent / terrain.spacing) + 1) ** 2
-    if nodes > MAX_GRID_NODES:
-        _fail(source, 'terrain.spacing', f'a {terrain.extent:g} m terrain at spacing {terrain.spacing:g} m has '
-              f'{nodes} grid nodes, at most {MAX_GRID_NODES} allowed; use a larger spacing')
     if terrain.kind == 'steps':
         if terrain.step_max < terrain.step_min:
             _fail(source, 'terrain.step_max', f'expected >= step_min ({terrain.step_min}), got {terrain.step_max}')
@@ -262,7 +392,10 @@ def _check_generated_terrain(terrain: TerrainSpec, source: str) -> None:
 
 
 def parse_scene(raw, source: str = '<scene>') -> Scene:
-    """Validate a parsed YAML mapping into a Scene; SceneError names the field."""
+    """Validate a parsed YAML mapping into a Scene; SceneError names the field (None, an empty file: SceneError)."""
+    if raw is None:
+        raise SceneError(f'{source}: empty scene: a scene is a YAML mapping of fields '
+                         f'(e.g. {config_path("scenes", "flat_walk.yaml")})')
     scene = _build(Scene, raw, source)
     _cross_checks(scene, source)
     return scene
@@ -281,18 +414,136 @@ def available_scenes() -> list[str]:
     return sorted(p.stem for p in config_path('scenes').glob('*.yaml'))
 
 
+def with_duration(scene: Scene, seconds: float, option: str = '--duration') -> Scene:
+    """`scene` run for `seconds` instead (a command-line `option`), within the limits of a scene's own duration;
+    InputError naming the option otherwise."""
+    problem = _number_problem(seconds, 'duration', float)
+    if problem:
+        raise InputError(f'{option}: {problem}')
+    return dataclasses.replace(scene, duration=float(seconds))
+
+
 def load_scene(name_or_path: str) -> Scene:
-    """Read and validate a scene by name or path; SceneError (one line) if missing or invalid."""
+    """Read and validate a scene by name or path; SceneError (one line naming file and field) if missing or
+    invalid. The file's size is bounded before it is parsed, its YAML structure (nesting, alias expansion,
+    duplicate keys) before anything is built from it."""
     path = scene_path(name_or_path)
     if not path.is_file():
         raise SceneError(f'no scene {name_or_path!r} ({path} does not exist); '
                          f'shipped scenes: {", ".join(available_scenes())}')
+    text = _read_text(path)
     try:
-        raw = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        reason = str(exc).replace('\n', ' ')
-        raise SceneError(f'{path}: not a readable YAML scene: {reason}') from exc
+        _check_structure(text, str(path))
+        raw = yaml.load(text, Loader=_LOADER)
+    except SceneError:
+        raise
+    except (yaml.YAMLError, ValueError, OverflowError, TypeError, RecursionError) as exc:
+        reason = ' '.join(str(exc).split())
+        reason = reason if len(reason) <= 240 else reason[:237] + '...'
+        raise SceneError(f'{path}: not a readable YAML scene: {reason}') from None
     scene = parse_scene(raw, str(path))
     if scene.name == 'unnamed':
-        scene = dataclasses.replace(scene, name=path.stem)
+        scene = dataclasses.replace(scene, name=path.stem if NAME_PATTERN.fullmatch(path.stem) else 'unnamed')
     return scene
+
+
+_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
+"""The YAML loader of scene files (libyaml's when installed: the same safe types, faster)."""
+
+
+def _read_text(path: Path) -> str:
+    """The text of a scene file of at most MAX_SCENE_BYTES (UTF-8, or UTF-16 with a byte-order mark)."""
+    try:
+        with path.open('rb') as f:
+            data = f.read(MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise SceneError(f'{path}: cannot read the scene file: {exc.strerror or exc}') from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f'{path}: a scene file may have at most {MAX_SCENE_BYTES} bytes, this one has '
+                         f'{max(len(data), path.stat().st_size)}')
+    encoding = 'utf-16' if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)) else 'utf-8-sig'
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        raise SceneError(f'{path}: not a readable YAML scene: not {encoding.split("-sig")[0].upper()} text '
+                         f'(byte 0x{data[exc.start]:02x} at offset {exc.start})') from None
+
+
+_LONG_INTEGER = re.compile(r'[-+]?(0[box])?[0-9a-fA-F_:]+')
+"""A plain scalar YAML would read as an integer (Python refuses to convert one of more than 4300 digits)."""
+
+
+@dataclass
+class _Collection:
+    """An open YAML mapping or sequence while its events are read (see `_check_structure`)."""
+
+    mapping: bool
+    anchor: str | None
+    line: int
+    size: int = 1
+    height: int = 1
+    expect_key: bool = True
+    index: int = 0
+    key: str = ''
+    keys: dict = field(default_factory=dict)
+
+    def step(self) -> str:
+        """The path step to the child being read: '.key' or '[index]'."""
+        return f'.{self.key}' if self.mapping else f'[{self.index}]'
+
+
+def _check_structure(text: str, source: str) -> None:
+    """From the parser's events, before anything is composed: at most MAX_NESTING levels of collections, at most
+    MAX_YAML_NODES nodes with every alias counted at its full size, no key given twice in a mapping."""
+    open_: list[_Collection] = [_Collection(mapping=False, anchor=None, line=0)]   # the document as a sequence
+    anchors: dict[str, tuple[int, int]] = {}            # anchor -> (size, height)
+
+    def where() -> str:
+        return ''.join(c.step() for c in open_[1:]).lstrip('.') or '<top level>'
+
+    def begin(event) -> None:
+        parent = open_[-1]
+        if parent.mapping and parent.expect_key:
+            key = str(event.value) if isinstance(event, yaml.ScalarEvent) else '?'
+            line = event.start_mark.line + 1
+            if key != '<<' and key in parent.keys:
+                parent.key = key
+                _fail(source, where(), f'duplicate key (line {line}; first given on line {parent.keys[key]})')
+            parent.keys[key] = line
+            parent.key = key
+
+    def finish(size: int, height: int) -> None:
+        parent = open_[-1]
+        parent.size += size
+        parent.height = max(parent.height, height + 1)
+        if parent.size > MAX_YAML_NODES:
+            _fail(source, where(), f'the scene expands to more than {MAX_YAML_NODES} YAML nodes (aliases counted '
+                                   f'at their full size)')
+        if parent.mapping:
+            parent.expect_key = not parent.expect_key
+        else:
+            parent.index += 1
+
+    for event in yaml.parse(text, Loader=_LOADER):
+        if isinstance(event, (yaml.ScalarEvent, yaml.AliasEvent)):
+            begin(event)
+            size, height = (1, 0) if isinstance(event, yaml.ScalarEvent) else anchors.get(event.anchor, (1, 0))
+            if len(open_) - 1 + height > MAX_NESTING:
+                _fail(source, where(), f'nested deeper than {MAX_NESTING} levels (through alias *{event.anchor})')
+            if isinstance(event, yaml.ScalarEvent):
+                if event.anchor:
+                    anchors[event.anchor] = (1, 0)
+                if event.implicit[0] and len(event.value) > 100 and _LONG_INTEGER.fullmatch(event.value):
+                    _fail(source, where(), f'expected a number, got an integer of {len(event.value)} digits')
+            finish(size, height)
+        elif isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            begin(event)
+            if len(open_) > MAX_NESTING:
+                _fail(source, where(), f'nested deeper than {MAX_NESTING} levels')
+            open_.append(_Collection(isinstance(event, yaml.MappingStartEvent), event.anchor,
+                                     event.start_mark.line + 1))
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            done = open_.pop()
+            if done.anchor:
+                anchors[done.anchor] = (done.size, done.height)
+            finish(done.size, done.height)

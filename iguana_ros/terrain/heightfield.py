@@ -7,6 +7,7 @@ called inside other compiled kernels (ground contact); the methods are their vec
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +22,14 @@ STEPS_PAD_RADIUS = 0.4
 """Radius (m) of the flat start pad at height 0 around the origin (the default start) of `HeightField.steps`."""
 NOISE_MIN_SAMPLES = 4
 """Fewest grid samples per `wavelength` that `HeightField.noise` accepts (fewer would be aliased white noise)."""
+HILLS_SAMPLES = 16
+"""Grid samples per `wavelength` of `HeightField.hills` (its spacing is wavelength / HILLS_SAMPLES)."""
+MAX_GRID_NODES = 2000 ** 2
+"""Most nodes a height field built here may have (32 MB of float64 heights; e.g. a 99.9 m square at 5 cm): the
+generated grids (`hills`, `steps`, `noise`) and height-map files are checked before anything is allocated."""
+MAX_HEIGHTMAP_BYTES = MAX_GRID_NODES * 8 + 65536
+"""Largest height-map file (bytes) `from_file` opens: a float64 .npy of MAX_GRID_NODES values and its header."""
+_PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 
 
 @numba.njit(cache=True)
@@ -160,7 +169,7 @@ class HeightField:
         if amplitude < 0 or wavelength <= 0 or extent <= 0:
             raise InputError('hills: amplitude must be >= 0 and wavelength, extent > 0 (metres)')
         rng = np.random.default_rng(seed)
-        spacing = wavelength / 16.0
+        spacing = wavelength / HILLS_SAMPLES
         axis = _grid_axis(extent, spacing)
         gx, gy = np.meshgrid(axis, axis, indexing='ij')
         heights = np.zeros(gx.shape)
@@ -228,8 +237,7 @@ class HeightField:
         (its top row is the largest y). `origin` defaults to centring the grid on (0, 0).
         """
         path = Path(path)
-        if not path.is_file():
-            raise InputError(f'height field: file {path} does not exist')
+        heightmap_shape(path)   # size and header checked before anything is loaded
         suffix = path.suffix.lower()
         if suffix == '.npy':
             heights = _load_npy(path) * float(scale)
@@ -245,9 +253,67 @@ class HeightField:
             raise InputError(f'{path}: {exc}') from None
 
 
+def grid_nodes(extent: float, spacing: float) -> int:
+    """Nodes of the square grid the generated terrains build over `[-extent, extent]²` at `spacing` m."""
+    return (math.ceil(2.0 * extent / spacing) + 1) ** 2
+
+
 def _grid_axis(extent: float, spacing: float) -> np.ndarray:
-    """Node coordinates `(n,)` (m) of a grid from `-extent` in steps of `spacing`, reaching at least `extent`."""
-    return -extent + spacing * np.arange(int(np.ceil(2.0 * extent / spacing)) + 1)
+    """Node coordinates `(n,)` (m) of a grid from `-extent` in steps of `spacing`, reaching at least `extent`;
+    InputError if the square grid would have more than MAX_GRID_NODES nodes."""
+    nodes = grid_nodes(extent, spacing)
+    if nodes > MAX_GRID_NODES:
+        raise InputError(f'height field: a {2.0 * extent:g} m square at spacing {spacing:g} m has {nodes} grid nodes, '
+                         f'at most {MAX_GRID_NODES} allowed')
+    return -extent + spacing * np.arange(math.isqrt(nodes))
+
+
+def heightmap_shape(path) -> tuple[int, int]:
+    """Grid shape `(nx, ny)` of a height-map file (.npy or PNG) read from its header only, after checking that the
+    file exists, is at most MAX_HEIGHTMAP_BYTES and holds at most MAX_GRID_NODES values; InputError otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f'height field: file {path} does not exist')
+    size = path.stat().st_size
+    if size > MAX_HEIGHTMAP_BYTES:
+        raise InputError(f'height field: {path} has {size} bytes, at most {MAX_HEIGHTMAP_BYTES} allowed')
+    suffix = path.suffix.lower()
+    if suffix == '.npy':
+        shape = _npy_header_shape(path)
+    elif suffix == '.png':
+        shape = _png_header_shape(path)
+    else:
+        raise InputError(f'height field: {path} must be a .npy array or a .png image, got {suffix!r}')
+    if len(shape) != 2:
+        raise InputError(f'height field: {path} must hold a 2-D numeric array, got shape {shape}')
+    if math.prod(shape) > MAX_GRID_NODES:
+        raise InputError(f'height field: {path} holds a {shape[0]}x{shape[1]} grid, at most {MAX_GRID_NODES} '
+                         f'nodes allowed')
+    return shape
+
+
+def _npy_header_shape(path: Path) -> tuple:
+    """The array shape in a .npy file's header (the data is not read)."""
+    try:
+        with path.open('rb') as f:
+            version = np.lib.format.read_magic(f)
+            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, _fortran, _dtype = read(f)
+    except (ValueError, OSError, SyntaxError, TypeError) as exc:
+        raise InputError(f'height field: {path} is not a readable .npy array ({exc})') from None
+    return tuple(int(n) for n in shape)
+
+
+def _png_header_shape(path: Path) -> tuple:
+    """(width, height) from a PNG's IHDR chunk (the image is not decoded)."""
+    try:
+        with path.open('rb') as f:
+            head = f.read(24)
+    except OSError as exc:
+        raise InputError(f'height field: {path} is not a readable PNG ({exc})') from None
+    if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b'IHDR':
+        raise InputError(f'height field: {path} is not a readable PNG (no PNG header)')
+    return int.from_bytes(head[16:20], 'big'), int.from_bytes(head[20:24], 'big')
 
 
 def _load_npy(path: Path) -> np.ndarray:
