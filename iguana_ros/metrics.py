@@ -246,14 +246,18 @@ def stuck(times: np.ndarray, goal_distance: np.ndarray, radius: float) -> bool:
 
 
 def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: np.ndarray,
-                       root_up: np.ndarray, goal_xy: np.ndarray, goal_radius: float,
+                       root_up: np.ndarray, goal_xy: np.ndarray | None, goal_radius: float,
                        foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int,
                        trunk_landmarks: np.ndarray, landmarks: np.ndarray, reference_landmarks: np.ndarray,
                        landmark_pairs: np.ndarray, gait: GaitMetrics | None = None) -> LocomotionMetrics:
-    """All metrics of a run; shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`."""
+    """All metrics of a run; shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`. Without a goal
+    (`goal_xy` None) no goal is reached: reached_goal False, time and distance to the goal NaN, never stuck."""
     xy = root_positions[:, :2]
-    reached, t_goal, final = goal_arrival(times, xy, goal_xy, goal_radius)
-    dist = np.linalg.norm(xy - np.asarray(goal_xy)[None, :2], axis=1)
+    if goal_xy is None:
+        reached, t_goal, final, dist = False, float('nan'), float('nan'), np.zeros(len(times))
+    else:
+        reached, t_goal, final = goal_arrival(times, xy, goal_xy, goal_radius)
+        dist = np.linalg.norm(xy - np.asarray(goal_xy)[None, :2], axis=1)
     return LocomotionMetrics(
         reached_goal=reached, time_to_goal=t_goal, final_goal_distance=final,
         path_length=path_length(xy), mean_forward_speed=mean_forward_speed(times, xy, root_yaw),

@@ -33,7 +33,7 @@ def group_centroids(node_positions: np.ndarray, groups: list[np.ndarray]) -> np.
 
 
 def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetrics:
-    """LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: distance to the start), with
+    """LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: none reached, no distance), with
     the gait figures against the reference (clips from `library`, default the shipped clip library); foot slip
     per stride (four feet summed) is that of the walk, until the goal is reached."""
     model = build_model(scene.model.resolution, scene.model.stiffness)
@@ -162,18 +162,20 @@ def stride_progress(strides: list[Stride], root_positions: np.ndarray, root_orie
     return np.array(progress), np.array(reference)
 
 
-def walk_frames(times: np.ndarray, root_positions: np.ndarray, goal: np.ndarray, goal_radius: float) -> tuple:
+def walk_frames(times: np.ndarray, root_positions: np.ndarray, goal: np.ndarray | None, goal_radius: float) -> tuple:
     """(frames of a run's walk, whether it reached the goal): until (and with) the first frame within
-    `goal_radius` of `goal` (2,), else every frame of `times (n,)`, root `(n, 3)`."""
+    `goal_radius` of `goal` (2,), else (or with no goal, None) every frame of `times (n,)`, root `(n, 3)`."""
+    if goal is None:
+        return len(times), False
     reached, t_goal, _ = goal_arrival(times, root_positions[:, :2], goal, goal_radius)
     return (int(np.searchsorted(times, t_goal)) + 1 if reached else len(times)), reached
 
 
-def scene_goal(scene) -> np.ndarray:
-    """The goal `(2,)` a run of `scene` is measured against: its last goal (no goal: the start)."""
+def scene_goal(scene) -> np.ndarray | None:
+    """The goal `(2,)` a run of `scene` is measured against: its last goal (None without goals: none is reached)."""
     if scene.goals:
         return np.array([scene.goals[-1].x, scene.goals[-1].y])
-    return np.array([scene.start.x, scene.start.y])
+    return None
 
 
 @dataclass
@@ -238,7 +240,7 @@ def _unknown(value):
 
 
 def run_gait_metrics(model, result, scene, reference: np.ndarray, heights: np.ndarray, foot_xy: np.ndarray,
-                     foot_contact: np.ndarray, goal: np.ndarray, library: dict | None, terrain) -> GaitMetrics:
+                     foot_contact: np.ndarray, goal: np.ndarray | None, library: dict | None, terrain) -> GaitMetrics:
     """GaitMetrics of a run's walk (its frames until the goal is reached): per-foot contact, clearance, slip
     and height error, speed, shape error."""
     if library is None:

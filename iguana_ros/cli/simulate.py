@@ -19,22 +19,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run, print locomotion metrics, optionally save trajectories."""
-    import dataclasses
+    """Run, print locomotion metrics, optionally save trajectories; a bad scene or --duration is one error line
+    (the scene is read before the simulator is loaded)."""
+    from iguana_ros.scene import load_scene, with_duration
+
+    scene = load_scene(args.scene)
+    if args.duration is not None:
+        scene = with_duration(scene, args.duration)
 
     from tqdm import tqdm
 
     from iguana_ros.constants import FRAME_RATE
-    from iguana_ros.errors import InputError
     from iguana_ros.pipeline import run as run_pipeline
     from iguana_ros.run_metrics import metrics_of_run
-    from iguana_ros.scene import load_scene
 
-    scene = load_scene(args.scene)
-    if args.duration is not None:
-        if not args.duration > 0:
-            raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
-        scene = dataclasses.replace(scene, duration=float(args.duration))
     adaptation = False if args.no_adaptation else None
     total = int(round(scene.duration * FRAME_RATE))
     with tqdm(total=total, unit='frame', desc=scene.name, disable=args.json) as bar:
