@@ -8,7 +8,7 @@ import argparse
 import json
 from fractions import Fraction
 
-from iguana_ros.cli import bench_locomotion, bench_pushes, bench_statics
+from iguana_ros.cli import bench_faults, bench_locomotion, bench_pushes, bench_statics
 
 
 def _time_step(text: str) -> float:
@@ -62,6 +62,7 @@ def register(subparsers) -> None:
     bench_locomotion.register(sub)
     bench_statics.register(sub)
     bench_pushes.register(sub)
+    bench_faults.register(sub)
 
 
 def run_pipeline_bench(args) -> int:
