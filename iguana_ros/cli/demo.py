@@ -27,8 +27,9 @@ def run(args: argparse.Namespace) -> int:
     for line in summary.lines():
         print(line, flush=True)
     if summary.exit_code != 0:
-        raise IguanaError(f'the run failed (simulator exit status {summary.exit_code}); bag kept at '
-                          f'{summary.bag}:\n{summary.message}')
+        kind = 'error: ' if summary.outcome == 'failed' else ''
+        print(f'iguana demo: {kind}{summary.headline()}', file=sys.stderr, flush=True)
+        return summary.exit_code
     video = summary.bag.with_suffix('.gif')
     print(f'iguana demo: rendering {video} ...', flush=True)
     render = subprocess.run([sys.executable, '-m', 'iguana_ros.cli', 'render', str(summary.bag), '-o', str(video)])

@@ -24,20 +24,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the scene and print the summary; exit status 1 if any node failed."""
+    """Run the scene and print the summary; one line on stderr and a non-zero status unless it completed
+    (1 failed, 128 + n stopped by signal n, e.g. 143 for SIGTERM)."""
+    import sys
+
     from iguana_ros.errors import InputError
-    from iguana_ros.nodes.launch import RunOptions, run_scene
+    from iguana_ros.nodes.launch import RunInterrupted, RunOptions, run_scene
 
     if args.duration is not None and not args.duration > 0:
         raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
     extra = {} if args.duration is None else {'duration': float(args.duration)}
-    summary = run_scene(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
-                                   single_process=args.single_process, timeout=args.timeout,
-                                   extra_params=extra))
+    try:
+        summary = run_scene(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
+                                       single_process=args.single_process, timeout=args.timeout,
+                                       extra_params=extra))
+    except RunInterrupted as exc:  # before anything was started
+        print(f'iguana run: {exc} before the run started; nothing was started', file=sys.stderr, flush=True)
+        return 128 + exc.signum
     for line in summary.lines():
         print(line, flush=True)
     if summary.exit_code != 0:
-        from iguana_ros.errors import IguanaError
-        raise IguanaError(f'the simulator exited with status {summary.exit_code}; bag kept at {summary.bag}:\n'
-                          f'{summary.message}')
-    return 0
+        kind = 'error: ' if summary.outcome == 'failed' else ''
+        print(f'iguana run: {kind}{summary.headline()}', file=sys.stderr, flush=True)
+    return summary.exit_code

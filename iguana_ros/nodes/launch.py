@@ -1,19 +1,36 @@
-"""`iguana run`: the four nodes as separate processes (or one), the scene's goals, a bag of every topic."""
+"""`iguana run`: the four nodes as separate processes (or one), the scene's goals, a bag of every topic.
+
+Supervision: the children share one process group and get SIGTERM when `iguana run` dies, however it dies
+(process.py); SIGINT, SIGTERM and SIGHUP stop the run in order (nodes, then the recorder, which finalises the
+bag) and the summary says so; a run refuses a ROS domain that another run (or its leftovers) is on
+(domain_check.py); what the run reports is read from its bag and the supervisor's clock (run_summary.py).
+"""
 from __future__ import annotations
 
-import re
+import os
+import signal
 import sys
+import threading
 import time
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
+from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.process import NodeProcess
+from iguana_ros.nodes.domain_check import GRAPH_LISTEN_S
+from iguana_ros.nodes.process import RUN_ID_ENV, NodeProcess, describe_exit, run_processes, stop_all
 from iguana_ros.nodes.run_gait import RunGait
+from iguana_ros.nodes.run_summary import RunSummary, bag_progress
 from iguana_ros.scene import Scene, load_scene, scene_path
+
+__all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
+           'goal_outcome_of', 'node_commands', 'ros_args', 'stop_signals']
 
 NODE_KINDS = ('planner_node', 'terrain_adaptation_node', 'spring_length_node', 'simulator_node')
 """The four nodes of the design card, in start order."""
@@ -21,12 +38,27 @@ NODE_KINDS = ('planner_node', 'terrain_adaptation_node', 'spring_length_node', '
 POLL_S = 0.1
 """Wall seconds between checks on the children."""
 
-_FINISHED = re.compile(r'scene finished: ([0-9.]+) s simulated in ([0-9.]+) s wall')
+NODE_STOP_S = 5.0
+"""Wall seconds the nodes get for each step of SIGINT, SIGTERM, SIGKILL when the run stops."""
+
+RECORDER_STOP_S = 20.0
+"""Wall seconds the recorder gets for each step (it finalises the bag on SIGINT)."""
+
+DOMAIN_WATCH_S = 5.0
+"""Wall seconds after the domain check during which the graph is still watched for a foreign node discovered
+late (at least until the scene's goals are sent)."""
+
+WATCH_PERIOD_S = 0.25
+"""Wall seconds between two looks at the graph while the run starts."""
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""Signals that stop a run in order, with a summary (unless the parent made `iguana run` ignore them)."""
 
 
 @dataclass
 class RunOptions:
-    """What `iguana run` does: scene, mode, bag directory, process layout, wall-clock limit."""
+    """What `iguana run` does: scene, mode, bag directory, process layout, wall-clock limit, how long to listen
+    for another run on the ROS domain before starting (0 = only look for other runs' processes)."""
 
     scene: str = 'hills'
     mode: str = 'lockstep'
@@ -35,38 +67,60 @@ class RunOptions:
     timeout: float | None = None
     bags_dir: Path = Path('bags')
     extra_params: dict = field(default_factory=dict)
+    domain_check_s: float = GRAPH_LISTEN_S
+
+
+class RunInterrupted(IguanaError):
+    """A stop signal (SIGINT, SIGTERM, SIGHUP) arrived while the run was going on."""
+
+    def __init__(self, signum: int) -> None:
+        """Name the signal."""
+        self.signum = signum
+        super().__init__(f'stopped by {signal.Signals(signum).name}')
+
+
+class ChildExited(IguanaError):
+    """A child process exited while the run needed it; carries its name and last lines."""
+
+    def __init__(self, name: str, code: int | None, tail: str) -> None:
+        """One-line message; `tail` kept apart."""
+        self.name, self.tail = name, tail
+        super().__init__(f'{name} exited with {describe_exit(code)}')
 
 
 @dataclass
-class RunSummary:
-    """What a finished run reports."""
+class SignalState:
+    """Stop signals received while `stop_signals` is active; `raising` is cleared once the run is stopping."""
 
-    scene: str
-    bag: Path
-    logs: Path
-    simulated_s: float
-    wall_s: float
-    reached_goal: bool
-    time_to_goal: float
-    final_goal_distance: float
-    exit_code: int
-    message: str = ''
-    gait: RunGait | None = None
+    received: list[int] = field(default_factory=list)
+    raising: bool = True
 
-    @property
-    def realtime_factor(self) -> float:
-        """Simulated seconds per wall second of the simulation loop."""
-        return self.simulated_s / self.wall_s if self.wall_s > 0 else 0.0
 
-    def lines(self) -> list[str]:
-        """Human-readable summary lines."""
-        goal = (f'goal reached at t={self.time_to_goal:.2f} s' if self.reached_goal
-                else f'goal not reached (final distance {self.final_goal_distance:.2f} m)')
-        gait = self.gait.lines() if self.gait is not None else []
-        return [f'scene {self.scene}: {goal}',
-                f'simulated {self.simulated_s:.2f} s in {self.wall_s:.2f} s wall '
-                f'(realtime factor {self.realtime_factor:.2f})',
-                *gait, f'bag: {self.bag}', f'logs: {self.logs}']
+@contextmanager
+def stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalState]:
+    """While inside: the first of `signals` raises RunInterrupted, later ones are only noted (so the orderly
+    stop completes); a signal the parent made us ignore stays ignored; outside the main thread nothing is
+    installed. The previous handlers come back on exit."""
+    state = SignalState()
+    if threading.current_thread() is not threading.main_thread():
+        yield state
+        return
+
+    def handler(signum, _frame):
+        state.received.append(signum)
+        if state.raising:
+            state.raising = False
+            raise RunInterrupted(signum)
+
+    previous = {}
+    for sig in signals:
+        if signal.getsignal(sig) is not signal.SIG_IGN:
+            previous[sig] = signal.signal(sig, handler)
+    try:
+        yield state
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def ros_args(params: dict) -> list[str]:
@@ -111,13 +165,76 @@ class SceneRun:
             raise IguanaError(f'bag directory {self.bag} already exists; choose another with --record')
         self.logs = self.bag.with_name(self.bag.name + '_logs')
         self.children: dict[str, NodeProcess] = {}
+        self.run_id = f'{os.getpid()}-{uuid.uuid4().hex[:12]}'
+        self.group: int | None = None
+        self.started = time.monotonic()
+        self.sim_code: int | None = None
+        self.failure: IguanaError | None = None
+        self.stopped_by: int | None = None
+        self.leftovers: list = []
+        self.watch = None
+        self.watch_until = self._next_watch = 0.0
+
+    @property
+    def planned_s(self) -> float:
+        """Simulated seconds the run is to last (the --duration override or the scene's)."""
+        return float(self.options.extra_params.get('duration') or self.scene.duration)
+
+    def check_domain(self) -> None:
+        """DomainInUse (one line) if another run, its leftovers or publishers of our topics are on the domain;
+        the DDS watch stays open for `watch_domain` while the run starts."""
+        from iguana_ros.bag.record import RECORDER_NODE_NAME
+        from iguana_ros.nodes.domain_check import check_before_start
+        self.watch = check_before_start((*NODE_KINDS, RECORDER_NODE_NAME), self.options.domain_check_s)
+        self.watch_until = time.monotonic() + DOMAIN_WATCH_S
+
+    def watch_domain(self, may_close: bool = False, force: bool = False) -> None:
+        """While the run starts (at most every WATCH_PERIOD_S unless `force`): DomainInUse if a foreign node or
+        publisher has been discovered late. With `may_close`, leave the graph once DOMAIN_WATCH_S have passed."""
+        from iguana_ros.nodes.domain_check import check_while_starting
+        if self.watch is None:
+            return
+        now = time.monotonic()
+        if force or now >= self._next_watch:
+            self._next_watch = now + WATCH_PERIOD_S
+            try:
+                check_while_starting(self.watch)
+            except IguanaError:
+                self.close_watch()
+                raise
+        if may_close and now > self.watch_until:
+            self.close_watch()
+
+    def close_watch(self) -> None:
+        """Leave the DDS graph (the watch of check_domain)."""
+        if self.watch is not None:
+            self.watch.close()
+            self.watch = None
+
+    def keep_going(self) -> None:
+        """Called while the run starts: raise if a child exited or the domain turned out to be shared."""
+        self.alive_or_raise()
+        self.watch_domain()
+
+    def _child(self, name: str, command: list[str]) -> NodeProcess:
+        """A child of this run: in the run's process group (the first one leads it), marked with the run id."""
+        child = NodeProcess(command, name, self.logs, env={RUN_ID_ENV: self.run_id},
+                            group=0 if self.group is None else self.group)
+        self.children[name] = child
+        return child
 
     def start(self) -> None:
         """Recorder first (so it sees every topic), then the nodes."""
         recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '-o', str(self.bag)]
-        self.children['recorder'] = NodeProcess(recorder, 'recorder', self.logs).start('recording to', 30.0)
+        child = self._child('recorder', recorder)
+        child.start()
+        self.group = child.pid
+        if not child.wait_for_output('recording to', 30.0):
+            self.alive_or_raise()
+            raise IguanaError(f'the recorder did not start within 30 s; logs in {self.logs}')
         for name, command in node_commands(self.options, self.scene, self.scene_file).items():
-            self.children[name] = NodeProcess(command, name, self.logs).start()
+            self.keep_going()
+            self._child(name, command).start()
 
     def send_goals(self) -> None:
         """Publish the scene's goals (stamped with their times) once planner and simulator listen."""
@@ -126,13 +243,18 @@ class SceneRun:
         from iguana_ros.nodes.goal_sender import goal_message, send_goals
         goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in self.scene.goals]
         # planner, simulator (goal marker) and recorder must all have them before frame 0
-        send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.alive_or_raise)
+        send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going)
+        self.watch_domain(may_close=True, force=True)
 
-    def alive_or_raise(self) -> None:
-        """IguanaError naming the first child that has exited early, with its last lines."""
+    def alive_or_raise(self, simulator_may_end: bool = False) -> None:
+        """ChildExited naming the first child that has exited early, with its last lines (the simulator may end
+        with status 0 once the run is under way: `simulator_may_end`)."""
         for name, child in self.children.items():
-            if name != 'simulator_node' and name != 'nodes' and not child.running:
-                raise IguanaError(f'{name} exited with status {child.proc.returncode}:\n{child.tail()}')
+            if child.proc is None or child.running:
+                continue
+            if simulator_may_end and name in ('simulator_node', 'nodes') and child.proc.returncode == 0:
+                continue
+            raise ChildExited(name, child.proc.returncode, child.tail())
 
     def simulator(self) -> NodeProcess:
         """The process running the simulator node."""
@@ -140,47 +262,88 @@ class SceneRun:
 
     def wait(self) -> int:
         """Wait for the simulator to finish; raise if another child dies or the wall limit passes."""
-        limit = self.options.timeout or (120.0 + 30.0 * self.scene.duration)
+        limit = self.options.timeout or (120.0 + 30.0 * self.planned_s)
         deadline = time.monotonic() + limit
         sim = self.simulator()
         while sim.running:
-            self.alive_or_raise()
+            self.alive_or_raise(simulator_may_end=True)
+            self.watch_domain(may_close=True)
             if time.monotonic() > deadline:
                 raise IguanaError(f'run exceeded the wall-clock limit of {limit:.0f} s; logs in {self.logs}')
             time.sleep(POLL_S)
-        return sim.proc.returncode
+        self.sim_code = sim.proc.returncode
+        return self.sim_code
 
     def stop(self) -> None:
-        """Stop every node, then the recorder (which finalises the bag)."""
-        for name, child in self.children.items():
-            if name != 'recorder' and child.proc is not None:
-                child.stop(timeout=5.0)
-        recorder = self.children.get('recorder')
-        if recorder is not None and recorder.proc is not None:
-            recorder.stop(timeout=20.0)
+        """Stop every node (all at once), then the recorder (which finalises the bag); kill anything of this
+        run still alive after that (there should be none: it is named in the summary)."""
+        self.close_watch()
+        stop_all([c for name, c in self.children.items() if name != 'recorder'], NODE_STOP_S)
+        if 'recorder' in self.children:
+            stop_all([self.children['recorder']], RECORDER_STOP_S)
+        self.leftovers = run_processes(self.run_id)
+        for proc in self.leftovers:
+            try:
+                os.kill(proc.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
 
-    def summary(self, code: int) -> RunSummary:
-        """Read the run's outcome: wall time from the simulator log; goal and gait figures from the messages
-        recorded in the bag (what a bag lacks is named in the gait lines, never raised)."""
+    def outcome(self, simulated: float) -> tuple[str, str, int]:
+        """(outcome, reason, exit code) of the run, judged from what happened and how far it got."""
+        if self.stopped_by is not None:
+            return 'stopped', f'stopped by {signal.Signals(self.stopped_by).name}', 128 + self.stopped_by
+        if self.failure is not None:
+            return 'failed', str(self.failure), 1
+        sim = self.children.get('simulator_node') or self.children.get('nodes')
+        name = sim.name if sim is not None else 'the simulator'
+        if self.sim_code not in (None, 0):
+            return 'failed', f'{name} exited with {describe_exit(self.sim_code)}', 1
+        if simulated < self.planned_s - 0.5 / FRAME_RATE:
+            how = f'exited with {describe_exit(self.sim_code)}' if self.sim_code is not None else 'stopped'
+            return 'failed', f'{name} {how} before the end of the run', 1
+        if self.leftovers:
+            return 'failed', 'processes of the run were still alive after the stop: ' + ', '.join(
+                p.label() for p in self.leftovers), 1
+        return 'completed', '', 0
+
+    def failed_node(self) -> tuple[str, str]:
+        """(name, last lines) of the child whose failure ended the run: the one that exited, else the simulator."""
+        if isinstance(self.failure, ChildExited):
+            return self.failure.name, self.failure.tail
+        sim = self.children.get('simulator_node') or self.children.get('nodes')
+        return (sim.name, sim.tail()) if sim is not None and sim.proc is not None else ('', '')
+
+    def summary(self, code: int | None = None) -> RunSummary:
+        """The run's outcome from data: how far it got and the loop's wall time from the bag (last iguana_state
+        stamp; receive times of the first and last), the total from the supervisor's clock, goal and gait
+        figures from the recorded messages (what a bag lacks is named in the gait lines, never raised)."""
         from iguana_ros.bag.trajectory import read_topics, root_trajectory
         from iguana_ros.nodes.run_gait import GAIT_TOPICS, run_gait
 
-        found = _FINISHED.findall(self.simulator().output)
-        simulated, wall = (float(found[-1][0]), float(found[-1][1])) if found else (0.0, 0.0)
-        message = '' if code == 0 else self.simulator().tail()
-        try:
-            recorded = read_topics(self.bag, GAIT_TOPICS)
-        except IguanaError as exc:
-            return RunSummary(self.scene.name, self.bag, self.logs, simulated, wall, False, float('nan'),
-                              float('nan'), code, message, RunGait(None, notes=[f'bag unreadable: {exc}']))
-        times, positions, _ = root_trajectory(recorded.messages['iguana_state'])
+        if code is not None and self.sim_code is None:
+            self.sim_code = code
+        progress = bag_progress(self.bag)
+        total = time.monotonic() - self.started
+        gait, times, positions = None, np.zeros(0), np.zeros((0, 3))
+        if progress.exists:
+            try:
+                recorded = read_topics(self.bag, GAIT_TOPICS)
+                times, positions, _ = root_trajectory(recorded.messages['iguana_state'])
+                try:
+                    gait = run_gait(recorded, self.scene)
+                except Exception as exc:  # noqa: BLE001 -- a summary after a long run must still print its lines
+                    gait = RunGait(None, notes=[f'gait figures failed: {type(exc).__name__}: {exc}'])
+            except IguanaError as exc:
+                gait = RunGait(None, notes=[f'bag unreadable: {exc}'])
+        else:
+            gait = RunGait(None, notes=['no bag'])
+        simulated = float(times[-1]) if len(times) else 0.0
         reached, when, final = goal_outcome_of(times, positions, self.scene)
-        try:
-            gait = run_gait(recorded, self.scene)
-        except Exception as exc:  # noqa: BLE001 -- a summary after a long run must still print its other lines
-            gait = RunGait(None, notes=[f'gait figures failed: {type(exc).__name__}: {exc}'])
-        return RunSummary(self.scene.name, self.bag, self.logs, simulated, wall, reached, when, final, code,
-                          message, gait)
+        outcome, reason, exit_code = self.outcome(simulated)
+        node, tail = self.failed_node() if outcome == 'failed' else ('', '')
+        return RunSummary(self.scene.name, self.bag, self.logs, simulated, progress.loop_wall_s, reached, when,
+                          final, exit_code, tail, gait, planned_s=self.planned_s, outcome=outcome, reason=reason,
+                          total_wall_s=total, bag_note=progress.note(), failed_node=node)
 
 
 def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
@@ -204,13 +367,25 @@ def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene) -> t
 
 
 def run_scene(options: RunOptions) -> RunSummary:
-    """Run a scene end to end; stops every child on exit, Ctrl-C or a child's crash."""
+    """Run a scene end to end and return its summary, whatever ends it: the scene's end, a child's crash, the
+    wall-clock limit, or SIGINT / SIGTERM / SIGHUP (every child is stopped and the bag finalised first).
+    Raises (before anything is started) for a bad scene, an existing bag directory or a busy ROS domain."""
     run = SceneRun(options)
-    code = 1
-    try:
-        run.start()
-        run.send_goals()
-        code = run.wait()
-    finally:
-        run.stop()
-    return run.summary(code)
+    with stop_signals() as signals:
+        try:
+            run.check_domain()
+            run.start()
+            run.send_goals()
+            run.wait()
+        except RunInterrupted as exc:
+            if not run.children:  # nothing was started: nothing to report but the signal
+                raise
+            run.stopped_by = exc.signum
+        except IguanaError as exc:
+            if not run.children:  # a busy domain: refused before anything was started
+                raise
+            run.failure = exc
+        finally:
+            signals.raising = False
+            run.stop()
+        return run.summary()

@@ -1,0 +1,181 @@
+"""Is the ROS domain free for a run? Other runs' processes on this machine (from /proc) and, on the DDS graph,
+nodes with the run's node names or publishers of the topics the run's nodes publish.
+
+A second run on a busy domain would mix its messages with the other run's (lockstep stalls, two simulators on
+iguana_state, an old recorder recording both, goals acknowledged by the wrong planner), so `iguana run` refuses
+it. Inputs from people are fine: publishers of goal_pose and push (`iguana goal`, RViz2), and any viewer or
+plotter subscribed to the outputs.
+
+DDS discovery of a busy peer can take a few seconds (Fast DDS re-announces a participant every 3 s), so the
+graph is watched in two phases: before anything is started (`GRAPH_LISTEN_S`; nothing of ours may be there),
+and again while the run's own nodes come up (then more than one node of a name, or more publishers of an output
+topic than the run's own, is foreign).
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+
+from iguana_ros.errors import IguanaError
+from iguana_ros.nodes.process import ProcessInfo, run_processes
+from iguana_ros.topics import default_topics
+
+GRAPH_LISTEN_S = 1.0
+"""Wall seconds the first phase listens to the DDS graph when it finds nothing."""
+
+SETTLE_S = 0.5
+"""Wall seconds a phase keeps listening after a first finding, to name what else is there."""
+
+UNKNOWN_NODE_NAME = '_NODE_NAME_UNKNOWN_'
+"""What rmw reports as the node of an endpoint whose node it has not discovered yet."""
+
+UNNAMED = 'an unnamed node'
+"""How a report names the node of an endpoint whose node is not known."""
+
+WATCH_NODE_NAME = 'iguana_domain_check'
+"""ROS node name of the watch itself."""
+
+
+class DomainInUse(IguanaError):
+    """The run's ROS domain already carries another run or publishers of the run's topics."""
+
+
+@dataclass
+class DomainReport:
+    """What was found on a domain: other runs' processes, nodes named like the run's, foreign publishers."""
+
+    domain_id: str
+    processes: list[ProcessInfo] = field(default_factory=list)
+    nodes: list[str] = field(default_factory=list)
+    publishers: dict[str, list[str]] = field(default_factory=dict)
+
+    @property
+    def busy(self) -> bool:
+        """True if anything was found."""
+        return bool(self.processes or self.nodes or self.publishers)
+
+    def line(self) -> str:
+        """One line naming the domain and what is on it."""
+        parts = []
+        if self.processes:
+            parts.append('processes of another iguana run: ' + ', '.join(p.label() for p in self.processes))
+        if self.nodes:
+            parts.append('nodes ' + ', '.join(self.nodes))
+        if self.publishers:
+            parts.append('publishers of ' + ', '.join(
+                f'{topic} ({", ".join(nodes)})' for topic, nodes in sorted(self.publishers.items())))
+        pids = ' '.join(str(p.pid) for p in self.processes)
+        stop = f'stop them (kill {pids})' if pids else 'stop them'
+        return (f'ROS_DOMAIN_ID {self.domain_id} is in use: {"; ".join(parts)}; {stop} or run with another '
+                'ROS_DOMAIN_ID')
+
+
+def current_domain_id() -> str:
+    """The ROS_DOMAIN_ID of this process's environment ('0' when unset)."""
+    return os.environ.get('ROS_DOMAIN_ID', '').strip() or '0'
+
+
+def output_topics(node_names: tuple[str, ...]) -> dict[str, int]:
+    """{absolute name: how many of `node_names` publish it} for the topics of msg_configs/topics.yaml that
+    one of `node_names` publishes."""
+    counts = {}
+    for spec in default_topics().values():
+        ours = sum(1 for pub in spec.publishers if pub.split()[0] in node_names)
+        if ours:
+            counts[spec.name if spec.name.startswith('/') else '/' + spec.name] = ours
+    return counts
+
+
+def _known_names(names) -> list[str]:
+    """Sorted node names without DDS's placeholder for a node not yet named ('an unnamed node' if none is left)."""
+    known = sorted({name for name in names if name and name not in (UNKNOWN_NODE_NAME, UNNAMED)})
+    return known or [UNNAMED]
+
+
+def other_runs(domain_id: str) -> list[ProcessInfo]:
+    """Live processes of other iguana runs on this machine whose ROS_DOMAIN_ID is `domain_id`."""
+    return [p for p in run_processes() if p.domain_id == domain_id]
+
+
+class DomainWatch:
+    """A DDS participant on this process's domain that looks for nodes named `node_names` and publishers of
+    the topics those nodes publish; `close()` leaves the graph."""
+
+    def __init__(self, node_names: tuple[str, ...]) -> None:
+        """Join the graph (rclpy context of its own, no signal handlers)."""
+        import rclpy
+        from rclpy.signals import SignalHandlerOptions
+
+        self.node_names = tuple(node_names)
+        self.topics = output_topics(self.node_names)
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(WATCH_NODE_NAME, context=self.context)
+
+    def foreign(self, ours_running: bool) -> tuple[list[str], dict[str, list[str]]]:
+        """(node names, {topic: publishing nodes}) that are not the run's own: with `ours_running` one node of
+        each name and the table's publishers of each topic are allowed, else none."""
+        names = [name for name, _ in self.node.get_node_names_and_namespaces() if name in self.node_names]
+        nodes = sorted({n for n in names if names.count(n) > (1 if ours_running else 0)})
+        publishers = {}
+        for topic, count in self.topics.items():
+            infos = self.node.get_publishers_info_by_topic(topic)
+            if len(infos) > (count if ours_running else 0):
+                publishers[topic] = _known_names(info.node_name for info in infos)
+        return nodes, publishers
+
+    def listen(self, seconds: float, settle_s: float = SETTLE_S) -> tuple[list[str], dict[str, list[str]]]:
+        """`foreign(False)` gathered for `seconds` (`settle_s` more after the first finding)."""
+        nodes: set[str] = set()
+        publishers: dict[str, set[str]] = {}
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            found_nodes, found_publishers = self.foreign(False)
+            nodes.update(found_nodes)
+            for topic, who in found_publishers.items():
+                publishers.setdefault(topic, set()).update(who)
+            if nodes or publishers:
+                deadline = min(deadline, time.monotonic() + settle_s)
+            time.sleep(0.05)
+        return sorted(nodes), {topic: _known_names(who) for topic, who in publishers.items()}
+
+    def close(self) -> None:
+        """Leave the graph."""
+        import rclpy
+        try:
+            self.node.destroy_node()
+        finally:
+            rclpy.try_shutdown(context=self.context)
+
+
+def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LISTEN_S,
+                       keep_open: bool = True) -> DomainWatch | None:
+    """Raise DomainInUse (one line) if other runs' processes are on this domain (from /proc, at once) or, within
+    `listen_s`, nodes named `node_names` or publishers of their topics (DDS). Returns the watch, still on the
+    graph for `check_while_starting` (None when `listen_s` is 0 or not `keep_open`)."""
+    domain = current_domain_id()
+    processes = other_runs(domain)
+    if processes:
+        raise DomainInUse(DomainReport(domain, processes=processes).line())
+    if listen_s <= 0:
+        return None
+    watch = DomainWatch(node_names)
+    try:
+        nodes, publishers = watch.listen(listen_s)
+    except BaseException:
+        watch.close()
+        raise
+    if nodes or publishers or not keep_open:
+        watch.close()
+    if nodes or publishers:
+        raise DomainInUse(DomainReport(domain, nodes=nodes, publishers=publishers).line())
+    return watch if keep_open else None
+
+
+def check_while_starting(watch: DomainWatch) -> None:
+    """Raise DomainInUse if the graph now holds a second node of one of the run's names or more publishers of an
+    output topic than the run's own nodes (a peer discovered late)."""
+    nodes, publishers = watch.foreign(True)
+    if nodes or publishers:
+        raise DomainInUse(DomainReport(current_domain_id(), nodes=nodes, publishers=publishers).line())

@@ -1,0 +1,134 @@
+"""What a run reports, from data only: how far it got (the last iguana_state stamp in its bag), the wall time of
+its simulation loop (the recorder's receive times of the first and last iguana_state), the supervisor's own
+wall time, whether the bag was finalised, and the outcome (completed, failed, stopped by a signal)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from iguana_ros.nodes.run_gait import RunGait
+
+STATE_TOPIC = '/iguana_state'
+"""Recorded topic whose stamps say how far the simulation got."""
+
+
+@dataclass
+class BagProgress:
+    """One pass over a run's bag: messages per topic, receive times (ns) of the first and last iguana_state,
+    whether the file was finalised (summary section and metadata.yaml written) and what ended it early."""
+
+    exists: bool = False
+    finalised: bool = False
+    counts: dict[str, int] = field(default_factory=dict)
+    state_first_ns: int = 0
+    state_last_ns: int = 0
+    problem: str = ''
+
+    @property
+    def messages(self) -> int:
+        """Messages recovered from the bag."""
+        return sum(self.counts.values())
+
+    @property
+    def loop_wall_s(self) -> float:
+        """Wall seconds from the first to the last iguana_state the recorder received (0 if fewer than 2)."""
+        return max(0.0, (self.state_last_ns - self.state_first_ns) / 1e9)
+
+    def note(self) -> str:
+        """'finalised, 1234 messages on 12 topics' or what is wrong with the bag."""
+        if not self.exists:
+            return 'no bag: the run stopped before the recorder started'
+        held = f'{self.messages} messages on {len(self.counts)} topics'
+        if self.finalised:
+            return f'finalised, {held}'
+        return f'not finalised ({self.problem or "no summary section"}): {held} recovered from its complete chunks'
+
+
+def bag_progress(bag: Path) -> BagProgress:
+    """BagProgress of bag directory `bag` (a missing or unreadable bag gives exists=False / a problem)."""
+    from iguana_ros.bag.storage import BagReader
+    from iguana_ros.errors import IguanaError
+
+    progress = BagProgress()
+    try:
+        reader = BagReader(bag)
+    except IguanaError as exc:
+        progress.problem = str(exc)
+        return progress
+    progress.exists = True
+    for msg in reader.messages():
+        progress.counts[msg.topic] = progress.counts.get(msg.topic, 0) + 1
+        if msg.topic == STATE_TOPIC:
+            progress.state_first_ns = progress.state_first_ns or msg.log_time
+            progress.state_last_ns = msg.log_time
+    progress.problem = reader.problem
+    progress.finalised = not reader.truncated and (Path(bag) / 'metadata.yaml').is_file()
+    return progress
+
+
+@dataclass
+class RunSummary:
+    """What a run reports. `exit_code`: 0 completed, 1 failed, 128 + n stopped by signal n. `simulated_s` is the
+    last recorded iguana_state stamp, `wall_s` the recorder's wall time from the first to the last of them;
+    `message` holds the last lines of the node that failed."""
+
+    scene: str
+    bag: Path
+    logs: Path
+    simulated_s: float
+    wall_s: float
+    reached_goal: bool
+    time_to_goal: float
+    final_goal_distance: float
+    exit_code: int
+    message: str = ''
+    gait: RunGait | None = None
+    planned_s: float = float('nan')
+    outcome: str = ''
+    reason: str = ''
+    total_wall_s: float = 0.0
+    bag_note: str = ''
+    failed_node: str = ''
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall second of the simulation loop."""
+        return self.simulated_s / self.wall_s if self.wall_s > 0 else 0.0
+
+    def progress(self) -> str:
+        """'3.40 of 60.00 s simulated' (or '3.40 s simulated' when the planned duration is unknown)."""
+        if math.isnan(self.planned_s):
+            return f'{self.simulated_s:.2f} s simulated'
+        return f'{self.simulated_s:.2f} of {self.planned_s:.2f} s simulated'
+
+    def outcome_text(self) -> str:
+        """'run completed', 'run failed: <reason>' or 'run stopped by SIGTERM', with how far it got."""
+        if self.outcome in ('', 'completed'):
+            return f'run completed: {self.progress()}'
+        got = self.progress() if self.simulated_s > 0 else 'no frame simulated'
+        if self.outcome == 'stopped':
+            return f'run {self.reason} after {got}'
+        return f'run failed after {got}' + (f': {self.reason}' if self.reason else '')
+
+    def headline(self) -> str:
+        """One line for the error stream: the outcome and where the bag is."""
+        return f'{self.outcome_text()}; bag {self.bag_note or "?"} at {self.bag}'
+
+    def lines(self) -> list[str]:
+        """Human-readable summary lines."""
+        if self.reached_goal:
+            goal = f'goal reached at t={self.time_to_goal:.2f} s'
+        elif math.isnan(self.final_goal_distance):
+            goal = 'goal not reached'
+        else:
+            goal = f'goal not reached (final distance {self.final_goal_distance:.2f} m)'
+        gait = self.gait.lines() if self.gait is not None else []
+        total = f', {self.total_wall_s:.1f} s with start-up' if self.total_wall_s > 0 else ''
+        detail = [f'last lines of {self.failed_node}:', *('  ' + line for line in self.message.splitlines())] \
+            if self.message and self.failed_node else []
+        bag = f'bag: {self.bag}' + (f' ({self.bag_note})' if self.bag_note else '')
+        return [f'scene {self.scene}: {goal}', self.outcome_text(),
+                f'simulated {self.simulated_s:.2f} s in {self.wall_s:.2f} s wall '
+                f'(realtime factor {self.realtime_factor:.2f}{total})',
+                *gait, *detail, bag, f'logs: {self.logs}']
