@@ -9,6 +9,7 @@ SUITES = (
     # (name, module exposing `register(suites)`); a suite is imported only when listed here.
     ('scenes', 'iguana_ros.cli.bench_faults_scenes'),
     ('bags', 'iguana_ros.cli.bench_faults_bags'),
+    ('processes', 'iguana_ros.cli.bench_faults_processes'),
 )
 
 

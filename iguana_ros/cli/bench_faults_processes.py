@@ -1,0 +1,42 @@
+"""`iguana bench faults processes`: kill `iguana run` or one of its children (SIGKILL, SIGTERM, SIGINT) at seeded
+random moments; every trial must leave no process behind, a readable bag with every message recorded before the
+fault, and one clear line (iguana_ros/process_faults.py)."""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from iguana_ros.cli.argtypes import count
+
+
+def register(suites: argparse._SubParsersAction) -> None:
+    """Add the `processes` suite to `iguana bench faults`."""
+    parser = suites.add_parser('processes', help='kill iguana run and its children at random moments')
+    parser.add_argument('--trials', type=count(1), default=20, help='faults to inject, one run each (default 20)')
+    parser.add_argument('--seed', type=int, default=12, help='seed of targets, signals and moments (default 12)')
+    parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
+                        help='ROS_DOMAIN_ID of the trials (default: 1 + pid %% 200, discovery on localhost)')
+    parser.add_argument('--keep', type=Path, default=None, metavar='DIR',
+                        help='keep every trial (scene, bag, logs, output) under DIR')
+    parser.add_argument('--json', action='store_true', help='print one JSON object')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the trials (one line each as they end), then the figures; exit status 1 if any trial failed."""
+    from iguana_ros.process_faults import Trial, fault_suite, report_lines, to_json
+
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    domain = str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
+
+    def progress(trial: Trial) -> None:
+        print(trial.line(), file=sys.stderr if args.json else sys.stdout, flush=True)
+
+    result = fault_suite(args.trials, args.seed, args.keep, domain, progress)
+    if args.json:
+        print(to_json(result))
+    else:
+        print(report_lines(result)[-1])
+    return 0 if result['survived'] == result['trials'] else 1
