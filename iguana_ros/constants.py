@@ -88,3 +88,41 @@ peak in Dipsosaurus, we assume 24° for a slow trot)."""
 
 MARKER_NOISE_STD = 0.001
 """Standard deviation of synthetic marker noise per axis, m (assumed optical-capture quality)."""
+
+# --- what the nodes accept from a topic (iguana_ros.validation) ---------------------------------------------------
+DESIRED_LENGTH_FACTOR = 8.0
+"""A desired spring length (spring_rest_lengths) must lie within this factor of the spring's rest length (above
+rest / 8, below rest x 8), else the simulator rejects the frame and the spring-length node does not publish it.
+Measured (desired / rest over every spring and frame of pipeline.run, medium mesh): the six shipped scenes 0.44 ..
+1.42; the 32 randomized terrains of `iguana bench locomotion --terrains 32 --seed 0` 0.48 .. 1.42 without
+adaptation and 0.18 .. 2.03 with it (bench_noise_019 and bench_noise_031, 10 cm bumps at 0.5 m: the feet's IK
+folds and stretches the legs), 49,768 frames in all; 8 leaves 1.46x margin below and 3.9x above. The bound rejects
+absurd frames (1e6 m, zeros); it does not make every frame inside it survivable (all lengths x3 at once diverge
+in one frame: the simulator then stops with SimulationDiverged)."""
+
+MAX_PUSH_IMPULSE = 100.0
+"""Largest push impulse accepted on the push topic (force x the push_duration parameter), N s: the stability
+sweep's 'push 1000 N' for 0.1 s (iguana_ros/physics/stability.py: stable on both meshes, peak node speed 37-39
+m/s, bound 100 m/s). Measured on the coarse mesh, flat ground, until 1 s after the push: 1000 N x 0.2 s peaks at
+50 m/s, 100 N x 1 s at 10 m/s, 10 kN x 0.01 s at 27 m/s, all stable; 10 kN x 0.1 s (1000 N s) diverges (speed).
+The force itself is bounded by iguana_ros.scene.MAX_PUSH_FORCE (1 kN), alone or summed over the pushes acting."""
+
+MAX_FRAME_GAP = 300
+"""A frame-stamped input (iguana_state, motion_clip, reference_pose, spring_rest_lengths) stamped more than this
+many frames (10 s) ahead of the last frame a node handled is rejected: frames advance one at a time, so such a
+stamp comes from another clock (a wall-clock stamp) and would make every later frame look stale."""
+
+WORLD_MARGIN = 5.0
+"""How far beyond the terrain's side length a coordinate of the body's root, a clip root or a reference bone may
+lie, m (|x|, |y|, |z| <= extent + margin): the goals lie within half the extent, so a body still walking is far
+inside; 1e9 m is a broken message."""
+
+QUATERNION_NORM_TOLERANCE = 1e-6
+"""Largest |norm - 1| of an orientation accepted from a topic (the nodes' own are unit to 1e-15)."""
+
+BONE_LENGTH_TOLERANCE = 1e-6
+"""Largest misfit (m) accepted between a received bone frame's distance to its parent (or a clip's bone
+translation) and the skeleton's offset (the adaptation's poses fit to 4e-16 m)."""
+
+MAX_CLIP_FRAMES = 300
+"""Most points a motion_clip may hold (10 s at 30 Hz; the library's stride clips have 21)."""

@@ -7,15 +7,18 @@ DESIGN_KEYS = {'goal_pose', 'motion_clip', 'reference_pose', 'spring_rest_length
                'mesh_marker', 'scene_markers', 'push', 'clock'}
 PROBE_KEYS = {'foot_state', 'foot_positions', 'reference_stance'}
 """Per-frame gait probes the run summary reads from the bag."""
+CONFIRM_KEYS = {'accepted_goals'}
+"""The planner's latched echo of the goals it accepted (iguana goal and iguana run wait for it)."""
 
 
 def test_table_has_every_design_topic():
-    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS
+    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS
 
 
 def test_latched_topics_are_transient_local():
     assert topic('scene_markers').qos.durability == 'transient_local'
     assert topic('motion_clip').qos.durability == 'transient_local'
+    assert topic('accepted_goals').qos.durability == 'transient_local'
     assert topic('clock').name == '/clock'
 
 

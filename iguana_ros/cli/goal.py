@@ -1,4 +1,4 @@
-"""`iguana goal X Y`: publish one PoseStamped on the goal topic and wait until a subscriber has it."""
+"""`iguana goal X Y`: publish one PoseStamped on the goal topic and wait until the planner has accepted it."""
 from __future__ import annotations
 
 import argparse
@@ -7,7 +7,7 @@ import math
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `goal` sub-command."""
     parser = subparsers.add_parser(
-        'goal', help='send a walking goal (geometry_msgs/PoseStamped) once, like ros2 topic pub --once')
+        'goal', help='send a walking goal (geometry_msgs/PoseStamped) once and wait until the planner accepts it')
     parser.add_argument('x', type=float, help='goal x in the frame, m')
     parser.add_argument('y', type=float, help='goal y in the frame, m')
     parser.add_argument('--yaw', type=float, default=0.0, metavar='DEG', help='heading about +z, degrees')
@@ -15,7 +15,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--at', type=float, default=0.0, metavar='S',
                         help='simulated time at which the planner adopts the goal (default 0: at once)')
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
-                        help='give up if no subscriber has the goal within S s (default 10)')
+                        help='give up if the planner has not accepted the goal within S s (default 10)')
     parser.set_defaults(func=run)
 
 
@@ -33,13 +33,14 @@ def _check_finite(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Publish the goal, wait for a matched subscriber and its acknowledgement; exit 1 on timeout."""
+    """Publish the goal once the planner listens, wait until it lists the goal on accepted_goals; exit 1 if it
+    does not (no planner, or the goal rejected) within the timeout."""
     _check_finite(args)
     from iguana_ros.constants import WORLD_FRAME
     from iguana_ros.nodes.goal_sender import goal_message, send_goals
 
     msg = goal_message(args.x, args.y, args.yaw, args.at, args.frame or WORLD_FRAME)
     topic = send_goals([msg], min_subscribers=1, timeout=args.timeout)
-    print(f'goal sent on {topic}: x={args.x:g} y={args.y:g} yaw={args.yaw:g} deg '
+    print(f'goal accepted by the planner on {topic}: x={args.x:g} y={args.y:g} yaw={args.yaw:g} deg '
           f'frame={msg.header.frame_id}', flush=True)
     return 0

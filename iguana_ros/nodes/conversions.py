@@ -23,27 +23,13 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from iguana_ros.constants import BASE_FRAME, WORLD_FRAME
 from iguana_ros.errors import InputError
+from iguana_ros.validation import validate_array  # noqa: F401 (the one definition, re-exported here)
 
 _NS_PER_S = 1_000_000_000
 _CDR_LE_HEADER = b'\x00\x01\x00\x00'
 
 
-# ----------------------------------------------------------------------------- validation, time
-
-def validate_array(name: str, values, shape: Sequence[int | None]) -> np.ndarray:
-    """`values` as a float64 array of `shape` (None = any size), all finite; else InputError naming `name`."""
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f'{name} must be numeric, got {type(values).__name__}: {exc}') from exc
-    expected = '(' + ', '.join('n' if s is None else str(s) for s in shape) + ')'
-    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
-        raise InputError(f'{name} has shape {arr.shape}, expected {expected}')
-    if not np.isfinite(arr).all():
-        bad = int(np.count_nonzero(~np.isfinite(arr)))
-        raise InputError(f'{name} has {bad} non-finite value(s) (NaN or Inf); expected finite numbers')
-    return arr
-
+# ----------------------------------------------------------------------------- time
 
 def time_to_msg(seconds: float) -> Time:
     """builtin_interfaces/Time for a time in seconds (>= 0)."""
@@ -173,8 +159,13 @@ def multi_dof_trajectory_msg(times, joint_names: Sequence[str], translations, ro
 
 def multi_dof_trajectory_to_numpy(msg: MultiDOFJointTrajectory
                                   ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
-    """Times `(n_frames,)`, joint names, translations `(n_frames, n_joints, 3)`, rotations `(..., 4)`."""
+    """Times `(n_frames,)`, joint names, translations `(n_frames, n_joints, 3)`, rotations `(..., 4)`; InputError if
+    a point holds another number of transforms than there are joint names."""
     n_joints = len(msg.joint_names)
+    counts = {len(p.transforms) for p in msg.points}
+    if counts - {n_joints}:
+        raise InputError(f'trajectory points hold {sorted(counts)} transforms, expected {n_joints} '
+                         '(one per joint name)')
     times = np.array([time_from_msg(p.time_from_start) for p in msg.points], dtype=np.float64)
     trans = np.array([[(tf.translation.x, tf.translation.y, tf.translation.z) for tf in p.transforms]
                       for p in msg.points], dtype=np.float64).reshape(-1, n_joints, 3)

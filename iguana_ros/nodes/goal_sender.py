@@ -1,4 +1,11 @@
-"""Publishing goal_pose messages and waiting until every subscriber has them (`iguana goal`, `iguana run`)."""
+"""Publishing goal_pose messages and waiting until the planner has accepted them (`iguana goal`, `iguana run`).
+
+The planner publishes every goal it accepted on the latched `accepted_goals` topic (nav_msgs/Path; empty at its
+start-up). A sender reads that list first (so it knows the planner is there and how many goals it had), waits
+until every subscription of goal_pose on the graph is matched to its publisher (another subscriber matching first
+must not let the goal go out before the planner listens), publishes, and waits until its goals appear in the
+list. A goal the planner rejects (off the terrain, non-finite, wrong frame) never appears: the sender says so.
+"""
 from __future__ import annotations
 
 import math
@@ -7,6 +14,7 @@ from typing import Callable
 
 import rclpy
 from rclpy.duration import Duration
+from rclpy.qos import DurabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.constants import WORLD_FRAME
@@ -15,30 +23,60 @@ from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.nodes.conversions import pose_stamped_msg
 from iguana_ros.nodes.ros_topics import resolve
 
+POLL_S = 0.02
+"""Wall seconds between checks while waiting."""
+
 
 def goal_message(x: float, y: float, yaw_deg: float = 0.0, at: float = 0.0, frame_id: str = WORLD_FRAME):
     """PoseStamped goal at (x, y) heading `yaw_deg`, stamped `at` s of simulated time (0 = at once)."""
     return pose_stamped_msg([x, y, 0.0], quat_from_yaw(math.radians(yaw_deg)), stamp=at, frame_id=frame_id)
 
 
-def _wait_for_subscribers(pub, count: int, timeout: float, keep_going: Callable[[], None]) -> None:
-    """Block until `pub` has `count` matched subscriptions; IguanaError after `timeout` s."""
-    deadline = time.monotonic() + timeout
-    while pub.get_subscription_count() < count:
-        keep_going()
-        if time.monotonic() > deadline:
-            have = pub.get_subscription_count()
-            if have == 0:
-                raise IguanaError(f'no subscriber on {pub.topic_name} within {timeout:g} s')
-            raise IguanaError(f'only {have} of {count} subscribers on {pub.topic_name} within {timeout:g} s')
-        time.sleep(0.02)
+def same_goal(a, b) -> bool:
+    """Whether two PoseStamped goals are the same message content (frame, stamp, pose)."""
+    pa, pb = a.pose, b.pose
+    return (a.header.frame_id == b.header.frame_id and a.header.stamp.sec == b.header.stamp.sec
+            and a.header.stamp.nanosec == b.header.stamp.nanosec
+            and (pa.position.x, pa.position.y, pa.position.z) == (pb.position.x, pb.position.y, pb.position.z)
+            and (pa.orientation.x, pa.orientation.y, pa.orientation.z, pa.orientation.w)
+            == (pb.orientation.x, pb.orientation.y, pb.orientation.z, pb.orientation.w))
+
+
+def accepted_among(goals: list, accepted: list) -> int:
+    """How many of `goals` (in order) appear, in order, among `accepted` PoseStamped (a subsequence match)."""
+    found = 0
+    for msg in accepted:
+        if found < len(goals) and same_goal(goals[found], msg):
+            found += 1
+    return found
+
+
+def _wait(condition: Callable[[], bool], node, timeout: float, keep_going: Callable[[], None],
+          failure: Callable[[], str]) -> None:
+    """Spin `node` until `condition()`; IguanaError(failure()) after `timeout` s. `keep_going()` may raise."""
+    from rclpy.executors import SingleThreadedExecutor
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    try:
+        deadline = time.monotonic() + timeout
+        while not condition():
+            keep_going()
+            if time.monotonic() > deadline:
+                raise IguanaError(failure())
+            executor.spin_once(timeout_sec=POLL_S)
+    finally:
+        executor.remove_node(node)
+        executor.shutdown()
 
 
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
-               keep_going: Callable[[], None] = lambda: None) -> str:
-    """Publish PoseStamped `goals` once `min_subscribers` listen and wait until all are acknowledged.
+               keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> str:
+    """Publish PoseStamped `goals` once `min_subscribers` listen (and, with `confirm`, the planner's accepted_goals
+    list has arrived and every goal_pose subscription on the graph is matched); wait until the subscribers
+    acknowledge them and (with `confirm`) until the planner lists them as accepted. Returns the topic name.
 
-    Returns the topic name. `keep_going()` is called while waiting (it may raise to give up early).
+    IguanaError in one line when a step does not happen within `timeout` s (each step has the whole timeout).
+    `keep_going()` is called while waiting (it may raise to give up early).
     """
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -46,12 +84,51 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
         node = rclpy.create_node('iguana_goal', context=context)
         name, cls, qos = resolve('goal_pose')
         pub = node.create_publisher(cls, name, qos)
-        _wait_for_subscribers(pub, min_subscribers, timeout, keep_going)
+        lists: list = []
+        topic = pub.topic_name
+        if confirm:
+            a_name, a_cls, a_qos = resolve('accepted_goals')
+            accepted_topic = node.create_subscription(a_cls, a_name, lists.append, a_qos).topic_name
+
+        def wanted() -> int:
+            """Subscriptions the goals must reach: the minimum, or (confirming) every one on the graph that can
+            match this volatile publisher, the planners' among them."""
+            if not confirm:
+                return min_subscribers
+            subs = node.get_subscriptions_info_by_topic(topic)
+            names = {(s.node_name, s.node_namespace) for s in subs}
+            planners = {(p.node_name, p.node_namespace) for p in node.get_publishers_info_by_topic(accepted_topic)}
+            if not lists or not planners <= names:
+                return -1
+            volatile = sum(1 for s in subs if s.qos_profile.durability != DurabilityPolicy.TRANSIENT_LOCAL)
+            return max(min_subscribers, volatile)
+
+        def listening() -> bool:
+            need = wanted()
+            return need >= 0 and pub.get_subscription_count() >= need
+
+        def why_not() -> str:
+            have = pub.get_subscription_count()
+            if confirm and not lists:
+                return (f'no planner on {topic} within {timeout:g} s (nothing published {accepted_topic}); '
+                        'is planner_node running on this ROS_DOMAIN_ID?')
+            if confirm and wanted() < 0:
+                return f'the planner publishing {accepted_topic} has no subscription on {topic} within {timeout:g} s'
+            if have == 0:
+                return f'no subscriber on {topic} within {timeout:g} s'
+            return f'only {have} of {max(wanted(), min_subscribers)} subscribers on {topic} within {timeout:g} s'
+        _wait(listening, node, timeout, keep_going, why_not)
+        before = len(lists[-1].poses) if lists else 0
         for msg in goals:
             pub.publish(msg)
         if not pub.wait_for_all_acked(Duration(seconds=timeout)):
-            raise IguanaError(f'the subscribers on {pub.topic_name} did not acknowledge the goal within '
-                              f'{timeout:g} s')
-        return pub.topic_name
+            raise IguanaError(f'the subscribers on {topic} did not acknowledge the goal within {timeout:g} s')
+        if confirm:
+            def accepted() -> bool:
+                return accepted_among(goals, list(lists[-1].poses)[before:]) == len(goals)
+            _wait(accepted, node, timeout, keep_going, lambda: (
+                f'the planner did not accept {"the goal" if len(goals) == 1 else "every goal"} within {timeout:g} s '
+                f'(rejected: see the planner log for "rejected goal_pose", e.g. a goal off the terrain)'))
+        return topic
     finally:
         rclpy.try_shutdown(context=context)

@@ -2,18 +2,22 @@
 from __future__ import annotations
 
 import array
+import math
 
 import numpy as np
 
-from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
+from iguana_ros.constants import FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
 from iguana_ros.nodes.base import frame_stamp, stamp_frame
 from iguana_ros.nodes.conversions import (joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                           multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy,
-                                          pose_array_msg, pose_array_to_numpy, validate_array)
+                                          pose_array_msg, pose_array_to_numpy, pose_stamped_to_numpy, time_from_msg,
+                                          validate_array)
 from iguana_ros.run_metrics import FEET, Stride
+from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_push,
+                                   check_root_pose)
 
 
 def check_frame_id(what: str, frame_id: str) -> None:
@@ -33,17 +37,15 @@ def clip_to_msg(clip: AlignedClip, skeleton, start_frame: int):
     return msg
 
 
-def clip_from_msg(msg, skeleton) -> tuple[int, AlignedClip]:
-    """(start frame, placed clip) of a motion_clip message; InputError if it does not fit."""
+def clip_from_msg(msg, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
+    """(start frame, placed clip) of a motion_clip message; InputError unless it fits `skeleton` (joint names,
+    bone offsets, unit rotations, 2..MAX_CLIP_FRAMES points) with its root within `bound` m."""
     check_frame_id('motion_clip', msg.header.frame_id)
     _times, names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
     if tuple(names) != tuple(skeleton.names):
         raise InputError(f'motion_clip joint_names do not match the skeleton ({len(names)} names, '
                          f'expected {skeleton.n_bones} starting {skeleton.names[:3]})')
-    if len(translations) < 2:
-        raise InputError(f'motion_clip has {len(translations)} points, expected at least 2')
-    validate_array('motion_clip translations', translations, (None, skeleton.n_bones, 3))
-    validate_array('motion_clip rotations', rotations, (None, skeleton.n_bones, 4))
+    translations, rotations = check_clip(translations, rotations, skeleton.offsets, bound, MAX_CLIP_FRAMES)
     clip = AlignedClip(name='motion_clip', root_positions=translations[:, 0].copy(),
                        local_rotations=rotations, contacts=np.zeros((len(rotations), 4), bool), source=None)
     return stamp_frame(msg.header.stamp), clip
@@ -67,12 +69,16 @@ def reference_pose_to_msg(joint_positions: np.ndarray, joint_rotations: np.ndarr
     return pose_array_msg(joint_positions, joint_rotations, stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
 
 
-def reference_pose_from_msg(msg, n_bones: int) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, positions `(n_bones, 3)`, rotations `(n_bones, 4)`) of a reference_pose message."""
+def reference_pose_from_msg(msg, n_bones: int, skeleton=None, bound: float = math.inf
+                            ) -> tuple[int, np.ndarray, np.ndarray]:
+    """(frame, positions `(n_bones, 3)`, rotations `(n_bones, 4)`) of a reference_pose message; with `skeleton`,
+    InputError unless the bone frames fit it (unit rotations, bone lengths) within `bound` m of the origin."""
     check_frame_id('reference_pose', msg.header.frame_id)
     positions, rotations = pose_array_to_numpy(msg)
     validate_array('reference_pose positions', positions, (n_bones, 3))
     validate_array('reference_pose orientations', rotations, (n_bones, 4))
+    if skeleton is not None:
+        check_bone_frames('reference_pose', positions, rotations, skeleton.parents, skeleton.offsets, bound)
     return stamp_frame(msg.header.stamp), positions, rotations
 
 
@@ -81,11 +87,14 @@ def lengths_to_msg(lengths: np.ndarray, frame: int):
     return joint_state_msg(lengths, stamp=frame_stamp(frame))
 
 
-def lengths_from_msg(msg, n_springs: int) -> tuple[int, np.ndarray]:
-    """(frame, lengths `(n_springs,)`) of a spring_rest_lengths message; InputError if wrong or negative."""
+def lengths_from_msg(msg, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
+    """(frame, lengths `(n_springs,)`) of a spring_rest_lengths message; InputError if wrong or negative, or (given
+    the model's `rest_lengths`) outside the factor of rest that `check_desired_lengths` allows."""
     lengths = validate_array('spring_rest_lengths', joint_state_positions(msg), (n_springs,))
     if np.any(lengths < 0.0):
         raise InputError('spring_rest_lengths has negative lengths')
+    if rest_lengths is not None:
+        check_desired_lengths(lengths, rest_lengths)
     return stamp_frame(msg.header.stamp), lengths
 
 
@@ -95,13 +104,33 @@ def state_to_msg(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, 
     return odometry_msg(root, orientation, linear, angular, stamp=frame_stamp(frame))
 
 
-def state_from_msg(msg) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, root position `(3,)`, orientation `(4,)`) of an iguana_state message."""
+def state_from_msg(msg, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
+    """(frame, root position `(3,)`, orientation `(4,)`) of an iguana_state message; InputError if non-finite
+    (pose or twist), not a unit orientation, or beyond `bound` m."""
     check_frame_id('iguana_state', msg.header.frame_id)
-    position, orientation, _lin, _ang = odometry_to_numpy(msg)
-    validate_array('iguana_state position', position, (3,))
-    validate_array('iguana_state orientation', orientation, (4,))
+    position, orientation, linear, angular = odometry_to_numpy(msg)
+    position, orientation = check_root_pose('iguana_state', position, orientation, bound)
+    validate_array('iguana_state twist', np.concatenate([linear, angular]), (6,))
     return stamp_frame(msg.header.stamp), position, orientation
+
+
+def goal_from_msg(msg, half_extent: float) -> tuple[np.ndarray, float]:
+    """((x, y) `(2,)` m, adoption time s) of a goal_pose message on a terrain reaching `half_extent` m from the
+    origin; InputError if its frame, numbers or stamp are wrong or the goal is off the terrain (`check_goal`)."""
+    check_frame_id('goal_pose', msg.header.frame_id)
+    position, orientation = pose_stamped_to_numpy(msg)
+    return check_goal(position, orientation, time_from_msg(msg.header.stamp), half_extent)
+
+
+def push_from_msg(msg, regions, duration: float, active_forces=()) -> tuple[np.ndarray, str]:
+    """(force `(3,)` N, region) of a push message (header.frame_id names the region, '' = trunk_left) lasting
+    `duration` s while `active_forces` act; InputError unless `check_push` accepts it."""
+    wrench = msg.wrench
+    region = msg.header.frame_id or 'trunk_left'
+    force = check_push([wrench.force.x, wrench.force.y, wrench.force.z],
+                       [wrench.torque.x, wrench.torque.y, wrench.torque.z], region, list(regions), duration,
+                       active_forces)
+    return force, region
 
 
 def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):

@@ -1,16 +1,15 @@
 """Planner node (Section IV): goal_pose + iguana_state in, one motion_clip per stride and the clip's stance
-flags per frame (reference_stance) out."""
+flags per frame (reference_stance) out; the goals it accepted on accepted_goals (latched, for their senders)."""
 from __future__ import annotations
 
-import numpy as np
+from nav_msgs.msg import Path
 
-from iguana_ros.constants import FRAME_RATE
-from iguana_ros.errors import InputError
+from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.motion.motion_graph import MotionGraph, PolicyParams
 from iguana_ros.nodes.base import IguanaNode, node_main
-from iguana_ros.nodes.conversions import pose_stamped_to_numpy, time_from_msg, validate_array
-from iguana_ros.nodes.messages import check_frame_id, clip_to_msg, reference_stance_to_msg, state_from_msg
+from iguana_ros.nodes.messages import clip_to_msg, goal_from_msg, reference_stance_to_msg, state_from_msg
 from iguana_ros.pipeline import PlannerStage
+from iguana_ros.validation import FRAME_NEW, FRAME_STALE, check_frame, world_bound
 
 
 MAX_SCHEDULE_AHEAD = 3600.0
@@ -34,30 +33,32 @@ class PlannerNode(IguanaNode):
         self.stage = PlannerStage(graph, PolicyParams(goal_radius=radius))
         self.skeleton = iguana_skeleton()
         self.half_extent = self.scene.terrain.extent / 2.0
+        self.bound = world_bound(self.scene.terrain.extent)
         self.last_frame = -1
         self.goals_received = 0
         self.held_state = None
+        self.accepted = Path()
+        self.accepted.header.frame_id = WORLD_FRAME
         self.clip_pub = self.publisher('motion_clip')
         self.stance_pub = self.publisher('reference_stance')
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
+        self.accepted_pub = self.publisher('accepted_goals')
+        self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
         self.get_logger().info(f'planner ready: {len(library)} clips, goal radius {radius:.2f} m')
 
     def on_goal(self, msg) -> None:
-        """Schedule a goal (applied at its stamp in simulated time; stamp 0 = at the next stride)."""
-        check_frame_id('goal_pose', msg.header.frame_id)
-        position, _ = pose_stamped_to_numpy(msg)
-        xy = validate_array('goal position', position, (3,))[:2]
-        if np.any(np.abs(xy) > self.half_extent):
-            raise InputError(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) is off the terrain '
-                             f'(|x|, |y| <= {self.half_extent:g} m)')
-        at = time_from_msg(msg.header.stamp)
+        """Schedule a goal (applied at its stamp in simulated time; stamp 0 = at the next stride) and add it to
+        accepted_goals."""
+        xy, at = goal_from_msg(msg, self.half_extent)
         now = max(self.last_frame, 0) / FRAME_RATE
         if at > now + MAX_SCHEDULE_AHEAD:
             self.get_logger().info(f'goal stamp {at:.0f} s is not simulated time (wall clock?); adopting it now')
             at = 0.0
         self.stage.schedule_goal(xy, at)
         self.goals_received += 1
+        self.accepted.poses.append(msg)
+        self.accepted_pub.publish(self.accepted)
         self.get_logger().info(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) scheduled for t={at:.3f} s')
         if self.held_state is not None and self.goals_received >= self.param('wait_for_goals'):
             held, self.held_state = self.held_state, None
@@ -65,14 +66,15 @@ class PlannerNode(IguanaNode):
 
     def on_state(self, msg) -> None:
         """At a stride end, publish the next clip aligned to the body's root; then the frame's stance flags."""
-        frame, root, orientation = state_from_msg(msg)
-        if self.goals_received < self.param('wait_for_goals'):
-            self.held_state = msg  # decided once the scene's goals are in (see wait_for_goals)
-            return
-        if frame <= self.last_frame:
-            if frame < self.last_frame:
+        frame, root, orientation = state_from_msg(msg, self.bound)
+        order = check_frame('iguana_state', frame, self.last_frame)
+        if order != FRAME_NEW:
+            if order == FRAME_STALE:
                 self.get_logger().warning(f'ignored stale iguana_state for frame {frame} '
                                           f'(already at {self.last_frame})')
+            return
+        if self.goals_received < self.param('wait_for_goals'):
+            self.held_state = msg  # decided once the scene's goals are in (see wait_for_goals)
             return
         self.last_frame = frame
         clip = self.stage.update(frame, root, orientation)

@@ -13,17 +13,17 @@ from visualization_msgs.msg import Marker
 
 from iguana_ros.bag.record import RECORDER_NODE_NAME
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
-from iguana_ros.errors import InputError
-from iguana_ros.nodes.base import IguanaNode, frame_stamp, node_main
-from iguana_ros.nodes.conversions import (marker_array_msg, pose_stamped_to_numpy, triangle_list_marker,
-                                          triangle_list_marker_cdr, validate_array)
-from iguana_ros.nodes.messages import (check_frame_id, foot_positions_to_msg, foot_state_to_msg, lengths_from_msg,
-                                       state_to_msg)
+from iguana_ros.errors import IguanaError
+from iguana_ros.nodes.base import IguanaNode, frame_stamp, node_main, stamp_frame
+from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker, triangle_list_marker_cdr
+from iguana_ros.nodes.messages import (foot_positions_to_msg, foot_state_to_msg, goal_from_msg, lengths_from_msg,
+                                       push_from_msg, state_to_msg)
 from iguana_ros.nodes.ros_topics import resolve
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.pipeline import SimulatorStage, push_forces
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
+from iguana_ros.validation import FRAME_STALE, check_frame
 from iguana_ros.visuals import body_colors, terrain_mesh
 
 WATCHDOG_PERIOD = 0.1
@@ -75,6 +75,9 @@ class SimulatorNode(IguanaNode):
         duration = self.param('duration') or scene.duration
         self.end_frame = int(round(duration * FRAME_RATE))
         self.n_springs = len(self.model.springs)
+        self.half_extent = scene.terrain.extent / 2.0
+        self.latest_frame = -1
+        self.rejected_lengths = ''
         self.probe = FootProbe(self.model, self.terrain)
         self.latest_lengths: np.ndarray | None = None
         self.live_pushes: list[PushSpec] = []
@@ -82,6 +85,7 @@ class SimulatorNode(IguanaNode):
         self.started = False
         self.goals_received = 0
         self.timeouts = 0
+        self.rejected_lengths = ''
         self.wait_since = time.monotonic()
         self.wall_start = time.monotonic()
         self._make_io()
@@ -107,10 +111,16 @@ class SimulatorNode(IguanaNode):
 
     # ------------------------------------------------------------------------------------------ inputs
     def on_lengths(self, msg) -> None:
-        """Lockstep: advance when the current frame's lengths arrive. Realtime: keep the latest."""
-        frame, lengths = lengths_from_msg(msg, self.n_springs)
+        """Lockstep: advance when the current frame's lengths arrive. Realtime: keep the latest. Lengths outside
+        the model's bounds are rejected: the frame is not simulated with them (lockstep waits on)."""
+        try:
+            frame, lengths = lengths_from_msg(msg, self.n_springs, self.model.spring_rest_lengths)
+        except IguanaError as exc:
+            self.rejected_lengths = f'frame {stamp_frame(msg.header.stamp)}: {exc}'
+            raise
         if self.mode == 'realtime':
-            self.latest_lengths = lengths
+            if check_frame('spring_rest_lengths', frame, self.latest_frame) != FRAME_STALE:
+                self.latest_frame, self.latest_lengths = frame, lengths
             return
         if frame != self.stage.frame:
             if frame < self.stage.frame:
@@ -124,20 +134,16 @@ class SimulatorNode(IguanaNode):
 
     def on_push(self, msg) -> None:
         """Apply a push (world-frame force on the tagged region named by header.frame_id) from the next frame."""
-        force = validate_array('push force', [msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z], (3,))
-        region = msg.header.frame_id or 'trunk_left'
-        if region not in self.model.node_tags and region != 'all':
-            raise InputError(f'push region {region!r} is not a node tag; tags: {", ".join(self.model.node_tags)}')
-        push = PushSpec(at=self.stage.time, force=tuple(force), duration=self.param('push_duration'),
-                        region=region)
-        self.live_pushes = [p for p in self.live_pushes if p.at + p.duration > self.stage.time] + [push]
+        duration = self.param('push_duration')
+        self.live_pushes = [p for p in self.live_pushes if p.at + p.duration > self.stage.time]
+        force, region = push_from_msg(msg, self.model.node_tags, duration, [p.force for p in self.live_pushes])
+        push = PushSpec(at=self.stage.time, force=tuple(force.tolist()), duration=duration, region=region)
+        self.live_pushes.append(push)
         self.get_logger().info(f'push {force.tolist()} N on {region} for {push.duration:g} s')
 
     def on_goal(self, msg) -> None:
-        """Show a new goal in scene_markers."""
-        check_frame_id('goal_pose', msg.header.frame_id)
-        position, _ = pose_stamped_to_numpy(msg)
-        xy = validate_array('goal position', position, (3,))[:2]
+        """Show a new goal in scene_markers (the planner's rules: `goal_from_msg`)."""
+        xy, _at = goal_from_msg(msg, self.half_extent)
         self.goals_received += 1
         if not any(np.allclose(xy, g) for g in self.goals):
             self.goals.append(xy)
@@ -185,10 +191,13 @@ class SimulatorNode(IguanaNode):
         """Log, re-send the state (a peer may have missed it), give up after lockstep_max_timeouts."""
         self.timeouts += 1
         limit = self.param('lockstep_max_timeouts')
+        why = (f'last rejected: {self.rejected_lengths}' if self.rejected_lengths
+               else 'is spring_length_node running?')
         self.get_logger().error(f'lockstep: no spring_rest_lengths for frame {self.stage.frame} within '
-                                f'{waited:.1f} s ({self.timeouts}/{limit}); is spring_length_node running?')
+                                f'{waited:.1f} s ({self.timeouts}/{limit}); {why}')
         if self.timeouts >= limit:
-            self.fail(f'lockstep timed out {limit} times waiting for frame {self.stage.frame}')
+            self.fail(f'lockstep timed out {limit} times waiting for frame {self.stage.frame}'
+                      + (f' ({why})' if self.rejected_lengths else ''))
             return
         self.wait_since = time.monotonic()
         self.publish_state()
@@ -202,6 +211,7 @@ class SimulatorNode(IguanaNode):
             self.fail(str(exc))
             return
         self.timeouts = 0
+        self.rejected_lengths = ''
         self.wait_since = time.monotonic()
         self.publish_state()
         if self.stage.frame >= self.end_frame:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.nodes.messages import lengths_to_msg, reference_pose_from_msg
+from iguana_ros.validation import FRAME_STALE, check_desired_lengths, check_frame, world_bound
 
 
 class SpringLengthNode(IguanaNode):
@@ -18,7 +19,10 @@ class SpringLengthNode(IguanaNode):
 
         model = build_model(self.scene.model.resolution, self.scene.model.stiffness)
         self.computer = SpringLengthComputer(model)
+        self.skeleton = model.skeleton
         self.n_bones = model.skeleton.n_bones
+        self.rest_lengths = model.spring_rest_lengths
+        self.bound = world_bound(self.scene.terrain.extent)
         self.last_frame = -1
         self.last_msg = None
         self.lengths_pub = self.publisher('spring_rest_lengths')
@@ -27,15 +31,17 @@ class SpringLengthNode(IguanaNode):
                                f'{model.n_nodes} nodes')
 
     def on_pose(self, msg) -> None:
-        """Publish the desired lengths of the pose's frame (re-send them for a repeated frame)."""
-        frame, positions, rotations = reference_pose_from_msg(msg, self.n_bones)
+        """Publish the desired lengths of the pose's frame (re-send them for a repeated frame); lengths the
+        simulator would reject (`check_desired_lengths`) are not published."""
+        frame, positions, rotations = reference_pose_from_msg(msg, self.n_bones, self.skeleton, self.bound)
+        order = check_frame('reference_pose', frame, self.last_frame)
         if frame == self.last_frame and self.last_msg is not None:
             self.lengths_pub.publish(self.last_msg)
             return
-        if frame < self.last_frame:
+        if order == FRAME_STALE:
             self.get_logger().warning(f'ignored stale reference_pose for frame {frame} (at {self.last_frame})')
             return
-        lengths = self.computer.lengths_from_bones(rotations, positions)
+        lengths = check_desired_lengths(self.computer.lengths_from_bones(rotations, positions), self.rest_lengths)
         self.last_msg = lengths_to_msg(lengths, frame)
         self.last_frame = frame
         self.lengths_pub.publish(self.last_msg)

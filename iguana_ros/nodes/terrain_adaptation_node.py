@@ -1,9 +1,11 @@
 """Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out each frame."""
 from __future__ import annotations
 
+from iguana_ros.errors import InputError
 from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.nodes.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
 from iguana_ros.pipeline import AdaptationStage, clip_pose
+from iguana_ros.validation import FRAME_NEW, FRAME_STALE, check_frame, world_bound
 
 MAX_CLIPS = 4
 """Placed clips kept (by start frame) for frames that arrive late."""
@@ -27,6 +29,7 @@ class TerrainAdaptationNode(IguanaNode):
         terrain = terrain_from_spec(self.scene.terrain) if needed else HeightField.flat()
         self.skeleton = iguana_skeleton()
         self.stage = AdaptationStage(self.skeleton, terrain, enabled=needed)
+        self.bound = world_bound(self.scene.terrain.extent)
         self.clips: dict[int, object] = {}
         self.pending: int | None = None
         self.last_frame = -1
@@ -38,7 +41,11 @@ class TerrainAdaptationNode(IguanaNode):
 
     def on_clip(self, msg) -> None:
         """Keep a placed clip by its start frame, then serve a frame that was waiting for it."""
-        start, clip = clip_from_msg(msg, self.skeleton)
+        start, clip = clip_from_msg(msg, self.skeleton, self.bound)
+        newest = max(self.clips, default=-1)
+        if check_frame('motion_clip', start, max(newest, self.last_frame)) != FRAME_NEW:
+            raise InputError(f'motion_clip starts at frame {start}, not after the newest clip (frame {newest}) '
+                             f'and the last frame served ({self.last_frame}): stale')
         self.clips[start] = clip
         for old in sorted(self.clips)[:-MAX_CLIPS]:
             del self.clips[old]
@@ -46,11 +53,12 @@ class TerrainAdaptationNode(IguanaNode):
 
     def on_state(self, msg) -> None:
         """Publish the reference pose of the state's frame (re-send it for a repeated frame)."""
-        frame, _root, _orientation = state_from_msg(msg)
+        frame, _root, _orientation = state_from_msg(msg, self.bound)
+        order = check_frame('iguana_state', frame, self.last_frame)
         if frame == self.last_frame and self.last_msg is not None:
             self.pose_pub.publish(self.last_msg)
             return
-        if frame < self.last_frame:
+        if order == FRAME_STALE:
             self.get_logger().warning(f'ignored stale iguana_state for frame {frame} (at {self.last_frame})')
             return
         self.pending = frame

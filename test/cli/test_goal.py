@@ -1,5 +1,7 @@
-"""`iguana goal`: a real subscriber receives the PoseStamped; bad numbers and no subscriber exit 1."""
+"""`iguana goal`: the planner (a real node process) accepts the PoseStamped and the command says so; bad numbers,
+no planner and a goal the planner rejects exit 1 with one line."""
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -21,29 +23,70 @@ def test_non_finite_goal_is_one_line_exit_1(capsys, argv, message):
 
 
 @pytest.mark.ros
-def test_no_subscriber_times_out_with_clear_message(capsys):
+def test_no_planner_times_out_with_clear_message(capsys):
     assert main(['goal', '1', '2', '--timeout', '0.5']) == 1
-    assert capsys.readouterr().err.strip() == 'iguana goal: error: no subscriber on /goal_pose within 0.5 s'
+    assert capsys.readouterr().err.strip() == (
+        'iguana goal: error: no planner on /goal_pose within 0.5 s (nothing published /accepted_goals); '
+        'is planner_node running on this ROS_DOMAIN_ID?')
 
 
-@pytest.mark.ros
-def test_goal_reaches_a_real_subscriber(tmp_path, make_node, executor):
-    from iguana_ros.nodes.conversions import pose_stamped_to_numpy
+def _planner(tmp_path) -> NodeProcess:
+    """A planner process on a small flat scene (10 m terrain), not started."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('model: {resolution: coarse}\nterrain: {kind: flat}\nduration: 2.0\n')
+    return NodeProcess([sys.executable, '-m', 'iguana_ros.nodes.planner_node', '--ros-args', '-p', f'scene:={scene}'],
+                       'planner_node', tmp_path)
+
+
+def _listener(make_node, executor):
+    """A second subscriber on goal_pose (a recorder, a viewer): it must not stand in for the planner."""
     from iguana_ros.nodes.ros_topics import resolve
     name, cls, qos = resolve('goal_pose')
     node = make_node('goal_listener')
     executor.add_node(node)
     received = []
     node.create_subscription(cls, name, received.append, qos)
-    goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--yaw', '90', '--frame', 'map',
-                        '--timeout', '20'], 'goal', tmp_path).start()
+    return received
+
+
+@pytest.mark.ros
+def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_node, executor):
+    received = _listener(make_node, executor)
+    goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--timeout', '2'], 'goal', tmp_path).start()
     with goal:
-        assert spin_until(executor, lambda: bool(received), 25), goal.output
-        assert goal.wait(10) == 0, goal.output
-    assert 'goal sent on /goal_pose' in goal.output
+        assert spin_until(executor, lambda: not goal.running, 20)
+    assert goal.proc.returncode == 1, goal.output
+    assert goal.output.strip().splitlines() == [
+        'iguana goal: error: no planner on /goal_pose within 2 s (nothing published /accepted_goals); '
+        'is planner_node running on this ROS_DOMAIN_ID?']
+    assert received == []  # nothing went out: the goal was not sent to a listener in the planner's place
+
+
+@pytest.mark.ros
+@pytest.mark.timeout(150)
+def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path, make_node, executor):
+    """The defect: with a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner
+    (not yet listening) never got the goal. Now it waits until the planner lists the goal as accepted; a goal the
+    planner rejects is reported (exit 1)."""
+    from iguana_ros.nodes.conversions import pose_stamped_to_numpy
+    received = _listener(make_node, executor)
+    goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--yaw', '90', '--timeout', '90'], 'goal', tmp_path).start()
+    with goal, _planner(tmp_path).start() as planner:
+        assert spin_until(executor, lambda: not goal.running, 100), goal.output
+        assert goal.proc.returncode == 0, goal.output + planner.output
+        assert 'goal (1.50, -2.00) scheduled for t=0.000 s' in planner.output
+        rejected = NodeProcess([*IGUANA, 'goal', '1e9', '0', '--timeout', '8'], 'rejected', tmp_path).start()
+        assert rejected.wait(30) == 1
+        later = NodeProcess([*IGUANA, 'goal', '1', '0.5', '--at', '2', '--timeout', '30'], 'later', tmp_path).start()
+        assert later.wait(40) == 0, later.output
+        assert planner.running
+    assert 'goal accepted by the planner on /goal_pose: x=1.5 y=-2 yaw=90 deg frame=world' in goal.output
     pos, quat = pose_stamped_to_numpy(received[0])
     np.testing.assert_allclose(pos, [1.5, -2.0, 0.0])
     np.testing.assert_allclose(quat, [0, 0, math.sqrt(0.5), math.sqrt(0.5)])
-    assert received[0].header.frame_id == 'map'
     stamp = received[0].header.stamp
     assert stamp.sec == 0 and stamp.nanosec == 0  # 0 = adopt at once (--at schedules in sim time)
+    assert rejected.output.strip() == ('iguana goal: error: the planner did not accept the goal within 8 s (rejected: '
+                                       'see the planner log for "rejected goal_pose", e.g. a goal off the terrain)')
+    assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain' in planner.output
+    assert 'goal (1.00, 0.50) scheduled for t=2.000 s' in planner.output

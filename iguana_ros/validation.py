@@ -1,0 +1,178 @@
+"""What a node accepts from a topic: one check per topic payload, bounded by the model and the scene (ROS-free).
+
+`iguana_ros.nodes.messages` decodes each subscribed topic's message into numpy values and calls the check of that
+topic here, so every node that reads a topic applies the same rules (the planner and the simulator both read
+`goal_pose`). Each check raises InputError with one line naming the topic, the value and what was expected; the
+nodes log it as `rejected <topic>: …` and keep running. Finite but absurd values are rejected too, against bounds
+derived from the model and the scene: desired spring lengths within DESIRED_LENGTH_FACTOR of their rest lengths,
+pushes within MAX_PUSH_FORCE and MAX_PUSH_IMPULSE, poses within the terrain's extent plus WORLD_MARGIN, bone
+frames that fit the skeleton, frame stamps at most MAX_FRAME_GAP ahead.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from iguana_ros.constants import (BONE_LENGTH_TOLERANCE, DESIRED_LENGTH_FACTOR, MAX_FRAME_GAP, MAX_PUSH_IMPULSE,
+                                  QUATERNION_NORM_TOLERANCE, WORLD_MARGIN)
+from iguana_ros.errors import InputError
+from iguana_ros.scene import MAX_PUSH_FORCE
+
+FRAME_STALE, FRAME_REPEAT, FRAME_NEW = 'stale', 'repeat', 'new'
+"""Outcomes of `check_frame`: older than the last frame handled, the same frame again, a newer frame."""
+
+
+def validate_array(name: str, values, shape: Sequence[int | None]) -> np.ndarray:
+    """`values` as a float64 array of `shape` (None = any size), all finite; else InputError naming `name`."""
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f'{name} must be numeric, got {type(values).__name__}: {exc}') from exc
+    expected = '(' + ', '.join('n' if s is None else str(s) for s in shape) + ')'
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        raise InputError(f'{name} has shape {arr.shape}, expected {expected}')
+    if not np.isfinite(arr).all():
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        raise InputError(f'{name} has {bad} non-finite value(s) (NaN or Inf); expected finite numbers')
+    return arr
+
+
+def world_bound(extent: float) -> float:
+    """Largest |x|, |y| or |z| (m) a pose of the body or of its reference may have on a terrain of side `extent`."""
+    return float(extent) + WORLD_MARGIN
+
+
+def check_within(name: str, positions: np.ndarray, bound: float) -> np.ndarray:
+    """`positions` (any shape, m) unless a coordinate exceeds `bound` in magnitude (InputError)."""
+    worst = float(np.max(np.abs(positions))) if np.size(positions) else 0.0
+    if worst > bound:
+        raise InputError(f'{name} has a coordinate of magnitude {worst:.3g} m; expected within {bound:g} m of the '
+                         'origin (the terrain plus a margin)')
+    return positions
+
+
+def check_unit_quaternions(name: str, quaternions: np.ndarray) -> np.ndarray:
+    """`quaternions` `(..., 4)` unless one's norm is off 1 by more than QUATERNION_NORM_TOLERANCE (InputError)."""
+    with np.errstate(over='ignore'):
+        off = np.abs(np.linalg.norm(quaternions, axis=-1) - 1.0)
+    if off.size and float(off.max()) > QUATERNION_NORM_TOLERANCE:
+        raise InputError(f'{name} holds a quaternion of norm {1.0 + float(off.max()):.6g} or '
+                         f'{1.0 - float(off.max()):.6g}; expected unit quaternions')
+    return quaternions
+
+
+def check_frame(what: str, frame: int, last_frame: int) -> str:
+    """FRAME_STALE, FRAME_REPEAT or FRAME_NEW for a message of `frame` after `last_frame` (-1 = none yet);
+    InputError for a frame more than MAX_FRAME_GAP frames ahead of `last_frame` (a stamp from another clock)."""
+    if frame < last_frame:
+        return FRAME_STALE
+    if frame == last_frame:
+        return FRAME_REPEAT
+    if frame - max(last_frame, 0) > MAX_FRAME_GAP:
+        raise InputError(f'{what} is stamped frame {frame}, {frame - max(last_frame, 0)} frames ahead of frame '
+                         f'{max(last_frame, 0)}; expected at most {MAX_FRAME_GAP} ahead (simulated time)')
+    return FRAME_NEW
+
+
+# ----------------------------------------------------------------------------------------- per topic payload
+
+def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_extent: float) -> tuple:
+    """goal_pose: ((x, y) `(2,)`, adoption time s) of a goal at `position` `(3,)`, `orientation` `(4,)` stamped `at`
+    s, on a terrain reaching `half_extent` m from the origin; InputError if non-finite, off the terrain, or
+    stamped before 0."""
+    position = validate_array('goal position', position, (3,))
+    validate_array('goal orientation', orientation, (4,))
+    xy = position[:2]
+    if np.any(np.abs(xy) > half_extent):
+        raise InputError(f'goal ({xy[0]:.6g}, {xy[1]:.6g}) is off the terrain (|x|, |y| <= {half_extent:g} m)')
+    if not at >= 0.0:
+        raise InputError(f'goal stamp is {at:g} s; expected a simulated time >= 0 (0 = at the next stride)')
+    return xy, float(at)
+
+
+def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.ndarray:
+    """spring_rest_lengths: desired lengths `(n_springs,)` m, each within DESIRED_LENGTH_FACTOR of its rest
+    length (above rest / factor, below rest x factor); InputError naming the worst spring otherwise."""
+    rest = np.asarray(rest_lengths, dtype=np.float64)
+    lengths = validate_array('spring_rest_lengths', lengths, rest.shape)
+    with np.errstate(over='ignore', divide='ignore'):
+        ratio = lengths / rest
+    low, high = 1.0 / DESIRED_LENGTH_FACTOR, DESIRED_LENGTH_FACTOR
+    bad = (ratio < low) | (ratio > high)
+    if bad.any():
+        worst = int(np.argmax(np.abs(np.log(np.maximum(ratio, 1e-300)))))
+        raise InputError(f'spring_rest_lengths has {int(bad.sum())} of {len(ratio)} lengths outside '
+                         f'{low:.3g}..{high:g} x their rest length (spring {worst}: {lengths[worst]:.6g} m, rest '
+                         f'{rest[worst]:.6g} m)')
+    return lengths
+
+
+def check_push(force: np.ndarray, torque: np.ndarray, region: str, regions: Sequence[str], duration: float,
+               active_forces: Sequence[np.ndarray] = ()) -> np.ndarray:
+    """push: the force `(3,)` N of a push on `region` (one of `regions`, or 'all') lasting `duration` s, while
+    pushes of `active_forces` still act; InputError if non-finite, with a torque (not applied), on an unknown
+    region, above MAX_PUSH_FORCE (alone or with the active pushes) or above MAX_PUSH_IMPULSE."""
+    force = validate_array('push force', force, (3,))
+    torque = validate_array('push torque', torque, (3,))
+    if np.any(torque != 0.0):
+        raise InputError(f'push has torque {torque.tolist()} N m; only a force is applied, expected torque 0')
+    if region not in regions and region != 'all':
+        raise InputError(f'push region {region!r} is not a node tag; tags: {", ".join(regions)}')
+    with np.errstate(over='ignore'):
+        magnitude = float(np.linalg.norm(force))
+    if magnitude > MAX_PUSH_FORCE:
+        raise InputError(f'push force {magnitude:.6g} N is above the {MAX_PUSH_FORCE:g} N limit')
+    total = magnitude + sum(float(np.linalg.norm(f)) for f in active_forces)
+    if total > MAX_PUSH_FORCE:
+        raise InputError(f'push force {magnitude:.6g} N with the {len(active_forces)} push(es) still acting '
+                         f'totals {total:.6g} N, above the {MAX_PUSH_FORCE:g} N limit')
+    if magnitude * duration > MAX_PUSH_IMPULSE:
+        raise InputError(f'push impulse {magnitude:.6g} N x {duration:g} s = {magnitude * duration:.6g} N s is above '
+                         f'the {MAX_PUSH_IMPULSE:g} N s limit')
+    return force
+
+
+def check_root_pose(what: str, position: np.ndarray, orientation: np.ndarray, bound: float) -> tuple:
+    """iguana_state: root position `(3,)` within `bound` m and a unit orientation `(4,)`; InputError otherwise."""
+    position = check_within(f'{what} position', validate_array(f'{what} position', position, (3,)), bound)
+    orientation = check_unit_quaternions(f'{what} orientation',
+                                         validate_array(f'{what} orientation', orientation, (4,)))
+    return position, orientation
+
+
+def check_bone_frames(what: str, positions: np.ndarray, rotations: np.ndarray, parents: np.ndarray,
+                      offsets: np.ndarray, bound: float) -> tuple:
+    """reference_pose: world bone positions `(n_bones, 3)` within `bound` m, unit rotations `(n_bones, 4)`, each
+    bone as far from its parent as the skeleton's offset (within BONE_LENGTH_TOLERANCE); InputError otherwise."""
+    n = len(parents)
+    positions = check_within(f'{what} positions', validate_array(f'{what} positions', positions, (n, 3)), bound)
+    rotations = check_unit_quaternions(f'{what} orientations',
+                                       validate_array(f'{what} orientations', rotations, (n, 4)))
+    child = np.flatnonzero(np.asarray(parents) >= 0)
+    lengths = np.linalg.norm(positions[child] - positions[np.asarray(parents)[child]], axis=1)
+    expected = np.linalg.norm(np.asarray(offsets)[child], axis=1)
+    off = np.abs(lengths - expected)
+    if off.size and float(off.max()) > BONE_LENGTH_TOLERANCE:
+        k = int(np.argmax(off))
+        raise InputError(f'{what} does not fit the skeleton: bone {int(child[k])} is {lengths[k]:.6g} m from its '
+                         f'parent, expected {expected[k]:.6g} m')
+    return positions, rotations
+
+
+def check_clip(translations: np.ndarray, rotations: np.ndarray, offsets: np.ndarray, bound: float,
+               max_frames: int) -> tuple:
+    """motion_clip: translations `(n_frames, n_bones, 3)` (root first, then the skeleton's `offsets`) and unit
+    local rotations `(n_frames, n_bones, 4)`, 2..`max_frames` frames, root within `bound` m; InputError otherwise."""
+    n_bones = len(offsets)
+    translations = validate_array('motion_clip translations', translations, (None, n_bones, 3))
+    rotations = validate_array('motion_clip rotations', rotations, (len(translations), n_bones, 4))
+    if not 2 <= len(translations) <= max_frames:
+        raise InputError(f'motion_clip has {len(translations)} points, expected 2..{max_frames}')
+    check_within('motion_clip root translations', translations[:, 0], bound)
+    misfit = float(np.max(np.abs(translations[:, 1:] - np.asarray(offsets)[1:]))) if n_bones > 1 else 0.0
+    if misfit > BONE_LENGTH_TOLERANCE:
+        raise InputError(f'motion_clip bone translations differ from the skeleton offsets by up to {misfit:.3g} m; '
+                         'only the root translation may vary')
+    check_unit_quaternions('motion_clip rotations', rotations)
+    return translations, rotations

@@ -1,0 +1,113 @@
+"""The shared checks of what a node accepts from a topic (iguana_ros.validation) and the per-topic decoders of
+iguana_ros.nodes.messages that call them: bounds derived from the model and the scene, one line per rejection."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from iguana_ros.body.model import build_model
+from iguana_ros.body.skeleton import iguana_skeleton
+from iguana_ros.constants import DESIRED_LENGTH_FACTOR, MAX_FRAME_GAP, MAX_PUSH_IMPULSE
+from iguana_ros.scene import MAX_PUSH_FORCE
+from iguana_ros.errors import InputError
+from iguana_ros.geometry import quat_from_yaw
+from iguana_ros.motion.clips import load_clip_library
+from iguana_ros.motion.motion_graph import MotionGraph
+from iguana_ros.nodes import messages as m
+from iguana_ros.nodes.goal_sender import goal_message
+from iguana_ros.terrain.adaptation import pose_kinematics
+from iguana_ros import validation as v
+
+
+@pytest.fixture(scope='module')
+def model():
+    return build_model('coarse')
+
+
+def test_goal_off_the_terrain_or_stamped_before_zero_is_rejected_by_the_one_goal_decoder():
+    xy, at = m.goal_from_msg(goal_message(1.0, -2.0, at=3.0), half_extent=5.0)
+    assert xy.tolist() == [1.0, -2.0] and at == 3.0
+    with pytest.raises(InputError, match=r'goal \(1e\+09, 0\) is off the terrain \(\|x\|, \|y\| <= 5 m\)'):
+        m.goal_from_msg(goal_message(1e9, 0.0), half_extent=5.0)
+    early = goal_message(1.0, 1.0)
+    early.header.stamp.sec = -3
+    with pytest.raises(InputError, match='goal stamp is -3 s; expected a simulated time >= 0'):
+        m.goal_from_msg(early, half_extent=5.0)
+    twisted = goal_message(1.0, 1.0)
+    twisted.pose.orientation.z = float('inf')
+    with pytest.raises(InputError, match='goal orientation has 1 non-finite'):
+        m.goal_from_msg(twisted, half_extent=5.0)
+    with pytest.raises(InputError, match="frame_id 'map'"):
+        m.goal_from_msg(goal_message(1.0, 1.0, frame_id='map'), half_extent=5.0)
+
+
+def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
+    rest = np.asarray(model.spring_rest_lengths)
+    assert np.array_equal(v.check_desired_lengths(rest * 1.4, rest), rest * 1.4)
+    for scale in (1e6 / rest.max(), DESIRED_LENGTH_FACTOR * 1.01, 1.0 / DESIRED_LENGTH_FACTOR / 1.01, 0.0):
+        with pytest.raises(InputError, match=f'lengths outside .* x their rest length'):
+            v.check_desired_lengths(rest * scale, rest)
+    one = rest.copy()
+    one[7] = 1e6
+    with pytest.raises(InputError, match=r'1 of \d+ lengths outside .*\(spring 7: 1e\+06 m'):
+        v.check_desired_lengths(one, rest)
+    msg = m.lengths_to_msg(np.full(len(rest), 1e6), 0)
+    assert m.lengths_from_msg(msg, len(rest))[1][0] == 1e6       # the format alone (a recorded bag) is fine
+    with pytest.raises(InputError, match='outside'):
+        m.lengths_from_msg(msg, len(rest), rest)                  # the simulator's check: rejected
+
+
+def test_push_force_impulse_torque_and_region_are_bounded(model):
+    tags = list(model.node_tags)
+    force = v.check_push([0.0, -MAX_PUSH_FORCE, 0.0], [0.0, 0.0, 0.0], 'trunk_left', tags, 0.1)
+    assert force.tolist() == [0.0, -MAX_PUSH_FORCE, 0.0]
+    cases = [([0.0, -1e6, 0.0], [0, 0, 0], 'trunk_left', 0.1, (), r'push force 1e\+06 N is above the 1000 N limit'),
+             ([0.0, -600.0, 0.0], [0, 0, 0], 'trunk_left', 0.1, ([0.0, 500.0, 0.0],),
+              'with the 1 push\\(es\\) still acting totals 1100 N'),
+             ([0.0, -200.0, 0.0], [0, 0, 0], 'trunk_left', 1.0, (),
+              f'push impulse 200 N x 1 s = 200 N s is above the {MAX_PUSH_IMPULSE:g} N s limit'),
+             ([0.0, -40.0, 0.0], [0, 0, 5.0], 'trunk_left', 0.1, (), 'only a force is applied'),
+             ([0.0, float('nan'), 0.0], [0, 0, 0], 'trunk_left', 0.1, (), 'push force has 1 non-finite'),
+             ([0.0, -40.0, 0.0], [0, 0, 0], 'wing', 0.1, (), "push region 'wing' is not a node tag")]
+    for f, t, region, duration, active, message in cases:
+        with pytest.raises(InputError, match=message):
+            v.check_push(f, t, region, tags, duration, active)
+
+
+def test_poses_and_clips_must_fit_the_skeleton_and_the_world():
+    skeleton = iguana_skeleton()
+    clip = MotionGraph(load_clip_library()).align('forward', np.array([0.5, 0.2]), 0.4)
+    joints, rotations = pose_kinematics(skeleton, clip.root_positions[3], clip.local_rotations[3])
+    msg = m.reference_pose_to_msg(joints, rotations, 3)
+    assert m.reference_pose_from_msg(msg, skeleton.n_bones, skeleton, 15.0)[0] == 3
+    far = joints.copy()
+    far[5] += 1e9
+    with pytest.raises(InputError, match='magnitude 1e\\+09 m; expected within 15 m'):
+        m.reference_pose_from_msg(m.reference_pose_to_msg(far, rotations, 3), skeleton.n_bones, skeleton, 15.0)
+    bent = joints.copy()
+    bent[5, 2] += 0.01
+    with pytest.raises(InputError, match='does not fit the skeleton: bone '):
+        m.reference_pose_from_msg(m.reference_pose_to_msg(bent, rotations, 3), skeleton.n_bones, skeleton, 15.0)
+    clip_msg = m.clip_to_msg(clip, skeleton, 40)
+    assert m.clip_from_msg(clip_msg, skeleton, 15.0)[0] == 40
+    clip_msg.points[2].transforms[4].translation.y = 1e9
+    with pytest.raises(InputError, match='differ from the skeleton offsets'):
+        m.clip_from_msg(clip_msg, skeleton, 15.0)
+    clip_msg = m.clip_to_msg(clip, skeleton, 40)
+    clip_msg.points[2].transforms = clip_msg.points[2].transforms[:-1]   # a ragged trajectory: one line
+    with pytest.raises(InputError, match='trajectory points hold'):
+        m.clip_from_msg(clip_msg, skeleton, 15.0)
+    state = m.state_to_msg(np.array([0.3, 0.1, 0.07]), quat_from_yaw(0.2), np.zeros(3), np.zeros(3), 9)
+    assert m.state_from_msg(state, 15.0)[0] == 9
+    state.pose.pose.orientation.w *= 2.0
+    with pytest.raises(InputError, match='expected unit quaternions'):
+        m.state_from_msg(state, 15.0)
+
+
+def test_frames_far_ahead_are_rejected_stale_and_repeated_ones_classified():
+    assert v.check_frame('x', 4, 5) == v.FRAME_STALE
+    assert v.check_frame('x', 5, 5) == v.FRAME_REPEAT
+    assert v.check_frame('x', 6, 5) == v.FRAME_NEW
+    assert v.check_frame('x', MAX_FRAME_GAP, -1) == v.FRAME_NEW
+    with pytest.raises(InputError, match=f'expected at most {MAX_FRAME_GAP} ahead'):
+        v.check_frame('iguana_state', 5 + MAX_FRAME_GAP + 1, 5)
