@@ -10,6 +10,7 @@ SUITES = (
     ('scenes', 'iguana_ros.cli.bench_faults_scenes'),
     ('bags', 'iguana_ros.cli.bench_faults_bags'),
     ('processes', 'iguana_ros.cli.bench_faults_processes'),
+    ('topics', 'iguana_ros.cli.bench_faults_topics'),
 )
 
 

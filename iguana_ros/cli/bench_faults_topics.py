@@ -1,0 +1,52 @@
+"""`iguana bench faults topics`: seeded bad messages (NaN, Inf, huge, negative, wrong length, wrong frame_id, stale,
+future) on every topic a node subscribes to while real lockstep runs go on; every run must complete with no node
+dead, nothing non-finite published and the library run's trajectory (iguana_ros/nodes/topic_fuzz.py)."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from iguana_ros.cli.argtypes import count, positive
+
+
+def register(suites: argparse._SubParsersAction) -> None:
+    """Add the `topics` suite to `iguana bench faults`."""
+    parser = suites.add_parser('topics', help='bad messages on every subscribed topic during lockstep runs')
+    parser.add_argument('--trials', type=count(1), default=4, help='fuzzed runs (default 4)')
+    parser.add_argument('--messages', type=count(1), default=400, help='faults per run (default 400)')
+    parser.add_argument('--seconds', type=positive('--seconds'), default=6.0, help='simulated seconds per run (default 6)')
+    parser.add_argument('--mesh', choices=('coarse', 'medium'), default='coarse', help='model resolution')
+    parser.add_argument('--seed', type=int, default=0, help='seed of scenes and faults (default 0)')
+    parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
+                        help='ROS_DOMAIN_ID of the runs (default: 1 + pid %% 200, discovery on localhost)')
+    parser.add_argument('--keep', type=Path, default=None, metavar='DIR',
+                        help='keep every run (scene, bag, logs) under DIR')
+    parser.add_argument('--json', action='store_true', help='print one JSON object')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the trials (one line each as they end), then the figures; exit status 1 if any run failed."""
+    import shutil
+
+    from iguana_ros.nodes.topic_fuzz import suite_line, topic_fault_suite, trial_line
+
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    os.environ['ROS_DOMAIN_ID'] = str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
+    workdir = args.keep or Path(tempfile.mkdtemp(prefix='iguana_topic_faults_'))
+    try:
+        result = topic_fault_suite(args.trials, args.seed, args.messages, args.seconds, args.mesh, workdir,
+                                   lambda row: print(trial_line(row), file=sys.stderr if args.json else sys.stdout,
+                                                     flush=True))
+    finally:
+        if args.keep is None:
+            shutil.rmtree(workdir, ignore_errors=True)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(suite_line(result))
+    return 0 if result['survived'] == result['trials'] else 1
