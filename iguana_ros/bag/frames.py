@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from iguana_ros.bag.storage import BagReader, summarize
+from iguana_ros.bag.storage import BagReader, BagSummary, summarize
 from iguana_ros.errors import InputError
 from iguana_ros.render.run import GoalSet, RecordedRun
 from iguana_ros.topics import topic
@@ -158,9 +158,10 @@ class _Collector:
         return float(np.interp(log_ns, self.centroid_logs, self.centroid_times))
 
 
-def _role_topics(path: str | Path) -> tuple[dict[str, str], int]:
-    """{recorded topic name: role} for mesh/state/scene, and the bag's message count; errors name the bag."""
-    summary = summarize(path)
+def _role_topics(path: str | Path) -> tuple[dict[str, str], BagSummary]:
+    """{recorded topic name: role} for mesh/state/scene, and the bag's summary (its chunks not yet verified);
+    errors name the bag."""
+    summary = summarize(path, verify=False)
     recorded = {t.name: t.type for t in summary.topics}
     roles = {}
     for role in ('mesh_marker', 'iguana_state', 'scene_markers'):
@@ -174,13 +175,18 @@ def _role_topics(path: str | Path) -> tuple[dict[str, str], int]:
     if 'mesh_marker' not in roles.values():
         raise InputError(f'bag {path} has no {topic("mesh_marker").name} topic '
                          f'(recorded: {", ".join(sorted(recorded)) or "nothing"}); nothing to render')
-    return roles, summary.message_count
+    return roles, summary
 
 
 def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end: float = math.inf,
              at: float | None = None, progress: Callable[[int, int], None] | None = None) -> RecordedRun:
-    """Read the frames of a bag (see module docstring); `progress(n_read, n_total)` reports the messages read."""
-    roles, total = _role_topics(path)
+    """Read the frames of a bag (see module docstring); `progress(n_read, n_total)` reports the messages read.
+
+    Every intact chunk is read; `RecordedRun.damage` holds the report line of a damaged or truncated bag (or of
+    a bad metadata.yaml), '' for a sound one.
+    """
+    roles, summary = _role_topics(path)
+    total = summary.message_count
     collector = _Collector(_Selection(start=start, end=end, fps=fps, at=at))
     reader = BagReader(path)
     for k, msg in enumerate(reader.messages()):
@@ -196,9 +202,14 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
     collector.finish()
     if progress is not None:
         progress(total, total)
-    run = _assemble(collector, path, next(n for n, r in roles.items() if r == 'mesh_marker'))
-    if reader.truncated:
-        run.notes.append(f'{reader.path} is truncated ({reader.problem}); read up to the last complete chunk')
+    summary.health = reader.health
+    try:
+        run = _assemble(collector, path, next(n for n, r in roles.items() if r == 'mesh_marker'))
+    except InputError as exc:
+        raise InputError(str(exc) if summary.sound else f'{exc} ({summary.report_line()})') from None
+    if not summary.sound:
+        run.damage = summary.report_line()
+        run.notes.append(f'{run.damage}; rendered the recovered frames')
     if collector.non_finite:
         run.notes.append(f'skipped {collector.non_finite} mesh frame(s) with NaN or Inf coordinates')
     return run

@@ -24,12 +24,6 @@ def _time(ns: int) -> str:
     return f'{stamp:%b %d %Y %H:%M:%S}.{stamp.microsecond // 1000:03d} ({epoch})'
 
 
-def truncation_line(summary: BagSummary) -> str:
-    """The one-line damage report of a bag without a summary section."""
-    return (f'truncated: {summary.path} has no complete summary ({summary.problem}); '
-            f'recovered {summary.message_count} messages')
-
-
 def format_summary(summary: BagSummary) -> str:
     """Multi-line text of a BagSummary."""
     duration = max(summary.end_ns - summary.start_ns, 0) * 1e-9
@@ -50,9 +44,10 @@ def format_summary(summary: BagSummary) -> str:
 
 
 def bag_info(path: str | Path) -> tuple[str, BagSummary]:
-    """(printable text, summary) of the bag at `path` (directory or .mcap); InputError if unreadable."""
+    """(printable text, summary) of the bag at `path` (directory or .mcap), every chunk checked; a damaged or
+    truncated bag's text starts with its report line (`BagSummary.report_line`). InputError if unreadable."""
     summary = summarize(path)
     text = format_summary(summary)
-    if summary.truncated:
-        text = truncation_line(summary) + '\n' + text
+    if not summary.sound:
+        text = summary.report_line() + '\n' + text
     return text, summary

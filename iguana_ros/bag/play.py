@@ -16,7 +16,7 @@ from rosgraph_msgs.msg import Clock
 
 from iguana_ros.bag.qos import offer_profile
 from iguana_ros.bag.record import absolute_name
-from iguana_ros.bag.storage import BagReader, BagSummary, parse_qos_profiles, summarize
+from iguana_ros.bag.storage import BagReader, BagSummary, accept, parse_qos_profiles, summarize
 from iguana_ros.errors import InputError
 from iguana_ros.nodes.ros_topics import message_class, resolve
 from iguana_ros.topics import default_topics
@@ -100,7 +100,9 @@ class _Pacer:
 
 def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[bool],
                warn_damage: bool = True) -> int:
-    """Stream the bag once through the publishers; returns the number of messages published."""
+    """Stream the bag once through the publishers (every intact chunk); returns the number of messages
+    published. With `warn_damage`, damage that the check before playing did not see (the file changed) is
+    reported in one line."""
     reader = BagReader(path)
     pacer = _Pacer(rate, clock_pub)
     count = 0
@@ -116,20 +118,23 @@ def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[
         pub.publish(msg.data)
         count += 1
     if warn_damage and reader.truncated and not stop[0]:
-        _err(f'iguana bag play: warning: {path} ends early ({reader.problem}); '
-             f'played the {count} messages before the damage')
+        _err(f'iguana bag play: warning: {path}: {reader.problem}; played the {count} messages recovered')
     return count
 
 
 def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[str] | None = None,
-         clock: bool = False, wait_for_subscribers_s: float = 0.5) -> int:
-    """Republish bag `path` (directory or .mcap) until its end (or forever with `loop`); returns count."""
+         clock: bool = False, wait_for_subscribers_s: float = 0.5, allow_damaged: bool = False) -> int:
+    """Republish bag `path` (directory or .mcap) until its end (or forever with `loop`); returns count.
+
+    The bag is checked first: a damaged or truncated one raises DamagedBag (nothing is published) unless
+    `allow_damaged`, and then the messages of every intact chunk are played after a warning line.
+    """
     if not rate > 0 or rate == float('inf'):
         raise InputError(f'--rate must be a positive finite number, got {rate}')
     summary = summarize(path)
-    if summary.truncated:
-        _err(f'iguana bag play: warning: {summary.path} is truncated ({summary.problem}); '
-             f'playing the {summary.message_count} recovered messages')
+    damage = accept(summary, allow_damaged)
+    if damage:
+        _err(f'iguana bag play: warning: {damage}; playing the recovered messages')
     selected = select_topics(summary, topics)
     stop = [False]
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -147,7 +152,7 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
         print(f'playing {summary.path}: {n_selected} messages on {len(publishers)} topics '
               f'at rate {rate:g}', flush=True)
         _wait_for_subscribers(publishers, wait_for_subscribers_s, stop)
-        warn = not summary.truncated
+        warn = summary.health.sound
         total = _play_once(summary.path, publishers, rate, clock_pub, stop, warn)
         while loop and not stop[0]:
             total += _play_once(summary.path, publishers, rate, clock_pub, stop, warn)

@@ -1,26 +1,25 @@
-"""rosbag2-compatible MCAP storage: a crash-safe writer and a reader that survives truncation (ROS-free).
+"""rosbag2-compatible MCAP storage: a crash-safe writer and a reader that survives damage (ROS-free).
 
 Layout of a bag: `DIR/DIR.mcap` plus `DIR/metadata.yaml` (rosbag2_bagfile_information, version 9).
 MCAP conventions of rosbag2's mcap storage plugin: profile `ros2`, schemas `ros2msg` named
 `pkg/msg/Type`, messages `cdr`, channel metadata `offered_qos_profiles` (YAML) and `topic_type_hash`.
+The writer adds a data-section CRC and repeats the schema and channel records at the start of every chunk,
+so each chunk can be read (and its topics named) on its own. Reading goes through `iguana_ros.bag.scan`:
+every intact chunk is recovered, and what was damaged or missing is reported, never passed off as sound.
 """
 from __future__ import annotations
 
-import struct
 import time
-import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
-import zstandard
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
 from mcap.records import Channel, Header, Message, Schema
-from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+from iguana_ros.bag.metadata import check_metadata, load_metadata, relative_files
+from iguana_ros.bag.scan import Health, Scan, looks_like_mcap
 from iguana_ros.errors import InputError
 
 PROFILE = 'ros2'
@@ -34,9 +33,12 @@ CHUNK_AGE_S = 1.0
 """A chunk is closed at least this often, so a killed recorder loses at most ~this much data."""
 INFINITE_DURATION = {'sec': 9223372036, 'nsec': 854775807}
 """RMW_DURATION_INFINITE as rosbag2 writes it."""
+_NO_SIZE_LIMIT = 1 << 62
+"""Chunk size given to mcap's Writer: BagWriter closes chunks itself (so each new one gets its preamble)."""
 
-_READ_ERRORS = (McapError, EOFError, struct.error, ValueError, zstandard.ZstdError, zlib.error,
-                UnicodeDecodeError, KeyError, MemoryError, OverflowError)
+
+class DamagedBag(InputError):
+    """A bag that is damaged or truncated, refused because --allow-damaged was not given."""
 
 
 def _library() -> str:
@@ -85,30 +87,34 @@ class BagMessage:
 
 
 def resolve_bag_file(path: str | Path) -> Path:
-    """The .mcap file of a bag given as its directory or the file itself; InputError if there is none."""
+    """The .mcap file of a bag given as its directory or the file itself; InputError if there is none.
+
+    For a directory: `DIR/DIR.mcap`, else the file its metadata.yaml names (when readable), else its one .mcap.
+    """
     p = Path(path)
     if p.is_file():
         return p
     if not p.is_dir():
         raise InputError(f'no bag at {p}: expected a bag directory or an .mcap file')
-    meta = p / 'metadata.yaml'
-    if meta.is_file():
-        try:
-            files = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']['relative_file_paths']
-            if files and (p / files[0]).is_file():
-                return p / files[0]
-        except (yaml.YAMLError, KeyError, TypeError):
-            pass
-    candidates = sorted(p.glob('*.mcap'))
     if (p / f'{p.name}.mcap').is_file():
         return p / f'{p.name}.mcap'
+    info, _ = load_metadata(p)
+    listed = [p / name for name in relative_files(info) if (p / name).is_file()]
+    if listed:
+        return listed[0]
+    candidates = sorted(p.glob('*.mcap'))
     if len(candidates) == 1:
         return candidates[0]
     raise InputError(f'bag directory {p} holds {len(candidates)} .mcap files, expected one')
 
 
 class BagWriter:
-    """Writes `DIR/DIR.mcap` with zstd chunks bounded in size and age; `close()` adds summary + metadata."""
+    """Writes `DIR/DIR.mcap` with zstd chunks bounded in size and age; `close()` adds summary + metadata.
+
+    Every chunk after the first starts with the schema and channel records registered so far (a preamble), and
+    DataEnd carries the CRC of the data section: a reader can name the messages of any intact chunk even when
+    the chunk that first held a channel is lost, and can tell damage outside the chunks.
+    """
 
     def __init__(self, directory: str | Path, chunk_bytes: int = CHUNK_BYTES,
                  chunk_age_s: float = CHUNK_AGE_S) -> None:
@@ -118,12 +124,15 @@ class BagWriter:
         self.directory.mkdir(parents=True)
         self.path = self.directory / f'{self.directory.name}.mcap'
         self._file = open(self.path, 'wb')
-        self._writer = Writer(self._file, chunk_size=chunk_bytes, compression=CompressionType.ZSTD)
-        if not hasattr(self._writer, '_Writer__finalize_chunk'):
+        self._writer = Writer(self._file, chunk_size=_NO_SIZE_LIMIT, compression=CompressionType.ZSTD,
+                              enable_data_crcs=True)
+        if not (hasattr(self._writer, '_Writer__finalize_chunk') and hasattr(self._writer, '_Writer__chunk_builder')):
             raise RuntimeError('this mcap version has no chunk finaliser; age-bounded chunks need mcap>=1.1')
         self._writer.start(profile=PROFILE, library=_library())
         self._file.flush()
+        self.chunk_bytes = chunk_bytes
         self.chunk_age_s = chunk_age_s
+        self._preamble: list[Schema | Channel] = []
         self._chunk_opened: float | None = None
         self._schemas: dict[str, int] = {}
         self._channels: dict[int, TopicInfo] = {}
@@ -135,14 +144,18 @@ class BagWriter:
                   offered_qos_profiles: str = '', type_hash: str = '') -> int:
         """Register a topic (its schema once per type); returns the channel id for `write`."""
         if type_name not in self._schemas:
-            self._schemas[type_name] = self._writer.register_schema(
-                name=type_name, encoding=SCHEMA_ENCODING, data=schema_text.encode())
+            data = schema_text.encode()
+            schema_id = self._writer.register_schema(name=type_name, encoding=SCHEMA_ENCODING, data=data)
+            self._schemas[type_name] = schema_id
+            self._preamble.append(Schema(id=schema_id, name=type_name, encoding=SCHEMA_ENCODING, data=data))
         metadata = {'offered_qos_profiles': offered_qos_profiles}
         if type_hash:
             metadata['topic_type_hash'] = type_hash
         channel_id = self._writer.register_channel(
             topic=name, message_encoding=MESSAGE_ENCODING, schema_id=self._schemas[type_name],
             metadata=metadata)
+        self._preamble.append(Channel(id=channel_id, topic=name, message_encoding=MESSAGE_ENCODING,
+                                      schema_id=self._schemas[type_name], metadata=metadata))
         self._channels[channel_id] = TopicInfo(name, type_name, offered_qos_profiles, type_hash)
         return channel_id
 
@@ -158,7 +171,10 @@ class BagWriter:
         self._last_ns = max(self._last_ns, log_time)
         if self._chunk_opened is None:
             self._chunk_opened = time.monotonic()
-        self.close_chunk_if_old()
+        if self._writer._Writer__chunk_builder.count > self.chunk_bytes:
+            self.close_chunk()
+        else:
+            self.close_chunk_if_old()
 
     def close_chunk_if_old(self) -> None:
         """Close and flush the open chunk if it is older than `chunk_age_s` (call it from a timer too)."""
@@ -166,8 +182,14 @@ class BagWriter:
             self.close_chunk()
 
     def close_chunk(self) -> None:
-        """Write the open chunk (if any) and flush it to the OS, so it survives a killed process."""
-        self._writer._Writer__finalize_chunk()  # mcap keeps this private; see class docstring
+        """Write the open chunk (if any) and flush it to the OS, so it survives a killed process; the next chunk
+        starts with the preamble of schema and channel records."""
+        builder = self._writer._Writer__chunk_builder     # mcap keeps the chunk machinery private
+        written = builder.num_messages > 0
+        self._writer._Writer__finalize_chunk()
+        if written:
+            for record in self._preamble:
+                (builder.add_schema if isinstance(record, Schema) else builder.add_channel)(record)
         self._file.flush()
         self._chunk_opened = None
 
@@ -214,7 +236,11 @@ class BagWriter:
 
 @dataclass
 class BagSummary:
-    """What `bag info` prints: file, header, topics with counts, time range, and damage if any."""
+    """What `bag info` prints: file, header, topics with recovered counts, time range, and what is wrong.
+
+    `health` is the MCAP scan's (iguana_ros.bag.scan.Health); `metadata_problems` name what is wrong with the
+    directory's metadata.yaml. `truncated` (the MCAP is not sound) and `problem` (why) summarise the scan.
+    """
 
     path: Path
     size: int
@@ -227,6 +253,34 @@ class BagSummary:
     truncated: bool = False
     problem: str = ''
     schemas: dict[str, str] = field(default_factory=dict)
+    health: Health | None = None
+    metadata_problems: list[str] = field(default_factory=list)
+    bag: Path | None = None
+    """The bag as given (its directory, or the file)."""
+
+    @property
+    def sound(self) -> bool:
+        """Nothing damaged, truncated or contradicting in the MCAP and the metadata.yaml."""
+        return (self.health is None or self.health.sound) and not self.metadata_problems
+
+    def report_line(self) -> str:
+        """'sound: …', or 'damaged: BAG: what; …; recovered N of M messages' ('truncated: …' if only cut off)."""
+        health = self.health or Health(self.path, self.size)
+        if self.sound:
+            return f'sound: {self.bag or self.path}: {health.recovered()}'
+        status = 'damaged' if health.damaged or self.metadata_problems else 'truncated'
+        return f'{status}: {self.bag or self.path}: ' + '; '.join(
+            health.problems() + self.metadata_problems + [health.recovered()])
+
+
+def accept(summary: BagSummary, allow_damaged: bool) -> str:
+    """'' for a sound bag; the damage report line for an unsound one with `allow_damaged`; else DamagedBag."""
+    if summary.sound:
+        return ''
+    line = summary.report_line()
+    if not allow_damaged:
+        raise DamagedBag(f'{line}; --allow-damaged accepts what was recovered')
+    return line
 
 
 def _topic_from_channel(channel: Channel, schemas: dict[int, Schema]) -> TopicInfo:
@@ -238,9 +292,10 @@ def _topic_from_channel(channel: Channel, schemas: dict[int, Schema]) -> TopicIn
 
 
 class BagReader:
-    """Streams the messages of a bag in file order; a truncated or damaged tail ends the stream cleanly.
+    """Streams the messages of every intact chunk of a bag in file order (see iguana_ros.bag.scan).
 
-    After iterating, `truncated` and `problem` say whether (and where) the file stopped early.
+    After iterating, `health` says what was damaged or cut off, `truncated` whether the stream is incomplete
+    (the file is truncated or damaged) and `problem` why. InputError at once for a missing or non-MCAP file.
     """
 
     def __init__(self, path: str | Path) -> None:
@@ -248,87 +303,98 @@ class BagReader:
         self.header: Header | None = None
         self.schemas: dict[int, Schema] = {}
         self.channels: dict[int, Channel] = {}
-        self.truncated = False
-        self.problem = ''
-        self._check_magic()
+        self.health: Health | None = None
+        if not looks_like_mcap(self.path):
+            with open(self.path, 'rb') as f:
+                head = f.read(8)
+            raise InputError(f'{self.path} is not an MCAP file (bad magic bytes {head!r})')
 
-    def _check_magic(self) -> None:
-        """InputError in one line if the file does not start like an MCAP file."""
-        with open(self.path, 'rb') as f:
-            head = f.read(8)
-        if head != b'\x89MCAP0\r\n':
-            raise InputError(f'{self.path} is not an MCAP file (bad magic bytes {head[:8]!r})')
+    @property
+    def truncated(self) -> bool:
+        """Whether the last pass found the file truncated or damaged (some messages may be missing)."""
+        return self.health is not None and not self.health.sound
+
+    @property
+    def damaged(self) -> bool:
+        """Whether the last pass found damage (not only a cut-off end)."""
+        return self.health is not None and self.health.damaged
+
+    @property
+    def problem(self) -> str:
+        """What the last pass found wrong, in one line ('' if the file is sound)."""
+        return self.health.describe() if self.truncated else ''
 
     def topic(self, channel_id: int) -> TopicInfo:
         """TopicInfo of a channel seen so far."""
         return _topic_from_channel(self.channels[channel_id], self.schemas)
 
     def messages(self) -> Iterator[BagMessage]:
-        """Every message of every complete chunk, in file order, CRCs checked."""
-        with open(self.path, 'rb') as f:
-            records = StreamReader(f, validate_crcs=True, record_size_limit=1 << 31).records
-            try:
-                for record in records:
-                    if isinstance(record, Message):
-                        channel = self.channels.get(record.channel_id)
-                        if channel is not None:
-                            yield BagMessage(channel.topic, record.data, record.log_time,
-                                             record.publish_time, record.channel_id)
-                    elif isinstance(record, Schema):
-                        self.schemas[record.id] = record
-                    elif isinstance(record, Channel):
-                        self.channels[record.id] = record
-                    elif isinstance(record, Header):
-                        self.header = record
-            except _READ_ERRORS as exc:
-                self.truncated = True
-                self.problem = f'{type(exc).__name__}: {exc}' if str(exc) else type(exc).__name__
-        if self.header is None and not self.truncated:
-            self.truncated, self.problem = True, 'no MCAP header record'
+        """Every message of every intact chunk, in file order, CRCs checked."""
+        scan = Scan(self.path)
+        self.schemas, self.channels = scan.schemas, scan.channels
+        for record in scan.records():
+            if isinstance(record, Message):
+                yield BagMessage(self.channels[record.channel_id].topic, record.data, record.log_time,
+                                 record.publish_time, record.channel_id)
+        self.header, self.health = scan.header, scan.health
 
 
-def summarize(path: str | Path) -> BagSummary:
-    """BagSummary from the file's summary section, or by streaming every complete chunk if it has none."""
-    reader = BagReader(path)
-    summary = _summary_from_index(reader.path)
-    if summary is not None:
-        return summary
-    counts: dict[int, int] = {}
-    first, last = None, 0
-    for msg in reader.messages():
-        counts[msg.channel_id] = counts.get(msg.channel_id, 0) + 1
-        first = msg.log_time if first is None else min(first, msg.log_time)
-        last = max(last, msg.log_time)
-    if reader.header is None:
-        raise InputError(f'{reader.path} is corrupt: no readable MCAP header ({reader.problem})')
-    topics = [reader.topic(cid) for cid in reader.channels]
-    for cid, topic in zip(reader.channels, topics):
-        topic.message_count = counts.get(cid, 0)
-    header = reader.header
-    return BagSummary(reader.path, reader.path.stat().st_size, header.profile, header.library,
-                      topics, sum(counts.values()), first or 0,
-                      last, truncated=True,
-                      problem=reader.problem or 'no summary section (recorder did not finish)',
-                      schemas={s.name: s.data.decode(errors='replace') for s in reader.schemas.values()})
+def summarize(path: str | Path, verify: bool = True) -> BagSummary:
+    """BagSummary of the bag at `path` (directory or .mcap), its metadata.yaml checked for a directory.
 
-
-def _summary_from_index(path: Path) -> BagSummary | None:
-    """BagSummary read from the footer's summary section; None if the file has no usable summary."""
-    try:
-        with open(path, 'rb') as f:
-            reader = make_reader(f)
-            header = reader.get_header()
-            summary = reader.get_summary()
-    except _READ_ERRORS:
-        return None
-    if summary is None or summary.statistics is None:
-        return None
-    stats = summary.statistics
+    With `verify` the file is checked in full: by the data-section and summary CRCs when both are there,
+    else by reading every chunk. Without it a trusted summary is taken as it is (the chunks are checked when
+    they are read). InputError for a missing or non-MCAP file, or one with nothing readable.
+    """
+    mcap = resolve_bag_file(path)
+    scan = Scan(mcap)
+    trusted = scan.health.summary == 'verified'
+    if (not verify and trusted) or (verify and scan.verified_by_crcs()):
+        scan.close()
+        if not verify:
+            scan.counts = dict(scan.statistics.channel_message_counts) if scan.statistics else {}
+            scan.health.messages = sum(scan.counts.values())
+            stats = scan.statistics
+            scan.start_ns, scan.end_ns = (stats.message_start_time, stats.message_end_time) if stats else (0, 0)
+    else:
+        for _ in scan.records():
+            pass
+    health = scan.health
+    if scan.header is None and health.messages == 0 and not scan.channels:
+        raise InputError(f'{mcap} is corrupt: no readable MCAP header ({health.describe()})')
     topics = []
-    for cid, channel in summary.channels.items():
-        topic = _topic_from_channel(channel, summary.schemas)
-        topic.message_count = stats.channel_message_counts.get(cid, 0)
+    for cid, channel in scan.channels.items():
+        topic = _topic_from_channel(channel, scan.schemas)
+        topic.message_count = scan.counts.get(cid, 0)
         topics.append(topic)
-    return BagSummary(path, path.stat().st_size, header.profile, header.library, topics,
-                      stats.message_count, stats.message_start_time, stats.message_end_time,
-                      schemas={s.name: s.data.decode(errors='replace') for s in summary.schemas.values()})
+    header = scan.header
+    summary = BagSummary(mcap, health.size, header.profile if header else '', header.library if header else '',
+                         topics, health.messages, scan.start_ns or 0, scan.end_ns, truncated=not health.sound,
+                         problem='' if health.sound else health.describe(),
+                         schemas={s.name: s.data.decode(errors='replace') for s in scan.schemas.values()},
+                         health=health, bag=Path(path))
+    if Path(path).is_dir():
+        summary.metadata_problems = _metadata_problems(Path(path), mcap, scan)
+    return summary
+
+
+def _metadata_problems(directory: Path, mcap: Path, scan: Scan) -> list[str]:
+    """What is wrong with DIR/metadata.yaml, against the MCAP's counts where they are known in full."""
+    info, problem = load_metadata(directory)
+    if info is None:
+        unfinished = scan.health.truncated_at is not None and not (directory / 'metadata.yaml').exists()
+        return [] if unfinished else [problem]     # a killed recorder writes no metadata.yaml: not more damage
+    counts = None
+    if scan.health.sound:
+        counts = scan.counts
+    elif scan.statistics is not None and scan.health.summary == 'verified':
+        counts = dict(scan.statistics.channel_message_counts)
+    topic_counts = None
+    if counts is not None:
+        topic_counts = {}
+        for cid, n in counts.items():
+            if cid in scan.channels:
+                name = scan.channels[cid].topic
+                topic_counts[name] = topic_counts.get(name, 0) + n
+    total = sum(counts.values()) if counts is not None else None
+    return check_metadata(info, mcap.name, topic_counts, total)

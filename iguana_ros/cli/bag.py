@@ -28,23 +28,34 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     play.add_argument('--clock', action='store_true', help='publish /clock from the bag time (40 Hz)')
     play.add_argument('--wait-for-subscribers', type=float, default=0.5, metavar='S',
                       help='wait up to S s for every topic to have a subscriber first (default 0.5)')
+    add_allow_damaged(play, 'play the messages of every intact chunk of a damaged or truncated bag')
     play.set_defaults(func=run)
 
-    info = actions.add_parser('info', help='print duration, topics, types and counts of a bag')
+    info = actions.add_parser('info', help='print duration, topics, types and counts of a bag; every chunk is '
+                                           'checked, and a damaged or truncated bag exits 1')
     info.add_argument('bag', metavar='BAG', help='bag directory or .mcap file')
+    add_allow_damaged(info, 'exit 0 for a damaged or truncated bag (the report is printed either way)')
     info.set_defaults(func=run)
+
+
+def add_allow_damaged(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add --allow-damaged: without it a command reading a damaged or truncated bag exits 1 with one line."""
+    parser.add_argument('--allow-damaged', action='store_true', help=what)
 
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to record, play or info."""
     if args.bag_action == 'info':
         from iguana_ros.bag.info import bag_info
-        print(bag_info(args.bag)[0])
+        from iguana_ros.bag.storage import accept
+        text, summary = bag_info(args.bag)
+        print(text, flush=True)
+        accept(summary, args.allow_damaged)
         return 0
     if args.bag_action == 'play':
         from iguana_ros.bag.play import play
         play(args.bag, rate=args.rate, loop=args.loop, topics=args.topics, clock=args.clock,
-             wait_for_subscribers_s=args.wait_for_subscribers)
+             wait_for_subscribers_s=args.wait_for_subscribers, allow_damaged=args.allow_damaged)
         return 0
     from iguana_ros.bag.record import default_topic_names, record
     from iguana_ros.bag.storage import CHUNK_AGE_S

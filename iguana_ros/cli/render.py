@@ -29,6 +29,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument('--frame', type=float, default=None, metavar='T',
                    help='.png only: the frame nearest T seconds (default: the last frame)')
     p.add_argument('--no-trail', action='store_true', help='do not draw the path of the root')
+    p.add_argument('--allow-damaged', action='store_true',
+                   help='render the frames of every intact chunk of a damaged or truncated bag (default: exit 1)')
     p.add_argument('--quiet', '-q', action='store_true', help='no progress bars')
     p.set_defaults(func=run)
 
@@ -105,6 +107,9 @@ def _read(args: argparse.Namespace, kind: str):
             recorded = read_run(args.bag, at=at, progress=progress)
         else:
             recorded = read_run(args.bag, fps=args.fps, start=args.start, end=args.end, progress=progress)
+    if recorded.damage and not args.allow_damaged:
+        from iguana_ros.bag.storage import DamagedBag
+        raise DamagedBag(f'{recorded.damage}; --allow-damaged renders what was recovered')
     for note in recorded.notes:
         print(f'iguana render: note: {note}', file=sys.stderr)
     if kind == 'png' and args.frame is not None and abs(recorded.times[0] - args.frame) > FRAME_TOLERANCE_S:

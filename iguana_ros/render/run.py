@@ -39,7 +39,9 @@ class RecordedRun:
     mesh_topic: str = ''
     duration: float = 0.0
     notes: list = field(default_factory=list)
-    """Things the reader tolerated (a truncated bag, skipped non-finite frames), one sentence each."""
+    """Things the reader tolerated (a damaged bag, skipped non-finite frames), one sentence each."""
+    damage: str = ''
+    """The bag's damage report line ('' when the bag and its metadata.yaml are sound)."""
 
     @property
     def n_frames(self) -> int:

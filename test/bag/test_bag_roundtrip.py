@@ -94,7 +94,10 @@ def test_record_then_play_reproduces_messages(tmp_path):
 def test_killed_recorder_leaves_readable_prefix(tmp_path):
     bag, published, _rec = _record_while_publishing(tmp_path, duration=3.5, kill_after=2.5)
     assert not (bag / 'metadata.yaml').exists()
-    info = subprocess.run([*IGUANA, 'bag', 'info', bag], capture_output=True, text=True, timeout=30)
+    refused = subprocess.run([*IGUANA, 'bag', 'info', bag], capture_output=True, text=True, timeout=30)
+    assert refused.returncode == 1 and 'truncated' in refused.stderr and '--allow-damaged' in refused.stderr
+    info = subprocess.run([*IGUANA, 'bag', 'info', bag, '--allow-damaged'], capture_output=True, text=True,
+                          timeout=30)
     assert info.returncode == 0, info.stderr
     first = info.stdout.splitlines()[0]
     assert first.startswith('truncated:') and 'recovered' in first

@@ -107,7 +107,7 @@ def test_every_truncation_point_recovers_a_prefix(tmp_path):
     assert previous >= 55
 
 
-def test_corrupted_chunk_stops_at_the_damage(tmp_path):
+def test_corrupted_chunk_loses_only_that_chunk(tmp_path):
     _write_bag(tmp_path / 'c', n=60, chunk_age_s=0.0)
     path = tmp_path / 'c' / 'c.mcap'
     with open(path, 'rb') as f:
@@ -117,9 +117,9 @@ def test_corrupted_chunk_stops_at_the_damage(tmp_path):
     path.write_bytes(bytes(data))
     reader = BagReader(path)
     got = [m.data for m in reader.messages()]
-    assert reader.truncated and len(got) == 30
-    assert 'CRC' in reader.problem or 'Zstd' in reader.problem
-    assert got == [_cdr_string(f'msg {i}') for i in range(30)]
+    assert reader.truncated and reader.damaged and len(got) == 59
+    assert f'bytes {chunk.chunk_start_offset}-' in reader.problem and 'chunk' in reader.problem
+    assert got == [_cdr_string(f'msg {i}') for i in range(60) if i != 30]
 
 
 def _cli(argv, capsys):
@@ -154,11 +154,14 @@ def test_truncated_bag_info_says_so_in_its_first_line(tmp_path, capsys):
     _write_bag(tmp_path / 'ok', n=40, chunk_age_s=0.0)
     data = (tmp_path / 'ok' / 'ok.mcap').read_bytes()
     (tmp_path / 'cut.mcap').write_bytes(data[:len(data) // 2])
-    rc, out, _ = _cli(['bag', 'info', str(tmp_path / 'cut.mcap')], capsys)
+    rc, out, err = _cli(['bag', 'info', str(tmp_path / 'cut.mcap')], capsys)
     first = out.splitlines()[0]
-    assert rc == 0 and first.startswith('truncated:') and 'recovered' in first
+    assert rc == 1 and first.startswith('truncated:') and 'recovered' in first
+    assert len(err.strip().splitlines()) == 1 and '--allow-damaged' in err
     n = int(first.split('recovered ')[1].split()[0])
     assert 0 < n < 40 and f'Messages:          {n}' in out
+    rc, out, err = _cli(['bag', 'info', str(tmp_path / 'cut.mcap'), '--allow-damaged'], capsys)
+    assert rc == 0 and out.splitlines()[0] == first and not err
 
 
 def test_play_unknown_topic_lists_what_the_bag_has(tmp_path, capsys):

@@ -76,7 +76,7 @@ def test_truncated_bag_and_non_finite_frames_are_reported(tmp_path):
     (tmp_path / 'cut.mcap').write_bytes(data[:len(data) // 2])
     run = read_run(tmp_path / 'cut.mcap')
     assert 5 < run.n_frames < 61 and np.allclose(run.times, np.arange(run.n_frames) / RATE)
-    assert len(run.notes) == 1 and 'cut.mcap is truncated' in run.notes[0]
+    assert len(run.notes) == 1 and run.damage.startswith('truncated: ') and 'cut.mcap' in run.notes[0]
     writer = BagWriter(tmp_path / 'nan')
     spec = topic('mesh_marker')
     channel = writer.add_topic('/' + spec.name, spec.type, '')
