@@ -357,11 +357,11 @@ def _cross_checks(scene: Scene, source: str) -> None:
 
 def _check_grid(extent: float, spacing: float, field_path: str, what: str, source: str) -> None:
     """A generated terrain of side `extent` m sampled every `spacing` m has at most MAX_GRID_NODES nodes."""
-    from iguana_ros.terrain.heightfield import MAX_GRID_NODES, grid_nodes
+    from iguana_ros.terrain.heightfield import MAX_GRID_NODES, grid_nodes, node_count
 
     nodes = grid_nodes(extent / 2.0, spacing)
     if nodes > MAX_GRID_NODES:
-        _fail(source, field_path, f'a {extent:g} m terrain at {what} has {nodes} grid nodes, at most '
+        _fail(source, field_path, f'a {extent:g} m terrain at {what} has {node_count(nodes)} grid nodes, at most '
                                   f'{MAX_GRID_NODES} allowed; use a smaller extent or a larger spacing')
 
 
@@ -469,8 +469,9 @@ def _read_text(path: Path) -> str:
                          f'(byte 0x{data[exc.start]:02x} at offset {exc.start})') from None
 
 
-_LONG_INTEGER = re.compile(r'[-+]?(0[box])?[0-9a-fA-F_:]+')
-"""A plain scalar YAML would read as an integer (Python refuses to convert one of more than 4300 digits)."""
+_LONG_INTEGER = re.compile(r'[-+]?[0-9][0-9_]*(:[0-5]?[0-9])*')
+"""A plain scalar YAML reads as a decimal (or sexagesimal) integer; Python refuses to convert one of more than 4300
+digits, so one longer than 1000 characters is refused before it is constructed."""
 
 
 @dataclass
@@ -479,7 +480,6 @@ class _Collection:
 
     mapping: bool
     anchor: str | None
-    line: int
     size: int = 1
     height: int = 1
     expect_key: bool = True
@@ -495,7 +495,7 @@ class _Collection:
 def _check_structure(text: str, source: str) -> None:
     """From the parser's events, before anything is composed: at most MAX_NESTING levels of collections, at most
     MAX_YAML_NODES nodes with every alias counted at its full size, no key given twice in a mapping."""
-    open_: list[_Collection] = [_Collection(mapping=False, anchor=None, line=0)]   # the document as a sequence
+    open_: list[_Collection] = [_Collection(mapping=False, anchor=None)]   # the document as a sequence
     anchors: dict[str, tuple[int, int]] = {}            # anchor -> (size, height)
 
     def where() -> str:
@@ -506,7 +506,7 @@ def _check_structure(text: str, source: str) -> None:
         if parent.mapping and parent.expect_key:
             key = str(event.value) if isinstance(event, yaml.ScalarEvent) else '?'
             line = event.start_mark.line + 1
-            if key != '<<' and key in parent.keys:
+            if key not in ('<<', '?') and key in parent.keys:   # a merge key may repeat; '?' = complex keys
                 parent.key = key
                 _fail(source, where(), f'duplicate key (line {line}; first given on line {parent.keys[key]})')
             parent.keys[key] = line
@@ -533,15 +533,14 @@ def _check_structure(text: str, source: str) -> None:
             if isinstance(event, yaml.ScalarEvent):
                 if event.anchor:
                     anchors[event.anchor] = (1, 0)
-                if event.implicit[0] and len(event.value) > 100 and _LONG_INTEGER.fullmatch(event.value):
+                if event.implicit[0] and len(event.value) > 1000 and _LONG_INTEGER.fullmatch(event.value):
                     _fail(source, where(), f'expected a number, got an integer of {len(event.value)} digits')
             finish(size, height)
         elif isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
             begin(event)
             if len(open_) > MAX_NESTING:
                 _fail(source, where(), f'nested deeper than {MAX_NESTING} levels')
-            open_.append(_Collection(isinstance(event, yaml.MappingStartEvent), event.anchor,
-                                     event.start_mark.line + 1))
+            open_.append(_Collection(isinstance(event, yaml.MappingStartEvent), event.anchor))
         elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
             done = open_.pop()
             if done.anchor:

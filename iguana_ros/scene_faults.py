@@ -60,6 +60,9 @@ class Mutation:
     target: str = ''
     must_reject: bool = False
     note: str = ''
+    files: tuple = ()
+    """Files written beside the scene: (name, bytes, or an int = a sparse file of that size); `@DIR@` in `data`
+    is the folder they are written to."""
 
 
 @dataclass
@@ -173,8 +176,8 @@ def _numeric_leaves(raw: dict) -> list[tuple[str, tuple]]:
 def _out_of_range(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
     """A number replaced by an extreme one: negative, zero, tiny, huge, beyond float range as an integer."""
     path, keys = rng.choice(_numeric_leaves(raw))
-    value = rng.choice([-1.0, 0.0, -1e-9, 1e-300, 1e12, -1e12, 1e308, -1e308, 10 ** 30, 10 ** 400, -(10 ** 400),
-                        2 ** 64, MAX_DURATION * 10, MAX_EXTENT * 1.5, 123456789.0])
+    value = rng.choice([-1.0, 0.0, -1e-9, 1e-300, 5e-324, 1e-306, 1e12, -1e12, 1e308, -1e308, 10 ** 30, 10 ** 400,
+                        -(10 ** 400), 2 ** 64, MAX_DURATION * 10, MAX_EXTENT * 1.5, 123456789.0])
     new = _copy(raw)
     _set(new, keys, value)
     return Mutation('out_of_range', name, _dump(new), path, False, f'{path} = {str(value)[:12]}')
@@ -382,11 +385,74 @@ def _tags(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
     return Mutation('tags', name, f'{keep}{key}: {value}\n'.encode(), key, choice != 'float', f'{key}: {choice}')
 
 
+def _npy(array=None, shape=None, descr: str = '<f8', cut: int = 0) -> bytes:
+    """The bytes of a .npy file of `array`, or a header alone promising `shape` of `descr`; `cut` bytes dropped."""
+    import io
+
+    import numpy as np
+
+    buffer = io.BytesIO()
+    if array is not None:
+        np.save(buffer, array, allow_pickle=True)
+    else:
+        np.lib.format.write_array_header_1_0(buffer, {'descr': descr, 'fortran_order': False, 'shape': shape})
+    data = buffer.getvalue()
+    return data[:len(data) - cut] if cut else data
+
+
+def _png(width: int, height: int, valid: bool = True) -> bytes:
+    """A 16-bit grey PNG (valid) or only a PNG signature and an IHDR chunk claiming `width` x `height`."""
+    import zlib
+
+    if not valid:
+        ihdr = width.to_bytes(4, 'big') + height.to_bytes(4, 'big') + bytes([16, 0, 0, 0, 0])
+        return (b'\x89PNG\r\n\x1a\n' + len(ihdr).to_bytes(4, 'big') + b'IHDR' + ihdr
+                + zlib.crc32(b'IHDR' + ihdr).to_bytes(4, 'big'))
+    import imageio.v3 as iio
+    import numpy as np
+
+    ramp = (np.arange(width * height, dtype=np.uint32).reshape(height, width) * 37 % 65535).astype(np.uint16)
+    return iio.imwrite('<bytes>', ramp, extension='.png')
+
+
+def _heightmap(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
+    """A heightmap terrain naming a file beside the scene: sound, promising too many values in its header, too big,
+    cut short, NaN-filled, pickled, not an array, missing, of another type, or scaled beyond MAX_RELIEF."""
+    import numpy as np
+
+    from iguana_ros.terrain.heightfield import MAX_GRID_NODES, MAX_HEIGHTMAP_BYTES
+
+    side = math.isqrt(MAX_GRID_NODES) + 1
+    cases = {
+        'sound_npy': ('h.npy', _npy(0.02 * np.sin(np.arange(600.0)).reshape(30, 20)), False, 1.0),
+        'sound_png': ('h.png', _png(40, 30), False, 0.05),
+        'header_too_many': ('h.npy', _npy(shape=(side, side)), True, 1.0),
+        'header_absurd': ('h.npy', _npy(shape=(10 ** 40, 3)), True, 1.0),
+        'png_too_many': ('h.png', _png(side, side, valid=False), True, 1.0),
+        'too_big_file': ('h.npy', MAX_HEIGHTMAP_BYTES + 1, True, 1.0),
+        'cut_short': ('h.npy', _npy(np.zeros((40, 40)), cut=rng.randrange(1, 12000)), False, 1.0),
+        'nan': ('h.npy', _npy(np.full((10, 10), np.nan)), False, 1.0),
+        'pickled': ('h.npy', _npy(np.array([[{'a': 1}, None]] * 3, dtype=object)), False, 1.0),
+        'one_d': ('h.npy', _npy(np.zeros(50)), True, 1.0),
+        'random_bytes': ('h.npy', bytes(rng.randrange(256) for _ in range(300)), True, 1.0),
+        'text_file': ('h.txt', b'1 2 3\n4 5 6\n', True, 1.0),
+        'missing': ('', b'', True, 1.0),
+        'scale_too_big': ('h.npy', _npy(np.zeros((10, 10))), True, 1.0e6),
+    }
+    case = rng.choice(sorted(cases))
+    file_name, content, reject, scale = cases[case]
+    new = _copy(raw)
+    new['terrain'] = {'kind': 'heightmap', 'file': f'@DIR@/{file_name or "missing.npy"}', 'scale': scale,
+                      'spacing': 0.05}
+    files = ((file_name, content),) if file_name else ()
+    return Mutation('heightmap', name, _dump(new), 'terrain.file', reject, case, files)
+
+
 MUTATORS = {
     'wrong_type': _wrong_type, 'out_of_range': _out_of_range, 'non_finite': _non_finite,
     'unknown_field': _unknown_field, 'deep_nesting': _deep_nesting, 'huge': _huge, 'encoding': _encoding,
     'duplicate_keys': _duplicate_keys, 'alias_bomb': _alias_bomb, 'anchors': _anchors, 'empty': _empty,
-    'truncation': _truncation, 'byte_flips': _byte_flips, 'tags': _tags,
+    'truncation': _truncation, 'byte_flips': _byte_flips, 'tags': _tags, 'heightmap': _heightmap,
 }
 """Every kind of mutation, by name; trials cycle through them in this order."""
 
@@ -429,7 +495,15 @@ def _within_limits(scene: Scene) -> list[str]:
 def load_trial(index: int, mutation: Mutation, directory: Path) -> Trial:
     """Write `mutation` to `directory` and load it; the Trial lists every rule it broke (`problems`)."""
     path = directory / f'm{index:04d}_{mutation.base}_{mutation.kind}.yaml'
-    path.write_bytes(mutation.data)
+    beside = directory / f'm{index:04d}_files'
+    for file_name, content in mutation.files:
+        beside.mkdir(exist_ok=True)
+        with (beside / file_name).open('wb') as f:
+            if isinstance(content, int):
+                f.truncate(content)        # a sparse file of that size
+            else:
+                f.write(content)
+    path.write_bytes(mutation.data.replace(b'@DIR@', str(beside).encode()))
     trial = Trial(index, mutation.kind, mutation.base, mutation.target, mutation.note, mutation.must_reject,
                   file=str(path))
     tracemalloc.start()

@@ -92,12 +92,15 @@ def test_deep_nesting_is_one_line_not_a_recursion_error(tmp_path):
     ({'kind': 'hills', 'extent': 1.0e7, 'spacing': 0.001}, "'terrain.extent'"),   # 284 PiB before the fix
     ({'kind': 'hills', 'extent': 900.0, 'wavelength': 0.01}, "'terrain.wavelength'"),  # hills sample wavelength/16
     ({'kind': 'noise', 'extent': 100.0, 'spacing': 0.001, 'wavelength': 1.0}, "'terrain.spacing'"),
+    ({'kind': 'hills', 'wavelength': 5e-324}, "'terrain.wavelength'"),       # spacing 0: ZeroDivisionError before
+    ({'kind': 'hills', 'wavelength': 1e-300}, "'terrain.wavelength'"),       # an 800-digit node count before
+    ({'kind': 'steps', 'extent': 1000.0, 'spacing': 1e-306, 'block_size': 1.0}, "'terrain.spacing'"),  # inf cells
 ])
 def test_terrain_grid_size_is_bounded_by_the_schema(terrain, field):
     with pytest.raises(SceneError) as info:
         parse_scene({'terrain': terrain}, 'big.yaml')
     message = str(info.value)
-    assert message.startswith('big.yaml: field ' + field) and 'at most' in message
+    assert message.startswith('big.yaml: field ' + field) and 'at most' in message and len(message) < 300
 
 
 @pytest.mark.parametrize('raw, field, limit', [
@@ -181,6 +184,7 @@ def test_mixed_type_keys_and_odd_yaml_values_are_one_line(tmp_path):
     assert 'YAML' in _one_line_error(tmp_path, 'a: !!python/object:os.system [ls]\n')
     long_value = _one_line_error(tmp_path, 'description: [' + ', '.join(['1'] * 5000) + ']\n')
     assert "'description'" in long_value
+    assert _load_text(tmp_path, 'description: ' + 'abcdef' * 300 + '\n').description == 'abcdef' * 300
 
 
 def test_heightmap_file_is_checked_before_loading(tmp_path):

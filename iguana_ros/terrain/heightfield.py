@@ -253,9 +253,16 @@ class HeightField:
             raise InputError(f'{path}: {exc}') from None
 
 
-def grid_nodes(extent: float, spacing: float) -> int:
-    """Nodes of the square grid the generated terrains build over `[-extent, extent]²` at `spacing` m."""
-    return (math.ceil(2.0 * extent / spacing) + 1) ** 2
+def grid_nodes(extent: float, spacing: float) -> float:
+    """Nodes (an int) of the square grid the generated terrains build over `[-extent, extent]²` at `spacing` m;
+    inf when there would be more than 1e30 (a spacing too small to count with)."""
+    cells = 2.0 * extent / spacing if spacing > 0 else math.inf
+    return (math.ceil(cells) + 1) ** 2 if cells < 1e15 else math.inf
+
+
+def node_count(nodes: float) -> str:
+    """A grid's node count for a message: in full up to 1e9, else in %.3g."""
+    return str(nodes) if nodes < 1e9 else f'{nodes:.3g}'
 
 
 def _grid_axis(extent: float, spacing: float) -> np.ndarray:
@@ -263,8 +270,8 @@ def _grid_axis(extent: float, spacing: float) -> np.ndarray:
     InputError if the square grid would have more than MAX_GRID_NODES nodes."""
     nodes = grid_nodes(extent, spacing)
     if nodes > MAX_GRID_NODES:
-        raise InputError(f'height field: a {2.0 * extent:g} m square at spacing {spacing:g} m has {nodes} grid nodes, '
-                         f'at most {MAX_GRID_NODES} allowed')
+        raise InputError(f'height field: a {2.0 * extent:g} m square at spacing {spacing:g} m has {node_count(nodes)} '
+                         f'grid nodes, at most {MAX_GRID_NODES} allowed')
     return -extent + spacing * np.arange(math.isqrt(nodes))
 
 
@@ -284,11 +291,12 @@ def heightmap_shape(path) -> tuple[int, int]:
         shape = _png_header_shape(path)
     else:
         raise InputError(f'height field: {path} must be a .npy array or a .png image, got {suffix!r}')
+    shown = str(shape) if len(str(shape)) <= 60 else str(shape)[:57] + '...'
     if len(shape) != 2:
-        raise InputError(f'height field: {path} must hold a 2-D numeric array, got shape {shape}')
+        raise InputError(f'height field: {path} must hold a 2-D numeric array, got shape {shown}')
     if math.prod(shape) > MAX_GRID_NODES:
-        raise InputError(f'height field: {path} holds a {shape[0]}x{shape[1]} grid, at most {MAX_GRID_NODES} '
-                         f'nodes allowed')
+        raise InputError(f'height field: {path} holds a grid of shape {shown}, {node_count(math.prod(shape))} nodes; '
+                         f'at most {MAX_GRID_NODES} allowed')
     return shape
 
 
