@@ -18,7 +18,7 @@ from pathlib import Path
 import yaml
 
 from iguana_ros.config import config_path
-from iguana_ros.constants import FRAME_RATE, PUSH_DURATION
+from iguana_ros.constants import FRAME_RATE, MAX_PUSH_IMPULSE, PUSH_DURATION
 from iguana_ros.errors import InputError
 
 TERRAIN_KINDS = ('flat', 'tilted', 'hills', 'heightmap', 'steps', 'noise')
@@ -157,7 +157,8 @@ MAX_EXTENT = 1000.0
 MAX_RELIEF = 100.0
 """Largest terrain height figure (amplitude, step heights, height-map scale), m."""
 MAX_PUSH_FORCE = 1000.0
-"""Largest push force magnitude, N (25 x the paper's 40 N push)."""
+"""Largest push force magnitude, N (25 x the paper's 40 N push), alone or summed over the pushes acting at once: of
+a scene's pushes here, of the push topic in iguana_ros.validation (impulse: constants.MAX_PUSH_IMPULSE)."""
 MAX_ANGLE_DEG = 360.0
 """Largest |angle| of a heading or terrain direction, deg."""
 MAX_SEED = 2 ** 63 - 1
@@ -346,6 +347,7 @@ def _cross_checks(scene: Scene, source: str) -> None:
     if terrain.kind in ('steps', 'noise'):
         _check_grid(terrain.extent, terrain.spacing, 'terrain.spacing', f'spacing {terrain.spacing:g} m', source)
         _check_generated_terrain(terrain, source)
+    _check_pushes(scene.pushes, source)
     half = terrain.extent / 2.0
     if max(abs(scene.start.x), abs(scene.start.y)) > half:
         _fail(source, 'start', f'start ({scene.start.x:g}, {scene.start.y:g}) is off the terrain '
@@ -353,6 +355,20 @@ def _cross_checks(scene: Scene, source: str) -> None:
     for i, goal in enumerate(scene.goals):
         if max(abs(goal.x), abs(goal.y)) > half:
             _fail(source, f'goals[{i}]', f'goal ({goal.x:g}, {goal.y:g}) is off the terrain (|x|, |y| <= {half:g})')
+
+
+def _check_pushes(pushes: tuple, source: str) -> None:
+    """Each push's impulse within MAX_PUSH_IMPULSE; the pushes acting when one starts within MAX_PUSH_FORCE in all
+    (the rules of the push topic, iguana_ros.validation.check_push)."""
+    for i, push in enumerate(pushes):
+        magnitude = math.hypot(*push.force)
+        if magnitude * push.duration > MAX_PUSH_IMPULSE:
+            _fail(source, f'pushes[{i}]', f'impulse {magnitude:g} N x {push.duration:g} s = '
+                                          f'{magnitude * push.duration:g} N s, at most {MAX_PUSH_IMPULSE:g} N s')
+        acting = sum(math.hypot(*q.force) for q in pushes if q.at <= push.at < q.at + q.duration)
+        if acting > MAX_PUSH_FORCE:
+            _fail(source, f'pushes[{i}].force', f'the pushes acting at {push.at:g} s total {acting:g} N, at most '
+                                                f'{_limit(MAX_PUSH_FORCE)} N')
 
 
 def _check_grid(extent: float, spacing: float, field_path: str, what: str, source: str) -> None:
