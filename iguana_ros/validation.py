@@ -14,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from iguana_ros.constants import (BONE_LENGTH_TOLERANCE, DESIRED_LENGTH_FACTOR, MAX_FRAME_GAP, MAX_PUSH_IMPULSE,
-                                  QUATERNION_NORM_TOLERANCE, WORLD_MARGIN)
+from iguana_ros.constants import (BONE_LENGTH_TOLERANCE, DESIRED_LENGTH_FACTOR, DESIRED_STRAIN_RMS, MAX_FRAME_GAP,
+                                  MAX_PUSH_IMPULSE, QUATERNION_NORM_TOLERANCE, WORLD_MARGIN)
 from iguana_ros.errors import InputError
 from iguana_ros.scene import MAX_PUSH_FORCE
 
@@ -93,7 +93,8 @@ def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_ex
 
 def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.ndarray:
     """spring_rest_lengths: desired lengths `(n_springs,)` m, each within DESIRED_LENGTH_FACTOR of its rest
-    length (above rest / factor, below rest x factor); InputError naming the worst spring otherwise."""
+    length (above rest / factor, below rest x factor), their RMS log strain at most DESIRED_STRAIN_RMS;
+    InputError naming the worst spring (or the strain) otherwise."""
     rest = np.asarray(rest_lengths, dtype=np.float64)
     lengths = validate_array('spring_rest_lengths', lengths, rest.shape)
     with np.errstate(over='ignore', divide='ignore'):
@@ -105,6 +106,10 @@ def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.n
         raise InputError(f'spring_rest_lengths has {int(bad.sum())} of {len(ratio)} lengths outside '
                          f'{low:.3g}..{high:g} x their rest length (spring {worst}: {lengths[worst]:.6g} m, rest '
                          f'{rest[worst]:.6g} m)')
+    strain = float(np.sqrt(np.mean(np.log(ratio) ** 2))) if len(ratio) else 0.0
+    if strain > DESIRED_STRAIN_RMS:
+        raise InputError(f'spring_rest_lengths strain the whole body: RMS |ln(length / rest)| is {strain:.3g}, '
+                         f'above {DESIRED_STRAIN_RMS:g} (median length {float(np.median(ratio)):.3g} x rest)')
     return lengths
 
 

@@ -57,11 +57,11 @@ def test_every_fault_of_every_topic_is_refused_by_its_decoder(scene_file):
     ctx = FuzzContext.for_scene(scene)
     model = build_model('coarse')
     rng = np.random.default_rng(7)
-    for frame in (0, 25, 200):
+    for frame in (0, 200):
         ctx.frame = frame
         for key, kinds in FUZZ_KINDS.items():
             for kind in kinds:
-                for _ in range(5):
+                for _ in range(3):
                     assert _refused(key, fuzz_message(key, kind, ctx, rng), ctx, model), (key, kind, frame)
     plan = fault_plan(200, np.random.default_rng(0))
     pairs = {(k, kind) for k, kinds in FUZZ_KINDS.items() for kind in kinds}

@@ -1,6 +1,6 @@
 """Finite but absurd input at the node boundary (issue 12, items 7 and 8), with real node processes: a goal far off
-the terrain is rejected by every node that reads goal_pose (the simulator does not draw it), 1e6 m spring lengths
-and a 1e6 N push are rejected and the lockstep simulator keeps running and never simulates the bad frame."""
+the terrain is rejected by the simulator as by the planner (test/cli/test_goal.py) and not drawn, 1e6 m spring
+lengths and a 1e6 N push are rejected, and the lockstep simulator keeps running and never simulates the bad frame."""
 from __future__ import annotations
 
 import numpy as np
@@ -13,31 +13,12 @@ from iguana_ros.body.model import build_model
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(150)]
 
 
-def test_a_goal_off_the_terrain_is_rejected_by_planner_and_simulator(tmp_path, make_node, executor):
-    from iguana_ros.nodes.goal_sender import goal_message
-    probe = Probe(make_node('probe'), executor)
-    probe.listen('scene_markers')
-    goal_pub = probe.pub('goal_pose')
-    scene = _scene(tmp_path)
-    with _node('planner_node', scene, tmp_path) as planner, _node('simulator_node', scene, tmp_path) as sim:
-        probe.wait_matched('goal_pose', 2)
-        goal_pub.publish(goal_message(1e9, 0.0))
-        goal_pub.publish(goal_message(0.5, 1.0))
-
-        def drawn():
-            return [(mk.pose.position.x, mk.pose.position.y) for msg in probe.got['scene_markers']
-                    for mk in msg.markers if mk.ns == 'goal']
-        assert spin_until(executor, lambda: (0.5, 1.0) in drawn(), 30), sim.output
-        assert planner.wait_for_output('scheduled for', 10) and planner.running and sim.running
-    assert drawn() == [(0.5, 1.0)]  # the 1e9 goal was never drawn
-    for node in (planner, sim):
-        assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain (|x|, |y| <= 5 m)' in node.output, node.output
-
-
-def test_absurd_lengths_and_push_are_rejected_and_the_frame_is_simulated_with_good_data(tmp_path, make_node,
-                                                                                        executor):
+def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, make_node, executor):
+    """A goal at x = 1e9 (the planner's rule: test/cli/test_goal.py), lengths of 1e6 m, a 1e6 N push: each is
+    logged as rejected; the goal is not drawn, and frame 0 is simulated with the good lengths sent after."""
     from geometry_msgs.msg import WrenchStamped
 
+    from iguana_ros.nodes.goal_sender import goal_message
     from iguana_ros.nodes.messages import lengths_to_msg, state_from_msg
     from iguana_ros.pipeline import SimulatorStage
     from iguana_ros.terrain.heightfield import HeightField
@@ -45,8 +26,17 @@ def test_absurd_lengths_and_push_are_rejected_and_the_frame_is_simulated_with_go
     rest = np.array(model.spring_rest_lengths)
     probe = Probe(make_node('probe'), executor)
     probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
-    lengths_pub, push_pub = probe.pub('spring_rest_lengths'), probe.pub('push')
+    probe.listen('scene_markers')
+    lengths_pub, push_pub, goal_pub = probe.pub('spring_rest_lengths'), probe.pub('push'), probe.pub('goal_pose')
+
+    def drawn():
+        return [(mk.pose.position.x, mk.pose.position.y) for msg in probe.got['scene_markers']
+                for mk in msg.markers if mk.ns == 'goal']
     with _node('simulator_node', _scene(tmp_path), tmp_path, lockstep_timeout=1.0, lockstep_max_timeouts=100) as sim:
+        probe.wait_matched('goal_pose')
+        goal_pub.publish(goal_message(1e9, 0.0))
+        goal_pub.publish(goal_message(0.5, 1.0))
+        assert spin_until(executor, lambda: (0.5, 1.0) in drawn(), 30), sim.output
         probe.wait('iguana_state', 1, timeout=60)
         probe.wait_matched('push')
         push = WrenchStamped()
@@ -60,6 +50,8 @@ def test_absurd_lengths_and_push_are_rejected_and_the_frame_is_simulated_with_go
         lengths_pub.publish(lengths_to_msg(rest, 0))
         assert spin_until(executor, lambda: any(state_from_msg(s)[0] == 1 for s in probe.got['iguana_state']), 30)
         assert sim.running
+    assert drawn() == [(0.5, 1.0)]  # the 1e9 goal was never drawn
+    assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain (|x|, |y| <= 5 m)' in sim.output
     after = next(s for s in probe.got['iguana_state'] if state_from_msg(s)[0] == 1)
     stage = SimulatorStage(model, HeightField.flat(), 'balanced')   # the same frame simulated in-process
     stage.advance(rest)

@@ -43,7 +43,13 @@ def test_goal_off_the_terrain_or_stamped_before_zero_is_rejected_by_the_one_goal
 
 def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
     rest = np.asarray(model.spring_rest_lengths)
-    assert np.array_equal(v.check_desired_lengths(rest * 1.4, rest), rest * 1.4)
+    bent = rest.copy()
+    bent[::40] *= 2.0      # a few springs far from rest, as a folded leg commands
+    bent[5::40] *= 0.2
+    assert np.array_equal(v.check_desired_lengths(bent, rest), bent)
+    with pytest.raises(InputError, match=r'strain the whole body: RMS \|ln\(length / rest\)\| is 0.693, above 0.3 '
+                                         r'\(median length 2 x rest\)'):
+        v.check_desired_lengths(rest * 2.0, rest)   # every spring x2 at once: diverges in one frame
     for scale in (1e6 / rest.max(), DESIRED_LENGTH_FACTOR * 1.01, 1.0 / DESIRED_LENGTH_FACTOR / 1.01, 0.0):
         with pytest.raises(InputError, match=f'lengths outside .* x their rest length'):
             v.check_desired_lengths(rest * scale, rest)
