@@ -36,8 +36,13 @@ TRIAL_SCENE = {'name': 'faults', 'model': {'resolution': 'coarse'}, 'terrain': {
                'goals': [{'x': 2.0, 'y': 0.0, 'at': 0.0}], 'duration': 20.0}
 """The scene of every trial: quick to start, long enough (20 s simulated, ~8 s wall) to be killed mid-run."""
 
-LATEST_FAULT_S = 13.0
-"""Latest moment of a random fault, wall seconds after `iguana run` is launched (start-up takes ~7 s)."""
+LATEST_START_UP_FAULT_S = 10.0
+"""Latest moment of a random fault during start-up, wall seconds after `iguana run` is launched (start-up takes
+~7 s on two idle cores: domain check, recorder, four nodes loading, goals)."""
+
+LATEST_RUNNING_FAULT_S = 5.0
+"""Latest moment of a random fault while the run is under way, wall seconds after the bag first holds
+iguana_state (the 20 s scene runs ~8 s)."""
 
 ORPHAN_GRACE_S = 30.0
 """Wall seconds the run's processes get to exit after `iguana run` has (they get SIGTERM when it dies)."""
@@ -54,6 +59,7 @@ class Trial:
     target: str
     signal: str
     moment_s: float
+    phase: str = 'start-up'
     hit: bool = False
     fault_at_s: float = float('nan')
     exit_code: int | None = None
@@ -73,9 +79,10 @@ class Trial:
 
     def line(self) -> str:
         """One line: what was killed when, and the verdict."""
-        when = f'at {self.fault_at_s:.1f} s' if self.hit else f'not hit (planned {self.moment_s:.1f} s)'
+        plan = f'{self.phase} +{self.moment_s:.1f} s'
+        when = f'at {self.fault_at_s:.1f} s' if self.hit else 'not hit'
         verdict = 'ok' if self.survived else 'FAILED: ' + '; '.join(self.problems)
-        return (f'#{self.index:02d} {self.signal:<7} {self.target:<24} {when:<10} exit {self.exit_code}, '
+        return (f'#{self.index:02d} {self.signal:<7} {self.target:<24} {plan:<16} {when:<10} exit {self.exit_code}, '
                 f'{self.before_fault} -> {self.bag_messages} messages: {verdict}')
 
 
@@ -134,13 +141,13 @@ def _kill_leftovers(procs: list[ProcessInfo]) -> None:
             pass
 
 
-def run_trial(index: int, target: str, sig: int, moment_s: float | None, workdir: Path,
-              domain_id: str | None = None, before_fault: Callable[[Path], None] | None = None) -> Trial:
-    """Launch `iguana run` on the trial scene, send `sig` to `target` `moment_s` wall seconds after launch (None:
-    as soon as the bag holds iguana_state, i.e. the run is under way), and check the aftermath.
-    `before_fault(trial folder)` is called once the target is alive, just before the fault."""
+def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path, domain_id: str | None = None,
+              under_way: bool = False, before_fault: Callable[[Path], None] | None = None) -> Trial:
+    """Launch `iguana run` on the trial scene, send `sig` to `target` `moment_s` wall seconds after launch (or,
+    `under_way`, after the bag first holds iguana_state), and check the aftermath. A target that is not alive at
+    that moment is killed as soon as it is. `before_fault(trial folder)` is called just before the fault."""
     domain_id = domain_id or os.environ.get('ROS_DOMAIN_ID', '0')
-    trial = Trial(index, target, signal.Signals(sig).name, float('nan') if moment_s is None else moment_s)
+    trial = Trial(index, target, signal.Signals(sig).name, moment_s, 'under way' if under_way else 'start-up')
     folder = workdir / f'trial_{index:02d}'
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir(parents=True)
@@ -154,10 +161,9 @@ def run_trial(index: int, target: str, sig: int, moment_s: float | None, workdir
     run.start()
     before: dict[str, list[int]] = {}
     try:
-        if moment_s is None:
+        if under_way:
             wait_for(lambda: not run.running or '/iguana_state' in read_growing_bag(bag), RUN_LIMIT_S, 0.2)
-        else:
-            wait_for(lambda: not run.running, moment_s, 0.05)
+        wait_for(lambda: not run.running, moment_s, 0.05)
         pid = _target_pid(run, target, marker)
         deadline = time.monotonic() + 30.0
         while pid is None and run.running and time.monotonic() < deadline:
@@ -192,7 +198,7 @@ def run_trial(index: int, target: str, sig: int, moment_s: float | None, workdir
 def _check_output(trial: Trial, run: NodeProcess) -> None:
     """One clear line from `iguana run` (none when it was SIGKILLed itself), never a traceback."""
     text = run.output
-    if 'Traceback' in text:
+    if any(line.startswith('Traceback') for line in text.splitlines()):  # a node's quoted last lines are indented
         trial.problems.append('a traceback in the output of iguana run')
     lines = [line for line in text.splitlines() if line.startswith('iguana run:')]
     trial.last_line = lines[-1] if lines else ''
@@ -243,13 +249,16 @@ def _check_bag(trial: Trial, bag: Path, before: dict[str, list[int]]) -> None:
             f'{topic} {n}' for topic, n in sorted(trial.lost.items())))
 
 
-def plan_trials(n: int, seed: int) -> list[tuple[str, int, float]]:
-    """`n` seeded (target, signal, moment) triples: every target and signal in turn, moments uniform in
-    [0.2 s, LATEST_FAULT_S] after launch."""
+def plan_trials(n: int, seed: int) -> list[tuple[str, int, float, bool]]:
+    """`n` seeded (target, signal, moment, under way) plans: every target x signal in turn, each once during
+    start-up (moment uniform in [0.2 s, LATEST_START_UP_FAULT_S] after launch) and once under way (uniform in
+    [0, LATEST_RUNNING_FAULT_S] after the first iguana_state is recorded)."""
     rng = random.Random(seed)
-    pairs = [(t, s) for t in TARGETS for s in SIGNALS]
-    rng.shuffle(pairs)
-    return [(*pairs[i % len(pairs)], round(rng.uniform(0.2, LATEST_FAULT_S), 2)) for i in range(n)]
+    plans = [(t, s, w) for t in TARGETS for s in SIGNALS for w in (False, True)]
+    rng.shuffle(plans)
+    return [(target, sig, round(rng.uniform(0.0, LATEST_RUNNING_FAULT_S) if under_way
+                                else rng.uniform(0.2, LATEST_START_UP_FAULT_S), 2), under_way)
+            for target, sig, under_way in (plans[i % len(plans)] for i in range(n))]
 
 
 def fault_suite(trials: int = 20, seed: int = 12, workdir: Path | None = None, domain_id: str | None = None,
@@ -262,8 +271,8 @@ def fault_suite(trials: int = 20, seed: int = 12, workdir: Path | None = None, d
     started = time.monotonic()
     rows = []
     try:
-        for index, (target, sig, moment) in enumerate(plan_trials(trials, seed)):
-            trial = run_trial(index, target, sig, moment, workdir, domain_id)
+        for index, (target, sig, moment, under_way) in enumerate(plan_trials(trials, seed)):
+            trial = run_trial(index, target, sig, moment, workdir, domain_id, under_way)
             rows.append(trial)
             if progress is not None:
                 progress(trial)
@@ -271,7 +280,9 @@ def fault_suite(trials: int = 20, seed: int = 12, workdir: Path | None = None, d
         if own:
             shutil.rmtree(workdir, ignore_errors=True)
     return {'suite': 'processes', 'trials': len(rows), 'seed': seed, 'survived': sum(t.survived for t in rows),
-            'hit': sum(t.hit for t in rows), 'lost_messages': sum(sum(t.lost.values()) for t in rows),
+            'hit': sum(t.hit for t in rows), 'under_way': sum(t.phase == 'under way' for t in rows),
+            'messages_before_faults': sum(t.before_fault for t in rows),
+            'lost_messages': sum(sum(t.lost.values()) for t in rows),
             'orphans': sum(len(t.orphans) for t in rows), 'wall_s': round(time.monotonic() - started, 1),
             'rows': [asdict(t) for t in rows]}
 
@@ -280,8 +291,10 @@ def report_lines(result: dict) -> list[str]:
     """Human-readable lines of a fault_suite result."""
     rows = [Trial(**{k: v for k, v in row.items()}) for row in result['rows']]
     return [*(t.line() for t in rows),
-            f"processes: {result['survived']}/{result['trials']} trials survived ({result['hit']} faults landed), "
-            f"{result['orphans']} orphans, {result['lost_messages']} messages lost, {result['wall_s']:.0f} s wall"]
+            f"processes: {result['survived']}/{result['trials']} trials survived ({result['hit']} faults landed, "
+            f"{result['under_way']} while the run was under way), {result['orphans']} processes left behind, "
+            f"{result['lost_messages']} of {result['messages_before_faults']} messages recorded before the faults "
+            f"lost, {result['wall_s']:.0f} s wall"]
 
 
 def to_json(result: dict) -> str:

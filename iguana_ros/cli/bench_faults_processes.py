@@ -14,7 +14,8 @@ from iguana_ros.cli.argtypes import count
 def register(suites: argparse._SubParsersAction) -> None:
     """Add the `processes` suite to `iguana bench faults`."""
     parser = suites.add_parser('processes', help='kill iguana run and its children at random moments')
-    parser.add_argument('--trials', type=count(1), default=20, help='faults to inject, one run each (default 20)')
+    parser.add_argument('--trials', type=count(1), default=36,
+                        help='faults to inject, one run each (default 36: every target x signal x phase once)')
     parser.add_argument('--seed', type=int, default=12, help='seed of targets, signals and moments (default 12)')
     parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
                         help='ROS_DOMAIN_ID of the trials (default: 1 + pid %% 200, discovery on localhost)')

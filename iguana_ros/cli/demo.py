@@ -18,18 +18,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """iguana run SCENE, then iguana render BAG -o BAG.gif; prints the outputs."""
+    from iguana_ros.cli.run import run_and_report
     from iguana_ros.errors import IguanaError
-    from iguana_ros.nodes.launch import RunOptions, run_scene
+    from iguana_ros.nodes.launch import RunOptions
 
     extra = {} if args.duration is None else {'duration': float(args.duration)}
     print(f'iguana demo: running scene {args.scene!r} with four node processes (lockstep) ...', flush=True)
-    summary = run_scene(RunOptions(scene=args.scene, bags_dir=args.bags_dir, extra_params=extra))
-    for line in summary.lines():
-        print(line, flush=True)
-    if summary.exit_code != 0:
-        kind = 'error: ' if summary.outcome == 'failed' else ''
-        print(f'iguana demo: {kind}{summary.headline()}', file=sys.stderr, flush=True)
-        return summary.exit_code
+    summary, code = run_and_report(RunOptions(scene=args.scene, bags_dir=args.bags_dir, extra_params=extra),
+                                   'iguana demo')
+    if code != 0:
+        return code
     video = summary.bag.with_suffix('.gif')
     print(f'iguana demo: rendering {video} ...', flush=True)
     render = subprocess.run([sys.executable, '-m', 'iguana_ros.cli', 'render', str(summary.bag), '-o', str(video)])

@@ -23,27 +23,35 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the scene and print the summary; one line on stderr and a non-zero status unless it completed
-    (1 failed, 128 + n stopped by signal n, e.g. 143 for SIGTERM)."""
+def run_and_report(options, prog: str) -> tuple:
+    """Run a scene (RunOptions `options`), print its summary and, unless it completed, one line on stderr headed
+    `prog`; returns (the RunSummary or None if nothing was started, the exit status: 0 completed, 1 failed,
+    128 + n stopped by signal n, e.g. 143 for SIGTERM)."""
     import sys
 
-    from iguana_ros.errors import InputError
-    from iguana_ros.nodes.launch import RunInterrupted, RunOptions, run_scene
+    from iguana_ros.nodes.launch import RunInterrupted, run_scene
 
-    if args.duration is not None and not args.duration > 0:
-        raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
-    extra = {} if args.duration is None else {'duration': float(args.duration)}
     try:
-        summary = run_scene(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
-                                       single_process=args.single_process, timeout=args.timeout,
-                                       extra_params=extra))
+        summary = run_scene(options)
     except RunInterrupted as exc:  # before anything was started
-        print(f'iguana run: {exc} before the run started; nothing was started', file=sys.stderr, flush=True)
-        return 128 + exc.signum
+        print(f'{prog}: {exc} before the run started; nothing was started', file=sys.stderr, flush=True)
+        return None, 128 + exc.signum
     for line in summary.lines():
         print(line, flush=True)
     if summary.exit_code != 0:
         kind = 'error: ' if summary.outcome == 'failed' else ''
-        print(f'iguana run: {kind}{summary.headline()}', file=sys.stderr, flush=True)
-    return summary.exit_code
+        print(f'{prog}: {kind}{summary.headline()}', file=sys.stderr, flush=True)
+    return summary, summary.exit_code
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the scene and print the summary; one line on stderr and a non-zero status unless it completed."""
+    from iguana_ros.errors import InputError
+    from iguana_ros.nodes.launch import RunOptions
+
+    if args.duration is not None and not args.duration > 0:
+        raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
+    extra = {} if args.duration is None else {'duration': float(args.duration)}
+    return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
+                                     single_process=args.single_process, timeout=args.timeout,
+                                     extra_params=extra), 'iguana run')[1]

@@ -21,7 +21,7 @@ from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.process import ProcessInfo, run_processes
 from iguana_ros.topics import default_topics
 
-GRAPH_LISTEN_S = 1.0
+GRAPH_LISTEN_S = 0.5
 """Wall seconds the first phase listens to the DDS graph when it finds nothing."""
 
 SETTLE_S = 0.5

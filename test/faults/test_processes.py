@@ -42,12 +42,13 @@ def test_sigterm_of_iguana_run_finalises_the_bag_and_a_second_run_is_refused(tmp
         second['result'] = subprocess.run([*IGUANA, 'run', str(scene), '--record', str(second['bag'])], cwd=REPO,
                                           capture_output=True, text=True, timeout=60)
 
-    trial = run_trial(0, 'iguana run', signal.SIGTERM, None, tmp_path, before_fault=start_a_second_run)
+    trial = run_trial(0, 'iguana run', signal.SIGTERM, 0.0, tmp_path, under_way=True,
+                      before_fault=start_a_second_run)
     assert trial.hit and trial.survived, trial.line()
-    assert trial.exit_code == 128 + signal.SIGTERM
+    assert trial.exit_code == 128 + signal.SIGTERM, trial.line()
     assert re.fullmatch(r'iguana run: run stopped by SIGTERM after \d+\.\d\d of 20\.00 s simulated; '
                         r'bag finalised, \d+ messages on \d+ topics at .*', trial.last_line), trial.last_line
-    assert trial.bag_finalised and trial.bag_messages >= trial.before_fault > 0
+    assert trial.bag_finalised and trial.bag_messages >= trial.before_fault > 0, trial.line()
     # the second run on the same domain said why in one line and started nothing
     result = second['result']
     assert result.returncode == 1, result.stdout + result.stderr
@@ -59,24 +60,25 @@ def test_sigterm_of_iguana_run_finalises_the_bag_and_a_second_run_is_refused(tmp
 
 
 def test_sigkill_of_iguana_run_takes_every_child_along(tmp_path):
-    trial = run_trial(0, 'iguana run', signal.SIGKILL, None, tmp_path)
+    trial = run_trial(0, 'iguana run', signal.SIGKILL, 0.0, tmp_path, under_way=True)
     assert trial.hit and trial.survived, trial.line()
-    assert trial.exit_code == -signal.SIGKILL and trial.orphans == []
+    assert trial.exit_code == -signal.SIGKILL and trial.orphans == [], trial.line()
     # the recorder got SIGTERM when its parent died: the bag is finalised with everything read before the kill
-    assert trial.bag_finalised and trial.lost == {} and trial.bag_messages >= trial.before_fault > 0
+    assert trial.bag_finalised and trial.lost == {} and trial.bag_messages >= trial.before_fault > 0, trial.line()
 
 
 def test_a_killed_node_ends_the_run_with_how_far_it_got(tmp_path):
-    trial = run_trial(0, 'spring_length_node', signal.SIGKILL, None, tmp_path)
+    trial = run_trial(0, 'spring_length_node', signal.SIGKILL, 0.0, tmp_path, under_way=True)
     assert trial.hit and trial.survived, trial.line()
-    assert trial.exit_code == 1
+    assert trial.exit_code == 1, trial.line()
     found = re.fullmatch(r'iguana run: error: run failed after (\d+\.\d\d) of 20\.00 s simulated: '
                          r'spring_length_node exited with status -9 \(SIGKILL\); bag finalised, .*', trial.last_line)
     assert found, trial.last_line
     simulated = float(found.group(1))
-    assert simulated > 0 and simulated == pytest.approx(last_stamp(tmp_path / 'trial_00' / 'bag'), abs=0.005)
+    assert simulated > 0 and simulated == pytest.approx(last_stamp(tmp_path / 'trial_00' / 'bag'), abs=0.005), \
+        trial.last_line
     summary = (tmp_path / 'trial_00' / 'iguana_run.out').read_text()
-    assert 'last lines of spring_length_node:' in summary and 'Traceback' not in summary
+    assert 'last lines of spring_length_node:' in summary and 'Traceback' not in summary, summary
 
 
 def test_summary_is_read_from_the_bag_not_from_a_log(tmp_path):
