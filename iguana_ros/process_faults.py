@@ -287,14 +287,12 @@ def fault_suite(trials: int = 20, seed: int = 12, workdir: Path | None = None, d
             'rows': [asdict(t) for t in rows]}
 
 
-def report_lines(result: dict) -> list[str]:
-    """Human-readable lines of a fault_suite result."""
-    rows = [Trial(**{k: v for k, v in row.items()}) for row in result['rows']]
-    return [*(t.line() for t in rows),
-            f"processes: {result['survived']}/{result['trials']} trials survived ({result['hit']} faults landed, "
+def suite_line(result: dict) -> str:
+    """The figures of a fault_suite result in one line."""
+    return (f"processes: {result['survived']}/{result['trials']} trials survived ({result['hit']} faults landed, "
             f"{result['under_way']} while the run was under way), {result['orphans']} processes left behind, "
             f"{result['lost_messages']} of {result['messages_before_faults']} messages recorded before the faults "
-            f"lost, {result['wall_s']:.0f} s wall"]
+            f"lost, {result['wall_s']:.0f} s wall")
 
 
 def to_json(result: dict) -> str:

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
+from pathlib import Path
+
+from iguana_ros.cli.argtypes import count
 
 SUITES = (
     # (name, module exposing `register(suites)`); a suite is imported only when listed here.
@@ -12,6 +16,21 @@ SUITES = (
     ('processes', 'iguana_ros.cli.bench_faults_processes'),
     ('topics', 'iguana_ros.cli.bench_faults_topics'),
 )
+
+
+def add_run_options(parser: argparse.ArgumentParser, runs: str = 'runs') -> None:
+    """The options of a suite that starts ROS processes: --domain, --keep DIR, --json."""
+    parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
+                        help=f'ROS_DOMAIN_ID of the {runs} (default: 1 + pid %% 200, discovery on localhost)')
+    parser.add_argument('--keep', type=Path, default=None, metavar='DIR',
+                        help=f'keep every one of the {runs} (scene, bag, logs) under DIR')
+    parser.add_argument('--json', action='store_true', help='print one JSON object')
+
+
+def suite_domain(args: argparse.Namespace) -> str:
+    """The ROS_DOMAIN_ID of a suite's runs (--domain, else one from the pid), discovery kept on localhost."""
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    return str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
 
 
 def faults_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:

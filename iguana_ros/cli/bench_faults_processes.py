@@ -4,11 +4,10 @@ fault, and one clear line (iguana_ros/process_faults.py)."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-from pathlib import Path
 
 from iguana_ros.cli.argtypes import count
+from iguana_ros.cli.bench_faults import add_run_options, suite_domain
 
 
 def register(suites: argparse._SubParsersAction) -> None:
@@ -17,20 +16,15 @@ def register(suites: argparse._SubParsersAction) -> None:
     parser.add_argument('--trials', type=count(1), default=36,
                         help='faults to inject, one run each (default 36: every target x signal x phase once)')
     parser.add_argument('--seed', type=int, default=12, help='seed of targets, signals and moments (default 12)')
-    parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
-                        help='ROS_DOMAIN_ID of the trials (default: 1 + pid %% 200, discovery on localhost)')
-    parser.add_argument('--keep', type=Path, default=None, metavar='DIR',
-                        help='keep every trial (scene, bag, logs, output) under DIR')
-    parser.add_argument('--json', action='store_true', help='print one JSON object')
+    add_run_options(parser, 'trials')
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the trials (one line each as they end), then the figures; exit status 1 if any trial failed."""
-    from iguana_ros.process_faults import Trial, fault_suite, report_lines, to_json
+    from iguana_ros.process_faults import Trial, fault_suite, suite_line, to_json
 
-    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    domain = str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
+    domain = suite_domain(args)
 
     def progress(trial: Trial) -> None:
         print(trial.line(), file=sys.stderr if args.json else sys.stdout, flush=True)
@@ -39,5 +33,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(to_json(result))
     else:
-        print(report_lines(result)[-1])
+        print(suite_line(result))
     return 0 if result['survived'] == result['trials'] else 1
