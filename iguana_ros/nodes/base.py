@@ -70,9 +70,12 @@ class IguanaNode(Node):
         name, cls, qos = resolve(key)
         return self.create_publisher(cls, name, qos)
 
-    def subscription(self, key: str, callback: Callable, raw: bool = False):
-        """Subscription to topic `key` of the topic table."""
+    def subscription(self, key: str, callback: Callable, raw: bool = False, depth: int | None = None):
+        """Subscription to topic `key` of the topic table; `depth` (optional) deepens this reader's history beyond
+        the table's (a latched topic's depth 1 is what its publisher keeps for late joiners)."""
         name, cls, qos = resolve(key)
+        if depth is not None:
+            qos.depth = max(qos.depth, depth)
         return self.create_subscription(cls, name, callback, qos, raw=raw)
 
     def guarded(self, what: str, callback: Callable) -> Callable:
@@ -101,6 +104,10 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
     except IguanaError as exc:
         print(f'error: {exc}', file=sys.stderr)
         code = 1
+    except Exception:
+        if rclpy.ok():
+            raise
+        # the shutdown itself (SIGINT / SIGTERM) interrupted a take or a callback: rclpy raises from inside it
     finally:
         code = max(code, max((getattr(n, 'exit_code', 0) for n in nodes), default=0))
         for node in nodes:

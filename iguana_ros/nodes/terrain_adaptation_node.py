@@ -10,6 +10,10 @@ from iguana_ros.validation import FRAME_NEW, FRAME_STALE, check_frame, world_bou
 MAX_CLIPS = 4
 """Placed clips kept (by start frame) for frames that arrive late."""
 
+CLIP_QUEUE_DEPTH = 10
+"""History depth of the motion_clip reader: the topic's depth 1 (latched) would let a burst from another publisher
+push the planner's clip out of the queue before it is taken (the lockstep run then stalls at that stride)."""
+
 
 class TerrainAdaptationNode(IguanaNode):
     """Samples the current clip at each state's frame, adapts it to the terrain, publishes bone frames."""
@@ -35,7 +39,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.last_frame = -1
         self.last_msg = None
         self.pose_pub = self.publisher('reference_pose')
-        self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip))
+        self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
         self.get_logger().info(f'terrain adaptation ready ({"on" if needed else "off"})')
 

@@ -10,7 +10,7 @@ import yaml
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
 from iguana_ros.nodes import messages as m
-from iguana_ros.nodes.topic_fuzz import FUZZ_KINDS, FuzzContext, fault_plan, fuzz_message
+from iguana_ros.nodes.topic_fuzz import FUZZ_KINDS, FuzzContext, fault_plan, fuzz_message, trial_scene
 from iguana_ros.scene import load_scene
 from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
 
@@ -19,11 +19,9 @@ SECONDS = 3.0
 
 @pytest.fixture(scope='module')
 def scene_file(tmp_path_factory):
+    """The first scene of the long suite (`iguana bench faults topics`): hills, a goal 1.5 m away, coarse mesh."""
     path = tmp_path_factory.mktemp('scene') / 'fuzz.yaml'
-    path.write_text(yaml.safe_dump({
-        'name': 'fuzz', 'model': {'resolution': 'coarse'},
-        'terrain': {'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0, 'seed': 3},
-        'goals': [{'x': 0.3, 'y': 1.0, 'at': 0.0}], 'duration': SECONDS}))
+    path.write_text(yaml.safe_dump(trial_scene(0, 0, SECONDS, 'coarse')))
     return path
 
 

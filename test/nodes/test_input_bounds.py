@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from ros_harness import spin_until
-from test_nodes import Probe, _node, _scene
+from test_nodes import Probe, _node, _scene, _state
 
 from iguana_ros.body.model import build_model
 
@@ -59,3 +59,42 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
     assert 'rejected push: push force 1e+06 N is above the 1000 N limit' in sim.output
     assert 'rejected spring_rest_lengths: spring_rest_lengths has' in sim.output
     assert 'x their rest length' in sim.output
+
+
+def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make_node, executor):
+    """motion_clip is latched with depth 1: a reader that deep lost the planner's clip when another publisher's
+    messages came right after it while the node was busy (found by `iguana bench faults topics`: the lockstep run
+    stalled at that stride)."""
+    from rclpy.serialization import serialize_message
+
+    from iguana_ros.body.skeleton import iguana_skeleton
+    from iguana_ros.motion.clips import load_clip_library
+    from iguana_ros.motion.motion_graph import MotionGraph
+    from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg, state_to_msg
+    skeleton = iguana_skeleton()
+    graph = MotionGraph(load_clip_library())
+    first = graph.align('forward', np.array([0.0, 0.0]), 0.0)
+    second = graph.align('forward', first.root_positions[-1, :2], 0.0, previous=first)
+    bad = clip_to_msg(second, skeleton, 20)
+    bad.header.frame_id = 'map'
+    bad = serialize_message(bad)
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('reference_pose')
+    clip_pub, state_pub = probe.pub('motion_clip'), probe.pub('iguana_state')
+    bad_pub = probe.pub('motion_clip')     # another writer (a writer keeps only its own last sample)
+    scene = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 10.0})   # adaptation on: a busy node
+    with _node('terrain_adaptation_node', scene, tmp_path) as node:
+        probe.wait_matched('iguana_state')
+        assert spin_until(executor, lambda: clip_pub.get_subscription_count() >= 1
+                          and bad_pub.get_subscription_count() >= 1, 30)
+        state_pub.publish(_state(0))
+        clip_pub.publish(clip_to_msg(first, skeleton, 0))      # the node adapts frame 0 ...
+        clip_pub.publish(clip_to_msg(second, skeleton, 20))    # ... while the next clip and a burst arrive
+        for _ in range(8):
+            bad_pub.publish(bad)
+        assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 1, 30)
+        state_pub.publish(_state(20, xy=tuple(second.root_positions[0, :2])))
+        assert spin_until(executor, lambda: any(reference_pose_from_msg(p, skeleton.n_bones)[0] == 20
+                                                for p in probe.got['reference_pose']), 20), node.output
+        assert node.running
+    assert "rejected motion_clip: motion_clip has frame_id 'map'" in node.output
