@@ -11,7 +11,7 @@ other message is scanned, and the root trajectory is compared with `pipeline.run
 from __future__ import annotations
 
 import math
-import threading
+import sys
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -226,6 +226,45 @@ def fuzz_message(key: str, kind: str, ctx: FuzzContext, rng: np.random.Generator
     return _BUILDERS[key](kind, ctx, rng)
 
 
+FRAME_STAMPED = ('motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana_state')
+"""Fuzzed topics whose header stamp names a frame (goal_pose's is an adoption time, push's is not read)."""
+
+
+def prepared_fault(key: str, kind: str, ctx: FuzzContext, rng: np.random.Generator) -> tuple[bytes, int | None]:
+    """(serialized bytes, stamp offset in frames from the frame it goes out at, or None to keep its stamp) of one
+    fault: built ahead, so that publishing it during the run costs a byte copy (see `restamped`)."""
+    from rclpy.serialization import serialize_message
+    at = ctx.frame
+    ctx.frame = 0
+    try:
+        msg = fuzz_message(key, kind, ctx, rng)
+    finally:
+        ctx.frame = at
+    data = serialize_message(msg)
+    data += b'\x00' * (-len(data) % 4)  # as Fast DDS pads it on the wire (and the bag records it)
+    offset = None
+    if key in FRAME_STAMPED:
+        offset = int(round((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9) * FRAME_RATE))
+    return data, offset
+
+
+def restamped(data: bytes, frame: int) -> bytes:
+    """`data` (a serialized message whose first field is a std_msgs/Header) with its stamp set to `frame`."""
+    import struct
+    ns = int(round(frame / FRAME_RATE * 1e9))
+    out = bytearray(data)
+    struct.pack_into('<iI', out, 4, ns // 1_000_000_000, ns % 1_000_000_000)
+    return bytes(out)
+
+
+def fuzzed_readers() -> dict[str, int]:
+    """Subscriptions each fuzzed topic has in a run: the nodes the topic table names as its subscribers, and the
+    bag recorder."""
+    from iguana_ros.nodes.launch import NODE_KINDS
+    from iguana_ros.topics import topic
+    return {key: 1 + sum(1 for who in topic(key).subscribers if who.split()[0] in NODE_KINDS) for key in FUZZ_KINDS}
+
+
 def fault_plan(n_messages: int, rng: np.random.Generator) -> list[tuple[str, str]]:
     """`n_messages` (topic key, fault kind) pairs: every pair of FUZZ_KINDS once (in random order) before any
     repeats, then random pairs."""
@@ -236,85 +275,117 @@ def fault_plan(n_messages: int, rng: np.random.Generator) -> list[tuple[str, str
 
 
 class TopicFuzzer:
-    """A thread with its own rclpy context that publishes the faults of a plan as the run advances: `before`
-    faults at once, then `per_frame` more for each frame /clock reports, each stamped relative to that frame. It
-    keeps the serialized bytes of everything it sent, and the frame each went out at."""
+    """Publishes the faults of a plan as the run advances: `before` faults once its publishers are matched with
+    every node that reads them (and the recorder) and the simulator's /clock is heard, then `per_frame` more for
+    each frame /clock reports, each stamped relative to that frame. Run in a process of its own (`main`), as a
+    foreign publisher would be; it keeps the serialized bytes of everything it sent."""
 
     def __init__(self, ctx: FuzzContext, plan: list[tuple[str, str]], seed: int, per_frame: int = 1,
                  before: int = 0) -> None:
-        """Fuzz with `plan` (see `fault_plan`), contents drawn from `seed`."""
+        """Fuzz with `plan` (see `fault_plan`), contents drawn from `seed` and built here, before the run."""
         self.ctx, self.plan, self.per_frame, self.before = ctx, plan, max(1, per_frame), before
-        self.rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(seed)
+        self.prepared = [prepared_fault(key, kind, ctx, rng) for key, kind in plan]
         self.sent: list[tuple[str, bytes]] = []
-        self.sent_at: list[int] = []
         self.counts: Counter = Counter()
-        self.error: BaseException | None = None
-        self._stop = threading.Event()
-        self._ready = threading.Event()
-        self._thread = threading.Thread(target=self._run, name='topic-fuzzer', daemon=True)
-
-    def start(self, timeout: float = 30.0) -> 'TopicFuzzer':
-        """Start the thread; return once its publishers exist (at most `timeout` s)."""
-        self._thread.start()
-        self._ready.wait(timeout)
-        return self
-
-    def stop(self) -> None:
-        """Stop publishing and wait for the thread (re-raises what failed in it)."""
-        self._stop.set()
-        self._thread.join(30.0)
-        if self.error is not None:
-            raise self.error
+        self.stopped = False
 
     @property
     def done(self) -> bool:
         """Whether the whole plan has been sent."""
         return len(self.sent) >= len(self.plan)
 
-    def _run(self) -> None:
+    def run(self, on_matched=lambda: None) -> None:
+        """Publish the plan (until `stopped` is set); `on_matched()` once every reader is matched."""
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.serialization import serialize_message
-        from rclpy.signals import SignalHandlerOptions
 
         from iguana_ros.nodes.conversions import time_from_msg
         from iguana_ros.nodes.ros_topics import resolve
 
-        context = rclpy.Context()
-        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            node = rclpy.create_node('iguana_topic_fuzzer', context=context)
-            pubs, names = {}, {}
-            for key in FUZZ_KINDS:
-                name, cls, qos = resolve(key)
-                pubs[key] = node.create_publisher(cls, name, qos)
-                names[key] = pubs[key].topic_name
-            clock_name, clock_cls, clock_qos = resolve('clock')
+        node = rclpy.create_node('iguana_topic_fuzzer')
+        pubs, names = {}, {}
+        for key in FUZZ_KINDS:
+            name, cls, qos = resolve(key)
+            pubs[key] = node.create_publisher(cls, name, qos)
+            names[key] = pubs[key].topic_name
+        clock_name, clock_cls, clock_qos = resolve('clock')
 
-            def on_clock(msg) -> None:
-                self.ctx.frame = max(self.ctx.frame, int(round(time_from_msg(msg.clock) * FRAME_RATE)))
-            node.create_subscription(clock_cls, clock_name, on_clock, clock_qos)
-            executor = SingleThreadedExecutor(context=context)
-            executor.add_node(node)
-            self._ready.set()
-            while not self._stop.is_set() and not self.done:
-                due = min(len(self.plan), self.before + self.per_frame * self.ctx.frame)
-                while len(self.sent) < due:
-                    key, kind = self.plan[len(self.sent)]
-                    data = serialize_message(fuzz_message(key, kind, self.ctx, self.rng))
-                    data += b'\x00' * (-len(data) % 4)  # as Fast DDS pads it on the wire (and the bag records it)
-                    pubs[key].publish(data)
-                    self.sent.append((names[key], data))
-                    self.sent_at.append(self.ctx.frame)
-                    self.counts[(key, kind)] += 1
-                executor.spin_once(timeout_sec=0.01)
-            executor.shutdown()
-            node.destroy_node()
-        except BaseException as exc:  # noqa: BLE001 -- handed to the caller by stop()
-            self.error = exc
-        finally:
-            self._ready.set()
-            rclpy.try_shutdown(context=context)
+        def on_clock(msg) -> None:
+            self.ctx.frame = max(self.ctx.frame, int(round(time_from_msg(msg.clock) * FRAME_RATE)))
+        clock = node.create_subscription(clock_cls, clock_name, on_clock, clock_qos)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        readers = fuzzed_readers()
+        matched = False
+        while not self.stopped and not matched:
+            matched = node.count_publishers(clock.topic_name) >= 1 and all(
+                pubs[key].get_subscription_count() >= readers[key] for key in FUZZ_KINDS)
+            executor.spin_once(timeout_sec=0.02)
+        if matched:
+            on_matched()
+        while not self.stopped and not self.done:
+            due = min(len(self.plan), self.before + self.per_frame * self.ctx.frame)
+            while len(self.sent) < due:
+                key, kind = self.plan[len(self.sent)]
+                data, offset = self.prepared[len(self.sent)]
+                if offset is not None:
+                    data = restamped(data, self.ctx.frame + offset)
+                pubs[key].publish(data)
+                self.sent.append((names[key], data))
+                self.counts[(key, kind)] += 1
+            executor.spin_once(timeout_sec=0.005)
+        executor.shutdown()
+        node.destroy_node()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m iguana_ros.nodes.topic_fuzz SCENE DUMP --seed S --messages N --per-frame K --before B`: fuzz a
+    run of SCENE; prints 'fuzzer matched' when every reader is matched and writes what it sent to DUMP (JSON) when
+    the plan is done or on SIGINT / SIGTERM."""
+    import argparse
+    import base64
+    import json
+    import signal
+
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    from iguana_ros.scene import load_scene
+
+    parser = argparse.ArgumentParser(prog='topic_fuzz')
+    parser.add_argument('scene')
+    parser.add_argument('dump', type=Path)
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--messages', type=int, default=200)
+    parser.add_argument('--per-frame', type=int, default=1)
+    parser.add_argument('--before', type=int, default=0)
+    args = parser.parse_args(argv)
+    scene = load_scene(args.scene)
+    rng = np.random.default_rng(args.seed)
+    fuzzer = TopicFuzzer(FuzzContext.for_scene(scene), fault_plan(args.messages, rng), args.seed + 1,
+                         args.per_frame, args.before)
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: setattr(fuzzer, 'stopped', True))
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        fuzzer.run(lambda: print('fuzzer matched', flush=True))
+    finally:
+        args.dump.write_text(json.dumps({
+            'sent': [[topic, base64.b64encode(data).decode()] for topic, data in fuzzer.sent],
+            'counts': [[key, kind, n] for (key, kind), n in fuzzer.counts.items()]}))
+        rclpy.try_shutdown()
+    print(f'fuzzer sent {len(fuzzer.sent)} faults', flush=True)
+    return 0
+
+
+def read_fuzz_dump(path: Path) -> tuple[list[tuple[str, bytes]], Counter]:
+    """(sent (topic, bytes), counts {(key, kind): n}) of a dump written by `main`."""
+    import base64
+    import json
+    data = json.loads(Path(path).read_text())
+    return ([(topic, base64.b64decode(b64)) for topic, b64 in data['sent']],
+            Counter({(key, kind): n for key, kind, n in data['counts']}))
 
 
 # ------------------------------------------------------------------------------------------ the recorded bag
@@ -342,13 +413,15 @@ class BagScan:
     non_finite: dict[str, int] = field(default_factory=dict)
     fuzz_recorded: int = 0
     fuzz_missing: int = 0
+    fuzz_during_run: int = 0
     undecodable: dict[str, int] = field(default_factory=dict)
     states: list = field(default_factory=list)
 
 
 def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
     """Every recorded message that is not one of `sent` (topic, bytes), deserialized and scanned for non-finite
-    floats; the iguana_state messages are kept for the trajectory."""
+    floats; the iguana_state messages are kept for the trajectory; the recorded faults are counted, and those the
+    recorder received between the first and the last /clock message (while the simulator ran)."""
     from rclpy.serialization import deserialize_message
 
     from iguana_ros.bag.storage import BagReader
@@ -358,12 +431,15 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
     scan = BagScan()
     reader = BagReader(bag)
     classes = {}
+    fuzz_times, clock_times = [], []
     for record in reader.messages():
         data = bytes(record.data)
         if fuzz[(record.topic, data)] > 0:
             fuzz[(record.topic, data)] -= 1
-            scan.fuzz_recorded += 1
+            fuzz_times.append(record.log_time)
             continue
+        if record.topic == '/clock':
+            clock_times.append(record.log_time)
         info = reader.topic(record.channel_id)
         if info.type not in classes:
             classes[info.type] = message_class(info.type)
@@ -378,7 +454,9 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
             scan.non_finite[record.topic] = scan.non_finite.get(record.topic, 0) + bad
         if record.topic == '/iguana_state':
             scan.states.append(msg)
-    scan.fuzz_missing = sum(fuzz.values())
+    scan.fuzz_recorded, scan.fuzz_missing = len(fuzz_times), sum(fuzz.values())
+    if clock_times:
+        scan.fuzz_during_run = sum(1 for t in fuzz_times if min(clock_times) <= t <= max(clock_times))
     return scan
 
 
@@ -395,20 +473,28 @@ def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int
     from iguana_ros.bag.trajectory import root_trajectory
     from iguana_ros.errors import IguanaError
     from iguana_ros.nodes.launch import RunOptions, SceneRun
+    from iguana_ros.nodes.process import NodeProcess, wait_for
     from iguana_ros.scene import load_scene
 
     scene = load_scene(str(scene_path))
     frames = int(round(scene.duration * FRAME_RATE))
-    rng = np.random.default_rng(seed)
     before = n_messages // 10
     per_frame = math.ceil((n_messages - before) / max(1, int(0.8 * frames)))
-    fuzzer = TopicFuzzer(FuzzContext.for_scene(scene), fault_plan(n_messages, rng), seed + 1, per_frame, before)
     run = SceneRun(RunOptions(scene=str(scene_path), record=Path(bag), timeout=timeout))
+    fuzz_dir = Path(bag).with_name(Path(bag).name + '_fuzzer')
+    fuzz_dir.mkdir(parents=True, exist_ok=True)
+    fuzzer = NodeProcess([sys.executable, '-m', 'iguana_ros.nodes.topic_fuzz', str(scene_path),
+                          str(fuzz_dir / 'sent.json'), '--seed', str(seed), '--messages', str(n_messages),
+                          '--per-frame', str(per_frame), '--before', str(before)], 'topic_fuzzer', fuzz_dir)
     started = time.monotonic()
     code, failure = None, ''
     try:
         run.start()
         fuzzer.start()
+        if not wait_for(lambda: 'fuzzer matched' in fuzzer.output or not fuzzer.running, 120.0):
+            raise IguanaError('the topic fuzzer was not matched with the run\'s nodes within 120 s')
+        if not fuzzer.running:
+            raise IguanaError(f'the topic fuzzer exited: {fuzzer.tail()}')
         run.send_goals()
         code = run.wait()
         dead = [name for name, child in run.children.items()
@@ -419,15 +505,15 @@ def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int
         failure = ' '.join(str(exc).split())[:500]
     finally:
         try:
-            fuzzer.stop()
+            fuzzer.stop(timeout=10.0)
         finally:
             run.stop()
+    sent, counts = read_fuzz_dump(fuzz_dir / 'sent.json') if (fuzz_dir / 'sent.json').exists() else ([], Counter())
     wall = time.monotonic() - started
-    scan = scan_bag(bag, fuzzer.sent)
+    scan = scan_bag(bag, sent)
     logs = '\n'.join(p.read_text(errors='replace') for p in sorted(Path(run.logs).glob('*.out')))
-    during = sum(1 for f in fuzzer.sent_at if 1 <= f < frames)
-    row = {'scene': scene.name, 'seed': seed, 'frames': frames, 'faults_sent': len(fuzzer.sent),
-           'faults_during_run': during, 'faults_per_topic': dict(Counter(k for (k, _), n in fuzzer.counts.items()
+    row = {'scene': scene.name, 'seed': seed, 'frames': frames, 'faults_sent': len(sent),
+           'faults_during_run': scan.fuzz_during_run, 'faults_per_topic': dict(Counter(k for (k, _), n in counts.items()
                                                                          for _ in range(n))),
            'exit_code': code, 'failure': failure, 'nodes_survived': not failure and code == 0,
            'rejected_lines': logs.count('rejected '), 'ignored_lines': logs.count('ignored '),
@@ -519,3 +605,7 @@ def suite_line(result: dict) -> str:
             f'dead or failed node, {result["non_finite_floats"]} non-finite floats and {result["undecodable"]} '
             f'undecodable messages in {result["messages_scanned"]} published, {result["equal_to_library"]}/'
             f'{result["trials"]} equal to the library run; {result["wall_s"]:.0f} s wall')
+
+
+if __name__ == '__main__':
+    sys.exit(main())
