@@ -11,6 +11,7 @@ import tempfile
 from pathlib import Path
 
 from iguana_ros.cli.argtypes import count, positive
+from iguana_ros.cli.bench_faults import add_run_options, suite_domain
 
 
 def register(suites: argparse._SubParsersAction) -> None:
@@ -21,11 +22,7 @@ def register(suites: argparse._SubParsersAction) -> None:
     parser.add_argument('--seconds', type=positive('--seconds'), default=6.0, help='simulated seconds per run (default 6)')
     parser.add_argument('--mesh', choices=('coarse', 'medium'), default='coarse', help='model resolution')
     parser.add_argument('--seed', type=int, default=0, help='seed of scenes and faults (default 0)')
-    parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
-                        help='ROS_DOMAIN_ID of the runs (default: 1 + pid %% 200, discovery on localhost)')
-    parser.add_argument('--keep', type=Path, default=None, metavar='DIR',
-                        help='keep every run (scene, bag, logs) under DIR')
-    parser.add_argument('--json', action='store_true', help='print one JSON object')
+    add_run_options(parser, 'runs')
     parser.set_defaults(func=run)
 
 
@@ -35,8 +32,7 @@ def run(args: argparse.Namespace) -> int:
 
     from iguana_ros.nodes.topic_fuzz import suite_line, topic_fault_suite, trial_line
 
-    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    os.environ['ROS_DOMAIN_ID'] = str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
+    os.environ['ROS_DOMAIN_ID'] = suite_domain(args)
     workdir = args.keep or Path(tempfile.mkdtemp(prefix='iguana_topic_faults_'))
     try:
         result = topic_fault_suite(args.trials, args.seed, args.messages, args.seconds, args.mesh, workdir,

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from iguana_ros.constants import FRAME_RATE, MAX_FRAME_GAP, WORLD_FRAME
+from iguana_ros.constants import FRAME_RATE, MAX_FRAME_GAP
 
 FUZZ_KINDS = {
     'goal_pose': ('nan', 'inf', 'huge', 'wrong_frame', 'negative_stamp'),

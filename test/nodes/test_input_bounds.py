@@ -70,7 +70,7 @@ def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make
     from iguana_ros.body.skeleton import iguana_skeleton
     from iguana_ros.motion.clips import load_clip_library
     from iguana_ros.motion.motion_graph import MotionGraph
-    from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg, state_to_msg
+    from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg
     skeleton = iguana_skeleton()
     graph = MotionGraph(load_clip_library())
     first = graph.align('forward', np.array([0.0, 0.0]), 0.0)

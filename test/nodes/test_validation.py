@@ -51,7 +51,7 @@ def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
                                          r'\(median length 2 x rest\)'):
         v.check_desired_lengths(rest * 2.0, rest)   # every spring x2 at once: diverges in one frame
     for scale in (1e6 / rest.max(), DESIRED_LENGTH_FACTOR * 1.01, 1.0 / DESIRED_LENGTH_FACTOR / 1.01, 0.0):
-        with pytest.raises(InputError, match=f'lengths outside .* x their rest length'):
+        with pytest.raises(InputError, match='lengths outside .* x their rest length'):
             v.check_desired_lengths(rest * scale, rest)
     one = rest.copy()
     one[7] = 1e6
