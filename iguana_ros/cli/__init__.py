@@ -35,15 +35,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `iguana` console script; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    command = 'iguana'
     try:
+        args = build_parser().parse_args(argv)
+        command = f'iguana {args.command}'
         return int(args.func(args) or 0)
     except IguanaError as exc:
-        print(f'iguana {args.command}: error: {exc}', file=sys.stderr)
+        print(f'{command}: error: {exc}', file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f'iguana {args.command}: interrupted', file=sys.stderr)
+        print(f'{command}: interrupted', file=sys.stderr)
         return 130
+    except BrokenPipeError:                   # `iguana bag info BAG | head`: the reader left; say nothing more
+        _silence_stdout()
+        return 141
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush of a closed pipe raises nothing."""
+    import os
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
 
 
 if __name__ == '__main__':

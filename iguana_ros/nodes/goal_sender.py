@@ -121,8 +121,11 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
         before = len(lists[-1].poses) if lists else 0
         for msg in goals:
             pub.publish(msg)
-        if not pub.wait_for_all_acked(Duration(seconds=timeout)):
-            raise IguanaError(f'the subscribers on {topic} did not acknowledge the goal within {timeout:g} s')
+        deadline = time.monotonic() + timeout
+        while not pub.wait_for_all_acked(Duration(seconds=POLL_S)):   # short waits, so keep_going can give up
+            keep_going()
+            if time.monotonic() > deadline:
+                raise IguanaError(f'the subscribers on {topic} did not acknowledge the goal within {timeout:g} s')
         if confirm:
             def accepted() -> bool:
                 return accepted_among(goals, list(lists[-1].poses)[before:]) == len(goals)
