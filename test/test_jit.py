@@ -36,3 +36,20 @@ def test_unwritable_cache_is_not_an_error(tmp_path):
     pkg = _package(tmp_path)
     (pkg / '__pycache__' / STAMP_NAME).mkdir()                    # the stamp cannot be opened as a file
     assert invalidate_stale_kernels(pkg) == 0
+
+
+def test_invalidation_gives_every_kernel_module_a_new_stamp(tmp_path):
+    """After a source change every kernel module gets a newer mtime (so numba refuses cache entries a racing
+    process records later with the old stamps); unchanged sources are left alone."""
+    pkg = _package(tmp_path)
+    invalidate_stale_kernels(pkg)
+    kernels = [pkg / 'callee.py', pkg / 'sub' / 'caller.py']
+    before = {p: p.stat().st_mtime_ns for p in kernels + [pkg / 'plain.py']}
+    assert invalidate_stale_kernels(pkg) == 0
+    assert all(p.stat().st_mtime_ns == before[p] for p in before)          # fresh: nothing touched
+    (pkg / 'callee.py').write_text('import numba\n@numba.njit(cache=True)\ndef f(x):\n    return x + 3\n')
+    edited = (pkg / 'callee.py').stat().st_mtime_ns
+    invalidate_stale_kernels(pkg)
+    assert (pkg / 'callee.py').stat().st_mtime_ns > edited
+    assert (pkg / 'sub' / 'caller.py').stat().st_mtime_ns > before[pkg / 'sub' / 'caller.py']
+    assert (pkg / 'plain.py').stat().st_mtime_ns == before[pkg / 'plain.py']
