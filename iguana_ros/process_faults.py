@@ -144,7 +144,7 @@ def _kill_leftovers(procs: list[ProcessInfo]) -> None:
 def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path, domain_id: str | None = None,
               under_way: bool = False, before_fault: Callable[[Path], None] | None = None) -> Trial:
     """Launch `iguana run` on the trial scene, send `sig` to `target` `moment_s` wall seconds after launch (or,
-    `under_way`, after the bag first holds iguana_state), and check the aftermath. A target that is not alive at
+    `under_way`, after the bag holds the iguana_state of a simulated frame, not only the initial one), and check the aftermath. A target that is not alive at
     that moment is killed as soon as it is. `before_fault(trial folder)` is called just before the fault."""
     domain_id = domain_id or os.environ.get('ROS_DOMAIN_ID', '0')
     trial = Trial(index, target, signal.Signals(sig).name, moment_s, 'under way' if under_way else 'start-up')
@@ -162,7 +162,8 @@ def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path,
     before: dict[str, list[int]] = {}
     try:
         if under_way:
-            wait_for(lambda: not run.running or '/iguana_state' in read_growing_bag(bag), RUN_LIMIT_S, 0.2)
+            wait_for(lambda: not run.running or len(read_growing_bag(bag).get('/iguana_state', ())) >= 2,
+                     RUN_LIMIT_S, 0.2)
         wait_for(lambda: not run.running, moment_s, 0.05)
         pid = _target_pid(run, target, marker)
         deadline = time.monotonic() + 30.0
