@@ -15,7 +15,8 @@ TYPES = {'string': str, 'double': float, 'integer': int, 'bool': bool}
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One declared parameter: name, type name, default, description, numeric range or string choices."""
+    """One declared parameter: name, type name, default, description, numeric range or string choices; `dynamic`
+    parameters may be set while the node runs (the others are read-only)."""
 
     name: str
     type: str
@@ -23,6 +24,7 @@ class ParamSpec:
     description: str = ''
     range: tuple | None = None
     choices: tuple | None = None
+    dynamic: bool = False
 
     def check(self, value) -> object:
         """`value` if it fits the type, range and choices; else InputError naming the parameter."""
@@ -46,7 +48,8 @@ def _spec(name: str, raw: dict, source: Path) -> ParamSpec:
     spec = ParamSpec(name=name, type=raw['type'], default=raw['default'],
                      description=str(raw.get('description', '')),
                      range=tuple(raw['range']) if 'range' in raw else None,
-                     choices=tuple(str(c) for c in raw['choices']) if 'choices' in raw else None)
+                     choices=tuple(str(c) for c in raw['choices']) if 'choices' in raw else None,
+                     dynamic=bool(raw.get('dynamic', False)))
     spec.check(spec.default)
     return spec
 

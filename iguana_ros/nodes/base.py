@@ -5,7 +5,8 @@ import sys
 from typing import Callable
 
 import rclpy
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType,
+                                SetParametersResult)
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
@@ -22,7 +23,7 @@ _PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterTyp
 
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     """ParameterDescriptor with the declared description, type and range."""
-    desc = ParameterDescriptor(name=spec.name, type=_PARAM_TYPES[spec.type], read_only=True,
+    desc = ParameterDescriptor(name=spec.name, type=_PARAM_TYPES[spec.type], read_only=not spec.dynamic,
                                description=spec.description)
     if spec.choices:
         desc.additional_constraints = 'one of: ' + ', '.join(spec.choices)
@@ -59,7 +60,20 @@ class IguanaNode(Node):
         self._specs = node_parameters(self.KIND)
         for spec in self._specs.values():
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
+        self.add_on_set_parameters_callback(self._check_new_parameters)
         self.scene: Scene = load_scene(self.param('scene'))
+
+    def _check_new_parameters(self, params: list) -> SetParametersResult:
+        """Accept a change of dynamic parameters that fit their declaration; refuse the rest with the reason."""
+        for param in params:
+            spec = self._specs.get(param.name)
+            if spec is None:
+                continue
+            try:
+                spec.check(param.value)
+            except IguanaError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
 
     def param(self, name: str):
         """Value of declared parameter `name`, checked against its declaration."""

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from geometry_msgs.msg import (Point, Pose, PoseArray, PoseStamped, Quaternion, Transform,
-                               Twist, Vector3)
+                               Twist, Vector3, Wrench, WrenchStamped)
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
@@ -133,6 +133,15 @@ def odometry_to_numpy(msg: Odometry) -> tuple[np.ndarray, np.ndarray, np.ndarray
     pos, quat = poses_from_msgs([msg.pose.pose])
     lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
     return pos[0], quat[0], np.array([lin.x, lin.y, lin.z]), np.array([ang.x, ang.y, ang.z])
+
+
+# ----------------------------------------------------------------------------- pushes
+
+def push_msg(force, region: str, stamp: float | Time = 0.0) -> WrenchStamped:
+    """geometry_msgs/WrenchStamped of a push: force `(3,)` N in the world frame on the node group `region`
+    (header.frame_id, e.g. 'trunk_left'), no torque."""
+    f = validate_array('force', force, (3,))
+    return WrenchStamped(header=_header(stamp, region), wrench=Wrench(force=Vector3(x=f[0], y=f[1], z=f[2])))
 
 
 # ----------------------------------------------------------------------------- trajectories

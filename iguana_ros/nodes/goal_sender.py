@@ -51,7 +51,7 @@ def accepted_among(goals: list, accepted: list) -> int:
     return found
 
 
-def _wait(condition: Callable[[], bool], node, timeout: float, keep_going: Callable[[], None],
+def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_going: Callable[[], None],
           failure: Callable[[], str]) -> None:
     """Spin `node` until `condition()`; IguanaError(failure()) after `timeout` s. `keep_going()` may raise."""
     from rclpy.executors import SingleThreadedExecutor
@@ -82,13 +82,24 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('iguana_goal', context=context)
-        name, cls, qos = resolve('goal_pose')
-        pub = node.create_publisher(cls, name, qos)
+        return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm)
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 10.0,
+                  keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> str:
+    """`send_goals` on an existing rclpy `node` (its publisher and subscription are removed afterwards)."""
+    name, cls, qos = resolve('goal_pose')
+    pub = node.create_publisher(cls, name, qos)
+    accepted_sub = None
+    try:
         lists: list = []
         topic = pub.topic_name
         if confirm:
             a_name, a_cls, a_qos = resolve('accepted_goals')
-            accepted_topic = node.create_subscription(a_cls, a_name, lists.append, a_qos).topic_name
+            accepted_sub = node.create_subscription(a_cls, a_name, lists.append, a_qos)
+            accepted_topic = accepted_sub.topic_name
 
         def wanted() -> int:
             """Subscriptions the goals must reach: the minimum, or (confirming) every one on the graph that can
@@ -117,7 +128,7 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
             if have == 0:
                 return f'no subscriber on {topic} within {timeout:g} s'
             return f'only {have} of {max(wanted(), min_subscribers)} subscribers on {topic} within {timeout:g} s'
-        _wait(listening, node, timeout, keep_going, why_not)
+        wait_spinning(listening, node, timeout, keep_going, why_not)
         before = len(lists[-1].poses) if lists else 0
         for msg in goals:
             pub.publish(msg)
@@ -129,9 +140,11 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
         if confirm:
             def accepted() -> bool:
                 return accepted_among(goals, list(lists[-1].poses)[before:]) == len(goals)
-            _wait(accepted, node, timeout, keep_going, lambda: (
+            wait_spinning(accepted, node, timeout, keep_going, lambda: (
                 f'the planner did not accept {"the goal" if len(goals) == 1 else "every goal"} within {timeout:g} s '
                 f'(rejected: see the planner log for "rejected goal_pose", e.g. a goal off the terrain)'))
         return topic
     finally:
-        rclpy.try_shutdown(context=context)
+        node.destroy_publisher(pub)
+        if accepted_sub is not None:
+            node.destroy_subscription(accepted_sub)

@@ -1,0 +1,154 @@
+"""Driving a running iguana_ros system from Python, in the style of nav2_simple_commander's BasicNavigator.
+
+    from iguana_ros.nodes.commander import IguanaCommander
+
+    with IguanaCommander() as iguana:          # joins the ROS graph of ROS_DOMAIN_ID
+        iguana.go_to(2.0, 0.5, yaw=0.0)        # returns once the planner accepted the goal
+        if iguana.wait_until_reached(timeout=60.0):
+            print('reached at', iguana.state().time, 's simulated')
+        iguana.push('trunk_left', (0.0, -40.0, 0.0), duration=0.1)
+
+The commander is an rclpy node of its own (its own context, so it can live beside other nodes of the same
+process). Goals go out like `iguana goal`'s (`publish_goals`: the planner must list them on `accepted_goals`);
+a push is a WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import rclpy
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.signals import SignalHandlerOptions
+
+from iguana_ros.constants import WORLD_FRAME
+from iguana_ros.errors import IguanaError
+from iguana_ros.geometry import yaw_of
+from iguana_ros.nodes.conversions import odometry_to_numpy, push_msg, time_from_msg
+from iguana_ros.nodes.goal_sender import goal_message, publish_goals, wait_spinning
+from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.scene import Scene
+
+SIMULATOR_NODE = 'simulator_node'
+"""Name of the simulator node whose push_duration a push with a duration sets."""
+
+
+@dataclass(frozen=True)
+class IguanaState:
+    """The simulated iguana's root as the last iguana_state said: simulated time s, position `(3,)` m,
+    orientation `(4,)` xyzw, linear `(3,)` m/s and angular `(3,)` rad/s velocity in the world frame."""
+
+    time: float
+    position: np.ndarray
+    orientation: np.ndarray
+    linear_velocity: np.ndarray
+    angular_velocity: np.ndarray
+
+    @property
+    def yaw(self) -> float:
+        """Heading about +z, rad."""
+        return float(yaw_of(self.orientation))
+
+
+class IguanaCommander:
+    """Send goals and pushes to a running system and read its state (see the module docstring)."""
+
+    def __init__(self, node_name: str = 'iguana_commander', namespace: str = '',
+                 goal_radius: float | None = None) -> None:
+        """Join the ROS graph; `goal_radius` m (default: the scene default) decides when a goal is reached."""
+        self._context = rclpy.Context()
+        rclpy.init(context=self._context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(node_name, namespace=namespace, context=self._context)
+        self.goal_radius = float(goal_radius if goal_radius is not None else Scene.__dataclass_fields__[
+            'goal_radius'].default)
+        self.goal: np.ndarray | None = None
+        self._state: IguanaState | None = None
+        name, cls, qos = resolve('iguana_state')
+        self.node.create_subscription(cls, name, self._on_state, qos)
+        name, cls, qos = resolve('push')
+        self._push_pub = self.node.create_publisher(cls, name, qos)
+        self._push_duration: float | None = None
+
+    def __enter__(self) -> IguanaCommander:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Leave the ROS graph."""
+        if self._context.ok():
+            self.node.destroy_node()
+            rclpy.try_shutdown(context=self._context)
+
+    def _on_state(self, msg) -> None:
+        """Keep the latest iguana_state."""
+        position, orientation, linear, angular = odometry_to_numpy(msg)
+        self._state = IguanaState(time_from_msg(msg.header.stamp), position, orientation, linear, angular)
+
+    def _spin_until(self, condition, timeout: float, failure: str) -> None:
+        """Spin until `condition()`; IguanaError(`failure`) after `timeout` wall seconds."""
+        wait_spinning(condition, self.node, timeout, lambda: None, lambda: failure)
+
+    def go_to(self, x: float, y: float, yaw: float = 0.0, timeout: float = 10.0, frame_id: str = WORLD_FRAME) -> None:
+        """Send a goal at (x, y) m heading `yaw` rad; returns once the planner accepted it (IguanaError if it
+        rejects it, e.g. off the terrain, or no planner answers within `timeout` s)."""
+        if not all(math.isfinite(v) for v in (x, y, yaw)):
+            raise IguanaError(f'goal ({x}, {y}, yaw {yaw}) is not finite')
+        publish_goals(self.node, [goal_message(x, y, math.degrees(yaw), frame_id=frame_id)], timeout=timeout)
+        self.goal = np.array([x, y], dtype=float)
+
+    def distance_to_goal(self) -> float:
+        """Horizontal distance m from the root to the last goal sent (nan before a goal and a state)."""
+        if self.goal is None or self._state is None:
+            return float('nan')
+        return float(np.hypot(*(self._state.position[:2] - self.goal)))
+
+    def wait_until_reached(self, timeout: float) -> bool:
+        """Spin until the root is within goal_radius of the last goal (True) or `timeout` wall seconds pass."""
+        if self.goal is None:
+            raise IguanaError('wait_until_reached: no goal sent yet (call go_to first)')
+        try:
+            self._spin_until(lambda: self.distance_to_goal() < self.goal_radius, timeout, 'not reached')
+        except IguanaError:
+            return False
+        return True
+
+    def state(self, timeout: float = 5.0) -> IguanaState:
+        """The newest iguana_state (spins briefly for it); IguanaError if none arrives within `timeout` s."""
+        seen = self._state
+        try:
+            self._spin_until(lambda: self._state is not None and self._state is not seen, timeout, '')
+        except IguanaError:
+            if self._state is None:
+                raise IguanaError(f'no iguana_state within {timeout:g} s; is the simulator running on this '
+                                  'ROS_DOMAIN_ID?') from None
+        return self._state
+
+    def push(self, region: str, force, duration: float | None = None, timeout: float = 10.0) -> None:
+        """Push the node group `region` (e.g. 'trunk_left') with `force` `(3,)` N in the world frame for
+        `duration` s (default: the simulator's push_duration), starting at the simulator's next frame."""
+        if duration is not None and duration != self._push_duration:
+            self._set_push_duration(float(duration), timeout)
+        self._spin_until(lambda: self._push_pub.get_subscription_count() > 0, timeout,
+                         f'no simulator subscribes {self._push_pub.topic_name} within {timeout:g} s')
+        self._push_pub.publish(push_msg(force, region))
+        deadline = time.monotonic() + timeout
+        while not self._push_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=0.05)):
+            if time.monotonic() > deadline:
+                raise IguanaError(f'the simulator did not acknowledge the push within {timeout:g} s')
+
+    def _set_push_duration(self, duration: float, timeout: float) -> None:
+        """Set the simulator's push_duration parameter; IguanaError with the simulator's reason if refused."""
+        client = AsyncParameterClient(self.node, SIMULATOR_NODE)
+        if not client.wait_for_services(timeout_sec=timeout):
+            raise IguanaError(f'no {SIMULATOR_NODE} parameter service within {timeout:g} s')
+        future = client.set_parameters([Parameter('push_duration', value=duration)])
+        self._spin_until(future.done, timeout, f'{SIMULATOR_NODE} did not answer within {timeout:g} s')
+        result = future.result().results[0]
+        if not result.successful:
+            raise IguanaError(f'push duration {duration:g} s refused by {SIMULATOR_NODE}: {result.reason}')
+        self._push_duration = duration

@@ -1,0 +1,69 @@
+"""IguanaCommander drives a real `iguana run` (four node processes over DDS): a goal the planner adopts and the
+body reaches, a push with its duration that moves the body sideways, and refusals as one clear error."""
+import signal
+
+import numpy as np
+import pytest
+import yaml
+
+from iguana_ros.errors import IguanaError
+from iguana_ros.nodes.commander import IguanaCommander
+from ros_harness import IGUANA, NodeProcess, wait_for
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
+
+SCENE = {'name': 'commanded', 'description': 'no goals of its own: the commander sends them',
+         'terrain': {'kind': 'flat'}, 'duration': 60.0}
+
+
+@pytest.fixture(scope='module')
+def running(tmp_path_factory):
+    """`iguana run` of a goal-less flat scene (lockstep), stopped with SIGTERM after the module's tests."""
+    folder = tmp_path_factory.mktemp('commander')
+    scene = folder / 'commanded.yaml'
+    scene.write_text(yaml.safe_dump(SCENE))
+    run = NodeProcess([*IGUANA, 'run', str(scene), '--record', str(folder / 'bag')], 'iguana_run', folder)
+    run.start()
+    commander = IguanaCommander()
+    try:
+        yield run, commander
+    finally:
+        commander.close()
+        if run.running:
+            run.proc.send_signal(signal.SIGTERM)
+            wait_for(lambda: not run.running, 30.0, 0.1)
+        run.stop()
+
+
+def test_go_to_is_adopted_and_reached(running):
+    run, iguana = running
+    start = iguana.state(timeout=90.0)
+    assert np.all(np.isfinite(start.position)) and start.time >= 0.0
+    goal = start.position[:2] + [0.4, 0.0]
+    iguana.go_to(*goal, yaw=0.0, timeout=30.0)
+    assert iguana.distance_to_goal() > iguana.goal_radius
+    assert iguana.wait_until_reached(timeout=90.0), (iguana.distance_to_goal(), run.output[-2000:])
+    reached = iguana.state()
+    assert reached.time > start.time and np.hypot(*(reached.position[:2] - goal)) < iguana.goal_radius
+
+
+def test_push_with_a_duration_moves_the_body_sideways(running):
+    _, iguana = running
+    calm = [iguana.state().linear_velocity[1] for _ in range(15)]
+    iguana.push('trunk_left', (0.0, -60.0, 0.0), duration=0.2)
+    sent = iguana.state().time
+    lateral = [iguana.state()]
+    while lateral[-1].time < sent + 0.6:
+        lateral.append(iguana.state())
+    pushed = min(s.linear_velocity[1] for s in lateral)
+    assert pushed < -0.1 and pushed < 3 * -max(abs(v) for v in calm), (pushed, calm)   # toward -y, beyond sway
+
+
+def test_refusals_are_one_clear_error(running):
+    _, iguana = running
+    with pytest.raises(IguanaError, match='push_duration'):
+        iguana.push('trunk_left', (0.0, -10.0, 0.0), duration=100.0)   # outside its declared [0.001, 10] s
+    with pytest.raises(IguanaError, match='did not accept'):
+        iguana.go_to(500.0, 0.0, timeout=5.0)   # off the terrain: the planner rejects it
+    with pytest.raises(IguanaError, match='not finite'):
+        iguana.go_to(float('nan'), 0.0)
