@@ -68,7 +68,7 @@ MAX_NODE_SPEED = 100.0
 MAX_PENETRATION = 0.1
 """Depth (m) below the terrain at which a node is declared diverged (resting nodes sink ~0.1–1 mm)."""
 
-# --- Synthetic lizard gait (iguana_ros.motion.gait); sources in README "Motion data" ---
+# --- Synthetic lizard gait (iguana_ros.motion.gait); sources in docs/METHODS.md "Motion data" ---
 SNOUT_VENT_LENGTH = BODY_LENGTH * (1.0 - TAIL_FRACTION)
 """Snout-vent length of the adult iguana model, m (0.29 m)."""
 

@@ -1,6 +1,6 @@
 """The paper's experiments as measured effects that must not vanish: terrain adaptation on hills (Figure 11)
 and 40 N pushes on the walking trunk at six stride phases, normal vs softer model (Section VIII-D, Figure 12).
-Medium mesh, as in the README tables; the runs take ~40 s of wall time on two cores."""
+Medium mesh, as in the tables of docs/RESULTS.md; the runs take ~40 s of wall time on two cores."""
 
 import pytest
 
@@ -33,13 +33,13 @@ def test_figure_11_adaptation_gets_over_the_hills_without_slipping(hills_runs):
 
 @pytest.fixture(scope='module')
 def pushes():
-    """Six push phases per model, a shortened recovery window (the README table uses 2 s)."""
+    """Six push phases per model, a shortened recovery window (docs/RESULTS.md uses 2 s)."""
     return run_push_experiment(settings=PushSettings(phases=6, recovery=1.0), workers=2)['models']
 
 
 def test_pushes_displace_both_models_and_both_walk_on(pushes):
     """Every 40 N, 0.1 s push moves the trunk sideways by more than 1 cm, nobody falls, and the body walks on
-    at (nearly) its unpushed speed (README "Pushes" gives the measured figures)."""
+    at (nearly) its unpushed speed (docs/RESULTS.md "Pushes" gives the measured figures)."""
     for name, model in pushes.items():
         assert model['fell'] == 0, name
         assert model['peak_lateral_min_m'] > 0.01, name
@@ -50,7 +50,7 @@ def test_pushes_displace_both_models_and_both_walk_on(pushes):
 def test_pushes_the_response_depends_on_the_stride_phase(pushes):
     """Which feet are in stance when the push lands decides how far it moves the trunk (measured: normal
     1.7-5.1 cm, softer 1.5-4.5 cm over six phases), more than the model's stiffness does (medians 2.9 and
-    3.1 cm): the paper's "softer model is pushed less" (Figure 12) is not reproduced, see README "Pushes"."""
+    3.1 cm): the paper's "softer model is pushed less" (Figure 12) is not reproduced, see docs/RESULTS.md "Pushes"."""
     for name, model in pushes.items():
         assert model['peak_lateral_max_m'] > 1.5 * model['peak_lateral_min_m'], name
     normal, softer = (pushes[k]['peak_lateral_median_m'] for k in ('normal', 'softer'))

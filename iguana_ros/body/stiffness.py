@@ -13,7 +13,7 @@ FEM resists every joint bend the springs command (measured on the coarse body, s
 with A = 300 N/m and E = 50 kPa the swing feet reach ~45 % of their reference lift, with A = 3 kN/m and
 E = 10 kPa 90-110 %). The spring scale is set by the trot, not by standing: at A = 300 N/m the 4 kg body
 lay on its belly, at 30 kN/m it stood (pelvis sag ~7 mm) but could not lift its hind feet, at 300 kN/m it
-trots (README "Locomotion results").
+trots (docs/RESULTS.md, "Locomotion").
 """
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ class StiffnessPreset:
 PRESETS = {
     # moderate springs (paper: "normal model"): 300 kN/m at L_REF, legs x3 (leg-leg springs 900 kN/m), weak FEM
     # (10 kPa, about soft fat tissue) that only keeps elements from degenerating. Set by what a trot needs
-    # (README, "Why the hind feet did not lift"): at 30 kN/m (legs x10) the loaded trunk sagged ~15 mm onto
+    # (docs/RESULTS.md, "Why the hind feet did not lift"): at 30 kN/m (legs x10) the loaded trunk sagged ~15 mm onto
     # each swinging hind foot (its commanded lift over the hip is 11-15 mm) and the hind feet never lifted; x3
     # left them 1-3 mm clear; x10 lifts every swing >= 1 cm. Legs only 3x the trunk (not 10x): stiffer legs
     # turn millimetre misfits between the planted feet into friction-limit forces (slip +40 %).

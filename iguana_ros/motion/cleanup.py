@@ -38,7 +38,7 @@ STANCE_TOLERANCE = 0.002
 TAIL_TIP_HEIGHT = -0.01
 """Height (m) of the tail-tip joint over the floor in every frame of a cleaned clip: the tail rests on the
 ground and is pressed into it (its lower surface ~5 mm below the joint), so it bears weight. The model's
-centre of mass lies ~4.7 cm behind each diagonal support line of the trot (README, "Why the hind feet did not
+centre of mass lies ~4.7 cm behind each diagonal support line of the trot (docs/RESULTS.md, "Why the hind feet did not
 lift"); a tail that carries ~4 N closes the support triangle so the swing hind foot carries nothing."""
 
 TRIM_ROUNDS = 4

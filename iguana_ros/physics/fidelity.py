@@ -80,7 +80,7 @@ PRESETS = {
     'accurate': Fidelity(dt=1.0 / 2400.0, preconditioner='cholesky', cg_tol=1e-4, cg_max_iter=500,
                          jacobian_every=1, polar_iters=20, factor_every=1),
 }
-"""Named presets; their measured speed and error are in the README ("Simulator")."""
+"""Named presets; their measured speed and error are in docs/RESULTS.md ("Simulator")."""
 
 
 def get_fidelity(preset='balanced', **overrides) -> Fidelity:

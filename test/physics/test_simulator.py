@@ -177,7 +177,7 @@ def test_bad_frame_inputs_raise_input_error(block):
 
 
 def test_free_fall_with_the_default_mass_damping_follows_the_damped_solution(block):
-    """α = 0.2 /s damps absolute motion (README "Forces"): the drop in 1.5 s is (g/α)(t − (1 − e^(−αt))/α) =
+    """α = 0.2 /s damps absolute motion (docs/METHODS.md, "Forces"): the drop in 1.5 s is (g/α)(t − (1 − e^(−αt))/α) =
     10.0 m, not g t²/2 = 11.0 m; β K does not act on a rigid translation."""
     sim = SoftBodySimulator(block, terrain=None, fidelity='balanced', cg_tol=1e-10)
     z0 = sim.center_of_mass()[2]

@@ -28,7 +28,7 @@ def test_scenario_is_stable_or_fails_clearly(body, name):
 
 
 def test_sweep_on_the_block_is_all_stable(body):
-    """The measured table for this block (README): every scenario stable, including the inverted start."""
+    """The measured table for this block (docs/RESULTS.md, "Stability at the extremes"): every scenario stable, including the inverted start."""
     outcomes = {name: run_scenario(body, name, seconds=0.5)['outcome'] for name in
                 ('E 1e8 Pa, dt 1/60', 'springs x100, dt 1/60', 'inverted start')}
     assert set(outcomes.values()) == {'stable'}, outcomes
