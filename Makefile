@@ -13,6 +13,7 @@ $(PY):
 
 $(STAMP): $(PY) setup.py setup.cfg package.xml
 	$(PY) -m pip install -e '.[ros,test]'
+	$(VENV)/bin/iguana warm   # compile the kernels and cache the model once, not in four processes at the first run
 	touch $(STAMP)
 
 install: $(STAMP)

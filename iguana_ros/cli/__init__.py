@@ -20,6 +20,7 @@ SUBCOMMANDS = (
     ('simulate', 'iguana_ros.cli.simulate'),
     ('run', 'iguana_ros.cli.run'),
     ('demo', 'iguana_ros.cli.demo'),
+    ('warm', 'iguana_ros.cli.warm'),
 )
 
 

@@ -1,0 +1,90 @@
+"""Compile every numba kernel and build the default body model once, ahead of the first run (`iguana warm`,
+called by `make install`), so four node processes do not each spend tens of seconds compiling at start-up.
+
+numba compiles a kernel per argument-type signature; the warm-up drives the real code paths (the library frame
+loop over a terrain that needs adaptation, and one rendered frame) with the types a real run uses, so the
+signatures it caches are the ones a run asks for. `kernel_signatures` lists them, so a test can check that a
+real run needs none beyond them.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+WARM_SCENE = 'hills'
+"""Scene whose loop the warm-up runs: hills needs terrain adaptation, so every simulator and IK kernel runs."""
+
+WARM_FRAMES = 3
+"""Frames of that loop (the first frame factorises, the later ones reuse the factor and refactorise)."""
+
+
+@dataclass(frozen=True)
+class WarmReport:
+    """What a warm-up did: wall seconds of the loop and of the render, kernels compiled or loaded from cache."""
+
+    loop_s: float
+    render_s: float
+    kernels: int
+    signatures: int
+
+
+def kernel_signatures() -> dict[str, list[str]]:
+    """{'module.kernel': [signature, ...]} of every numba kernel of the package that has been compiled or
+    loaded in this process."""
+    import sys
+
+    from numba.core.registry import CPUDispatcher
+
+    found: dict[str, list[str]] = {}
+    for name, module in list(sys.modules.items()):
+        if not name.startswith('iguana_ros.') or module is None:
+            continue
+        for attr, value in vars(module).items():
+            if isinstance(value, CPUDispatcher) and value.signatures and value.__module__ == name:
+                found[f'{name}.{attr}'] = sorted(str(s) for s in value.signatures)
+    return found
+
+
+def warm_loop(scene_name: str = WARM_SCENE, frames: int = WARM_FRAMES) -> float:
+    """Run `frames` frames of the library loop of `scene_name` (building and caching its model); wall seconds."""
+    from iguana_ros.pipeline import run
+    from iguana_ros.scene import load_scene
+
+    start = time.perf_counter()
+    run(load_scene(scene_name), n_frames=frames)
+    return time.perf_counter() - start
+
+
+def warm_render() -> float:
+    """Render one small frame of a synthetic two-frame run through the renderer's kernels; wall seconds."""
+    from iguana_ros.render.camera import preset_cameras
+    from iguana_ros.render.renderer import Renderer
+    from iguana_ros.render.run import RecordedRun
+
+    start = time.perf_counter()
+    tri = np.array([[0.0, 0.0, 0.05], [0.2, 0.0, 0.05], [0.0, 0.1, 0.1]], dtype=np.float32)
+    colours = np.tile(np.array([0.2, 0.7, 0.3, 1.0], dtype=np.float32), (3, 1))
+    ground = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
+    positions = np.array([[0.0, 0.0, 0.05], [0.05, 0.0, 0.05]])
+    times = np.array([0.0, 1.0 / 30.0])
+    recorded = RecordedRun(times=times, mesh_points=[tri, tri], mesh_colors=[colours, colours],
+                           root_positions=positions, root_yaws=np.zeros(2), track_times=times,
+                           track_positions=positions, terrain_points=ground,
+                           terrain_colors=np.tile([0.7, 0.7, 0.6, 1.0], (3, 1)))
+    for preset in ('follow', 'top'):
+        cameras = preset_cameras(preset, times, positions, recorded.root_yaws, recorded.extent_points(), 1.6)
+        Renderer(recorded, 64, 40).frame(1, cameras[1])
+    return time.perf_counter() - start
+
+
+def warm_up(scene_name: str = WARM_SCENE) -> WarmReport:
+    """Compile (or load from the cache) every kernel a run and a render use; a WarmReport of what it did."""
+    from iguana_ros.jit import ensure_fresh_kernel_cache
+
+    ensure_fresh_kernel_cache()
+    loop_s = warm_loop(scene_name)
+    render_s = warm_render()
+    signatures = kernel_signatures()
+    return WarmReport(loop_s, render_s, len(signatures), sum(len(s) for s in signatures.values()))

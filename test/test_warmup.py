@@ -1,0 +1,48 @@
+"""`iguana warm` caches what a run asks for: a fresh process that runs the frame loop of a scene and renders a real
+bag uses no kernel signature that the warm-up did not compile (so `make install` leaves nothing to compile)."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from iguana_ros.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+RENDER_HELPERS = REPO / 'test' / 'render'
+
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
+
+_SIGNATURES = 'import json; from iguana_ros.warmup import kernel_signatures; print(json.dumps(kernel_signatures()))'
+
+
+def _signatures_after(code: str) -> dict:
+    """kernel_signatures() of a fresh interpreter after it ran `code`."""
+    out = subprocess.run([sys.executable, '-c', f'{code}\n{_SIGNATURES}'], cwd=REPO, capture_output=True, text=True,
+                         timeout=500, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def test_a_run_and_a_render_need_no_kernel_beyond_the_warm_up(tmp_path):
+    warm = _signatures_after('from iguana_ros.warmup import warm_up; warm_up()')
+    bag = tmp_path / 'bag'
+    used = _signatures_after(
+        f'import sys; sys.path.insert(0, {str(RENDER_HELPERS)!r})\n'
+        'from render_synthetic import write_synthetic_bag\n'
+        f'write_synthetic_bag({str(bag)!r}, duration=0.5)\n'
+        'from iguana_ros.pipeline import run\nfrom iguana_ros.scene import parse_scene\n'
+        "run(parse_scene({'terrain': {'kind': 'noise', 'seed': 3}, 'goals': [{'x': 1.0, 'y': 1.0}], 'pushes': "
+        "[{'at': 0.0, 'force': [0.0, -40.0, 0.0], 'duration': 0.1, 'region': 'trunk_left'}]}), n_frames=4)\n"
+        'from iguana_ros.cli import main\n'
+        f"assert main(['render', {str(bag)!r}, '-o', {str(tmp_path / 'f.png')!r}, '-q']) == 0\n")
+    assert 'iguana_ros.physics.integrator.run_steps_cg' in used and used, used   # the probe saw the simulator
+    assert any(k.startswith('iguana_ros.render.') for k in used), used          # ... and the renderer
+    missing = {k: sorted(set(v) - set(warm.get(k, []))) for k, v in used.items() if set(v) - set(warm.get(k, []))}
+    assert not missing, f'kernels a run compiles that `iguana warm` did not: {missing}'
+
+
+def test_warm_prints_its_figures(capsys):
+    assert main(['warm', '--json']) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report['kernels'] >= 5 and report['signatures'] >= report['kernels'] and report['loop_s'] > 0
