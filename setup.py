@@ -1,38 +1,98 @@
-"""ament_python package for iguana_ros; also installs with `pip install -e .[ros,test]`."""
+"""ament_python package for iguana_ros; also installs with `pip install -e .[ros,test]`.
+
+Version, description, maintainer and license come from package.xml; the executables from
+iguana_ros/executables.py (read as plain literals, without importing the package).
+"""
+import ast
+import shutil
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from setuptools import find_packages, setup
+from setuptools.command.develop import develop
+from setuptools.command.install_scripts import install_scripts
 
 PACKAGE = 'iguana_ros'
 HERE = Path(__file__).resolve().parent
 
 
+def _manifest() -> dict:
+    """name, version, description, maintainer, maintainer_email and license from package.xml."""
+    root = ET.parse(HERE / 'package.xml').getroot()
+    maintainer = root.find('maintainer')
+    return {'name': root.findtext('name'), 'version': root.findtext('version'),
+            'description': ' '.join(root.findtext('description').split()),
+            'maintainer': maintainer.text.strip(), 'maintainer_email': maintainer.get('email'),
+            'license': root.findtext('license')}
+
+
+def _executables() -> dict:
+    """The literal assignments of iguana_ros/executables.py (NODE_EXECUTABLES, CLI_EXECUTABLE, ...)."""
+    tree = ast.parse((HERE / PACKAGE / 'executables.py').read_text())
+    return {node.targets[0].id: ast.literal_eval(node.value)
+            for node in tree.body if isinstance(node, ast.Assign)}
+
+
+EXECUTABLES = _executables()
+CLI = EXECUTABLES['CLI_EXECUTABLE']
+
+
 def _data_files() -> list:
-    """Install msg_configs/ (topics, params, scenes) under share/iguana_ros/, keeping folders."""
+    """Install msg_configs/ (topics, params, scenes) and launch/ under share/iguana_ros/, keeping folders."""
     files = [
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ]
     by_dir: dict = {}
-    for path in sorted((HERE / 'msg_configs').rglob('*')):
-        if path.is_file() and '__pycache__' not in path.parts:
-            rel = path.relative_to(HERE)
-            by_dir.setdefault(str(Path('share') / PACKAGE / rel.parent), []).append(str(rel))
+    for folder in ('msg_configs', 'launch'):
+        for path in sorted((HERE / folder).rglob('*')):
+            if path.is_file() and '__pycache__' not in path.parts:
+                rel = path.relative_to(HERE)
+                by_dir.setdefault(str(Path('share') / PACKAGE / rel.parent), []).append(str(rel))
     files.extend(sorted(by_dir.items()))
     return files
 
 
-NODES = ['planner_node', 'terrain_adaptation_node', 'spring_length_node', 'simulator_node']
-_node_scripts = [
-    f'{name}=iguana_ros.nodes.{name}:main'
-    for name in NODES
-    if (HERE / PACKAGE / 'nodes' / f'{name}.py').exists()
-]
+def _console_scripts() -> list:
+    """The CLI and one console script per node."""
+    nodes = [f'{name}={EXECUTABLES["NODE_PACKAGE"]}.{name}:main' for name in EXECUTABLES['NODE_EXECUTABLES']]
+    return [f'{CLI}={EXECUTABLES["CLI_ENTRY_POINT"]}'] + nodes
+
+
+def _cli_on_path(scripts_dir: str) -> list:
+    """Copy the CLI from the ROS executables folder <prefix>/lib/iguana_ros (setup.cfg) to <prefix>/bin, which
+    a colcon workspace's setup script puts on PATH; nothing for any other scripts folder (pip's bin/)."""
+    scripts = Path(scripts_dir)
+    if scripts.parts[-2:] != ('lib', PACKAGE) or not (scripts / CLI).is_file():
+        return []
+    target = scripts.parent.parent / 'bin' / CLI
+    target.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(scripts / CLI, target)
+    return [str(target)]
+
+
+class InstallScripts(install_scripts):
+    """`setup.py install` (colcon build): node executables in lib/iguana_ros for `ros2 run`, the CLI also in bin/."""
+
+    def run(self):
+        """Install the scripts, then put the CLI on PATH (recorded, so an uninstall removes it too)."""
+        super().run()
+        self.outfiles.extend(_cli_on_path(self.install_dir))
+
+
+class Develop(develop):
+    """`setup.py develop` (colcon build --symlink-install): the CLI also in bin/."""
+
+    def install_wrapper_scripts(self, dist):
+        """Write the wrapper scripts, then put the CLI on PATH."""
+        super().install_wrapper_scripts(dist)
+        if not self.exclude_scripts:
+            _cli_on_path(self.script_dir)
+
 
 setup(
-    name=PACKAGE,
-    version='0.1.0',
-    packages=find_packages(exclude=['test', 'test.*', 'benchmarks']),
+    **_manifest(),
+    packages=find_packages(exclude=['test', 'test.*']),
     package_data={PACKAGE: ['data/*', 'data/capture/*']},
     data_files=_data_files(),
     python_requires='>=3.10',
@@ -44,24 +104,25 @@ setup(
         'mcap>=1.1',
         'mcap-ros2-support>=0.5',
         'zstandard>=0.21',
+        'lz4>=3',
         'c3d>=0.5',
         'matplotlib>=3.7',
         'imageio>=2.31',
         'imageio-ffmpeg>=0.4.9',
+        'pillow>=9',
         'tqdm>=4.60',
-        'psutil>=5.9',
         'threadpoolctl>=3.1',
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
         'ros': ['ros-jazzy-rclpy', 'ros-jazzy-common-interfaces', 'ros-jazzy-rmw-fastrtps-cpp'],
-        'test': ['pytest>=7', 'pytest-timeout>=2.1'],
+        'test': [
+            'pytest>=7', 'pytest-timeout>=2.1',
+            # a real `colcon build` of the package (test/test_packaging.py)
+            'colcon-core>=0.15', 'colcon-ros>=0.4',
+        ],
     },
     zip_safe=False,
-    maintainer='iguana_ros developers',
-    maintainer_email='dev@iguana-ros.invalid',
-    description='Soft-body iguana character controller as ROS 2 nodes (Kwon et al. 2018).',
-    license='Apache-2.0',
-    tests_require=['pytest'],
-    entry_points={'console_scripts': ['iguana=iguana_ros.cli:main'] + _node_scripts},
+    cmdclass={'install_scripts': InstallScripts, 'develop': Develop},
+    entry_points={'console_scripts': _console_scripts()},
 )

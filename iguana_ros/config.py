@@ -32,3 +32,9 @@ def config_dir() -> Path:
 def config_path(*parts: str) -> Path:
     """Return a path inside msg_configs/, e.g. config_path('scenes', 'hills.yaml')."""
     return config_dir().joinpath(*parts)
+
+
+def params_file() -> Path:
+    """The standard ROS params file of every node (`--params-file`): `iguana run` and launch/iguana.launch.py
+    give it to each node."""
+    return config_path('params', 'iguana.yaml')

@@ -43,11 +43,8 @@ class DamagedBag(InputError):
 
 def _library() -> str:
     """Library string of the MCAP header, e.g. 'iguana_ros 0.1.0'."""
-    try:
-        from importlib.metadata import version
-        return f'iguana_ros {version("iguana_ros")}'
-    except Exception:  # not installed as a distribution (plain source tree)
-        return 'iguana_ros'
+    from iguana_ros import package_version
+    return f'iguana_ros {package_version()}'
 
 
 def qos_profiles_yaml(profiles: list[dict]) -> str:

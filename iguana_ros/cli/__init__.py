@@ -5,6 +5,7 @@ import argparse
 import importlib
 import sys
 
+from iguana_ros import package_version
 from iguana_ros.errors import IguanaError
 
 SUBCOMMANDS = (
@@ -28,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Parser for every sub-command."""
     parser = argparse.ArgumentParser(
         prog='iguana', description='Soft-body iguana character control for ROS 2 (Kwon et al. 2018).')
+    parser.add_argument('--version', action='version', version=f'%(prog)s {package_version()}')
     subparsers = parser.add_subparsers(dest='command', metavar='COMMAND', required=True)
     for _name, module in SUBCOMMANDS:
         importlib.import_module(module).register(subparsers)

@@ -1,19 +1,26 @@
 """All four nodes in one process with one executor (`iguana run --single-process`)."""
 from __future__ import annotations
 
+import importlib
 import sys
 
-from iguana_ros.nodes.base import run_nodes
-from iguana_ros.nodes.planner_node import PlannerNode
-from iguana_ros.nodes.simulator_node import SimulatorNode
-from iguana_ros.nodes.spring_length_node import SpringLengthNode
-from iguana_ros.nodes.terrain_adaptation_node import TerrainAdaptationNode
+from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
+from iguana_ros.nodes.base import IguanaNode, run_nodes
+
+
+def node_class(executable: str) -> type[IguanaNode]:
+    """The node class of node executable `executable`: the IguanaNode of its module whose KIND is its name."""
+    module = importlib.import_module(f'{NODE_PACKAGE}.{executable}')
+    found = [cls for cls in vars(module).values()
+             if isinstance(cls, type) and issubclass(cls, IguanaNode) and cls.KIND == executable]
+    if len(found) != 1:
+        raise LookupError(f'{module.__name__} defines {len(found)} IguanaNode classes of KIND {executable!r}')
+    return found[0]
 
 
 def main(args: list[str] | None = None) -> None:
-    """Spin planner, terrain adaptation, spring-length and simulator nodes together."""
-    sys.exit(run_nodes([PlannerNode, TerrainAdaptationNode, SpringLengthNode, SimulatorNode],
-                       args if args is not None else sys.argv))
+    """Spin every node of NODE_EXECUTABLES (planner, terrain adaptation, spring lengths, simulator) together."""
+    sys.exit(run_nodes([node_class(name) for name in NODE_EXECUTABLES], args if args is not None else sys.argv))
 
 
 if __name__ == '__main__':

@@ -75,6 +75,11 @@ class IguanaNode(Node):
                 return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
+    def now_stamp(self):
+        """builtin_interfaces/Time of the node's clock: simulated time (the latest /clock) when use_sim_time is true
+        (the standard params file sets it), else the system clock. Frame data is stamped with `frame_stamp`."""
+        return self.get_clock().now().to_msg()
+
     def param(self, name: str):
         """Value of declared parameter `name`, checked against its declaration."""
         return self._specs[name].check(self.get_parameter(name).value)

@@ -21,8 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
+from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
 from iguana_ros.nodes.domain_check import GRAPH_LISTEN_S
 from iguana_ros.nodes.process import RUN_ID_ENV, NodeProcess, describe_exit, run_processes, stop_all
 from iguana_ros.nodes.run_gait import RunGait
@@ -30,10 +32,10 @@ from iguana_ros.nodes.run_summary import RunSummary, bag_progress
 from iguana_ros.scene import Scene, load_scene, scene_path
 
 __all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
-           'goal_outcome_of', 'node_commands', 'ros_args', 'stop_signals']
+           'goal_outcome_of', 'node_commands', 'node_params', 'ros_args', 'stop_signals']
 
-NODE_KINDS = ('planner_node', 'terrain_adaptation_node', 'spring_length_node', 'simulator_node')
-"""The four nodes of the design card, in start order."""
+NODE_KINDS = NODE_EXECUTABLES
+"""The four nodes of the design card, in start order (iguana_ros/executables.py)."""
 
 POLL_S = 0.1
 """Wall seconds between checks on the children."""
@@ -123,24 +125,33 @@ def stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalStat
             signal.signal(sig, old)
 
 
-def ros_args(params: dict) -> list[str]:
-    """`--ros-args -p name:=value ...` for a parameter dict."""
-    args = ['--ros-args']
-    for name, value in params.items():
-        text = str(value).lower() if isinstance(value, bool) else str(value)
-        args += ['-p', f'{name}:={text}']
+def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -> list[str]:
+    """`--ros-args [--params-file FILE] -p node:name:=value ...`: each value for its node by name, after the file
+    (a value for every node, `-p name:=value`, would lose to the file's section of that node)."""
+    args = ['--ros-args'] + (['--params-file', str(params_file)] if params_file is not None else [])
+    for node, params in params_by_node.items():
+        for name, value in params.items():
+            text = str(value).lower() if isinstance(value, bool) else str(value)
+            args += ['-p', f'{node}:{name}:={text}']
     return args
 
 
-def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, list[str]]:
-    """Command line of every child node process, by name."""
-    common = {'scene': str(scene_file), 'use_sim_time': True}
+def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, dict]:
+    """This run's parameter values of every node, by node name (over the standard params file)."""
+    common = {'scene': str(scene_file)}
     goals = {'wait_for_goals': len(scene.goals)}  # planner and simulator both wait for the scene's goals
     sim = {**common, **goals, 'mode': options.mode, 'wait_for_recorder': True, **options.extra_params}
-    params = {'planner_node': {**common, **goals}, 'simulator_node': sim}
+    special = {'planner_node': {**common, **goals}, 'simulator_node': sim}
+    return {kind: special.get(kind, common) for kind in NODE_KINDS}
+
+
+def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, list[str]]:
+    """Command line of every child node process, by name: the standard params file (as the launch file gives it:
+    use_sim_time and the declared defaults), then this run's values."""
+    params, standard = node_params(options, scene, scene_file), params_file()
     if options.single_process:
-        return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(sim)]}
-    return {kind: [sys.executable, '-m', f'iguana_ros.nodes.{kind}', *ros_args(params.get(kind, common))]
+        return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard)]}
+    return {kind: [sys.executable, '-m', f'{NODE_PACKAGE}.{kind}', *ros_args({kind: params[kind]}, standard)]
             for kind in NODE_KINDS}
 
 

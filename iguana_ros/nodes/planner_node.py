@@ -44,6 +44,7 @@ class PlannerNode(IguanaNode):
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
         self.accepted_pub = self.publisher('accepted_goals')
+        self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
         self.get_logger().info(f'planner ready: {len(library)} clips, goal radius {radius:.2f} m')
 
@@ -58,6 +59,7 @@ class PlannerNode(IguanaNode):
         self.stage.schedule_goal(xy, at)
         self.goals_received += 1
         self.accepted.poses.append(msg)
+        self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)
         self.get_logger().info(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) scheduled for t={at:.3f} s')
         if self.held_state is not None and self.goals_received >= self.param('wait_for_goals'):

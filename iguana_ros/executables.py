@@ -1,0 +1,19 @@
+"""The package's executables, listed once.
+
+setup.py reads this file without importing the package (plain literals only: `ast.literal_eval`), so keep it
+free of imports and code. setup.py installs the node executables (lib/iguana_ros/, for `ros2 run`) and the
+CLI (bin/); the supervisor, the single-process runner, the launch file and the tests take their names from here.
+"""
+
+NODE_EXECUTABLES = ('planner_node', 'terrain_adaptation_node', 'spring_length_node', 'simulator_node')
+"""The four node processes of the design card, in start order; each is also its node's default name and its
+section in msg_configs/parameters.yaml and params/iguana.yaml."""
+
+NODE_PACKAGE = 'iguana_ros.nodes'
+"""Python package of the node modules: executable `name` runs `NODE_PACKAGE.name:main`."""
+
+CLI_EXECUTABLE = 'iguana'
+"""The command-line tool (on PATH after pip or colcon install)."""
+
+CLI_ENTRY_POINT = 'iguana_ros.cli:main'
+"""Entry point of the command-line tool."""

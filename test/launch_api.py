@@ -1,0 +1,189 @@
+"""The part of ROS 2 Jazzy's `launch` / `launch_ros` Python API that a launch file may use, as recording stand-ins.
+
+`launch` and `launch_ros` are not on PyPI, so a test cannot import them. JAZZY_EXPORTS lists the public names of
+the modules a launch file imports from (the `__all__` of launch 3.4 and launch_ros 0.26, the Jazzy releases);
+the classes below take exactly the keyword arguments of the real constructors (copied from those releases), so a
+misspelt or removed argument fails with TypeError as it would under `ros2 launch`, and they record what the launch
+file asked for. Substitutions resolve through `Resolver` (launch arguments, a package's share directory).
+"""
+from __future__ import annotations
+
+import sys
+import types
+from dataclasses import dataclass, field
+from pathlib import Path
+
+JAZZY_EXPORTS = {
+    'launch': {'actions', 'conditions', 'descriptions', 'events', 'frontend', 'logging', 'substitutions', 'Action',
+               'Condition', 'Event', 'EventHandler', 'InvalidLaunchFileError', 'LaunchContext', 'LaunchDescription',
+               'LaunchDescriptionEntity', 'LaunchDescriptionSource', 'LaunchIntrospector', 'LaunchService',
+               'SomeEntitiesType', 'SomeEntitiesType_types_tuple', 'SomeSubstitutionsType',
+               'SomeSubstitutionsType_types_tuple', 'Substitution'},
+    'launch.actions': {'AppendEnvironmentVariable', 'DeclareLaunchArgument', 'EmitEvent', 'ExecuteLocal',
+                       'ExecuteProcess', 'GroupAction', 'IncludeLaunchDescription', 'LogInfo', 'OpaqueCoroutine',
+                       'OpaqueFunction', 'PopEnvironment', 'PopLaunchConfigurations', 'PushEnvironment',
+                       'PushLaunchConfigurations', 'RegisterEventHandler', 'ResetEnvironment',
+                       'ResetLaunchConfigurations', 'SetEnvironmentVariable', 'SetLaunchConfiguration', 'Shutdown',
+                       'TimerAction', 'UnregisterEventHandler', 'UnsetEnvironmentVariable',
+                       'UnsetLaunchConfiguration'},
+    'launch.substitutions': {'AllSubstitution', 'AndSubstitution', 'AnonName', 'AnySubstitution', 'Command',
+                             'EnvironmentVariable', 'EqualsSubstitution', 'FileContent', 'FindExecutable',
+                             'IfElseSubstitution', 'LaunchConfiguration', 'LaunchLogDir', 'LocalSubstitution',
+                             'NotEqualsSubstitution', 'NotSubstitution', 'OrSubstitution', 'PathJoinSubstitution',
+                             'PythonExpression', 'SubstitutionFailure', 'TextSubstitution', 'ThisLaunchFile',
+                             'ThisLaunchFileDir'},
+    'launch_ros.actions': {'ComposableNodeContainer', 'LifecycleNode', 'LifecycleTransition', 'LoadComposableNodes',
+                           'Node', 'PushROSNamespace', 'PushRosNamespace', 'ROSTimer', 'RosTimer', 'SetParameter',
+                           'SetParametersFromFile', 'SetRemap', 'SetROSLogDir', 'SetUseSimTime'},
+    'launch_ros.parameter_descriptions': {'Parameter', 'ParameterFile', 'ParameterValue'},
+    'launch_ros.substitutions': {'ExecutableInPackage', 'FindPackage', 'FindPackagePrefix', 'FindPackageShare',
+                                 'Parameter'},
+}
+"""Public names of the Jazzy modules (launch 3.4.x, launch_ros 0.26.x)."""
+
+
+@dataclass
+class Resolver:
+    """What substitutions resolve to: launch argument values and package share directories."""
+
+    arguments: dict[str, str] = field(default_factory=dict)
+    shares: dict[str, Path] = field(default_factory=dict)
+
+    def text(self, value) -> str:
+        """A substitution, a list of them or plain text, as text."""
+        if isinstance(value, (list, tuple)):
+            return ''.join(self.text(v) for v in value)
+        return value.perform(self) if hasattr(value, 'perform') else str(value)
+
+
+class LaunchDescription:
+    """launch.LaunchDescription(initial_entities=None, *, deprecated_reason=None)."""
+
+    def __init__(self, initial_entities=None, *, deprecated_reason=None) -> None:
+        self.entities = list(initial_entities or [])
+
+
+class _Action:
+    """launch.Action: `condition` is the one keyword every action takes."""
+
+    def __init__(self, *, condition=None) -> None:
+        self.condition = condition
+
+
+class DeclareLaunchArgument(_Action):
+    """launch.actions.DeclareLaunchArgument."""
+
+    def __init__(self, name, *, default_value=None, description=None, choices=None, **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.name, self.default_value, self.description, self.choices = name, default_value, description, choices
+
+
+class Shutdown(_Action):
+    """launch.actions.Shutdown."""
+
+    def __init__(self, *, reason='reason not given', **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.reason = reason
+
+
+class LaunchConfiguration:
+    """launch.substitutions.LaunchConfiguration: a launch argument's value."""
+
+    def __init__(self, variable_name, *, default=None) -> None:
+        self.variable_name, self.default = variable_name, default
+
+    def perform(self, resolver: Resolver) -> str:
+        """The argument's value (the launch file's default when not given)."""
+        return resolver.arguments.get(self.variable_name, self.default)
+
+
+class PathJoinSubstitution:
+    """launch.substitutions.PathJoinSubstitution."""
+
+    def __init__(self, substitutions) -> None:
+        self.substitutions = list(substitutions)
+
+    def perform(self, resolver: Resolver) -> str:
+        """The parts joined as a path."""
+        return str(Path(*(resolver.text(part) for part in self.substitutions)))
+
+
+class FindPackageShare:
+    """launch_ros.substitutions.FindPackageShare."""
+
+    def __init__(self, package) -> None:
+        self.package = package
+
+    def perform(self, resolver: Resolver) -> str:
+        """The package's share directory."""
+        return str(resolver.shares[resolver.text(self.package)])
+
+
+class ParameterValue:
+    """launch_ros.parameter_descriptions.ParameterValue."""
+
+    def __init__(self, value, *, value_type=None) -> None:
+        self.value, self.value_type = value, value_type
+
+    def perform(self, resolver: Resolver):
+        """The value coerced to `value_type` as launch_ros does (bool from 'true' / 'false')."""
+        text = resolver.text(self.value)
+        if self.value_type is bool:
+            if text.lower() not in ('true', 'false'):
+                raise ValueError(f'{text!r} is not a bool')
+            return text.lower() == 'true'
+        return self.value_type(text) if self.value_type is not None else text
+
+
+class Node(_Action):
+    """launch_ros.actions.Node: its own keywords, then ExecuteProcess's and ExecuteLocal's (Jazzy)."""
+
+    created: list[Node] = []
+
+    def __init__(self, *, executable, package=None, name=None, namespace=None, exec_name=None, parameters=None,
+                 remappings=None, ros_arguments=None, arguments=None,
+                 prefix=None, cwd=None, env=None, additional_env=None,
+                 shell=False, sigterm_timeout=None, sigkill_timeout=None, emulate_tty=False, output='log',
+                 output_format=None, cached_output=False, log_cmd=False, on_exit=None, respawn=False,
+                 respawn_delay=None, respawn_max_retries=-1, **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.executable, self.package, self.name = executable, package, name
+        self.parameters, self.arguments, self.on_exit = list(parameters or []), arguments, on_exit
+        Node.created.append(self)
+
+    def parameter_files(self, resolver: Resolver) -> list[Path]:
+        """The params files given to the node, resolved."""
+        return [Path(resolver.text(p)) for p in self.parameters if not isinstance(p, dict)]
+
+    def parameter_values(self, resolver: Resolver) -> dict:
+        """The parameters given as a dict, resolved."""
+        values: dict = {}
+        for entry in self.parameters:
+            if isinstance(entry, dict):
+                values.update({k: v.perform(resolver) if hasattr(v, 'perform') else v for k, v in entry.items()})
+        return values
+
+
+_CLASSES = {
+    'launch': [LaunchDescription],
+    'launch.actions': [DeclareLaunchArgument, Shutdown],
+    'launch.substitutions': [LaunchConfiguration, PathJoinSubstitution],
+    'launch_ros.actions': [Node],
+    'launch_ros.parameter_descriptions': [ParameterValue],
+    'launch_ros.substitutions': [FindPackageShare],
+}
+
+
+def install(monkeypatch) -> None:
+    """Put the stand-in modules in sys.modules (undone by `monkeypatch` after the test)."""
+    for name in ('launch', 'launch_ros'):
+        monkeypatch.setitem(sys.modules, name, types.ModuleType(name))
+    for module_name, classes in _CLASSES.items():
+        module = types.ModuleType(module_name)
+        for cls in classes:
+            setattr(module, cls.__name__, cls)
+        monkeypatch.setitem(sys.modules, module_name, module)
+        parent, _, child = module_name.rpartition('.')
+        if parent:
+            setattr(sys.modules[parent], child, module)
+    monkeypatch.setattr(Node, 'created', [])

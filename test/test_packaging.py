@@ -1,0 +1,180 @@
+"""Packaging and ROS 2 conventions: the launch file, a real colcon build, one version, one node list, the
+dependencies setup.py declares."""
+from __future__ import annotations
+
+import ast
+import importlib.metadata
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import launch_api
+import pytest
+import yaml
+
+import iguana_ros
+from iguana_ros.config import params_file
+from iguana_ros.executables import CLI_EXECUTABLE, NODE_EXECUTABLES
+
+REPO = Path(__file__).resolve().parent.parent
+LAUNCH_FILE = REPO / 'launch' / 'iguana.launch.py'
+PACKAGE = 'iguana_ros'
+ROS_MODULES = {'rclpy', 'rcl_interfaces', 'rosgraph_msgs', 'builtin_interfaces', 'ament_index_python',
+               'rosidl_runtime_py', 'rosbag2_py'}
+"""Top-level modules that come with ROS 2 (the `ros` extra on PyPI, apt on a ROS machine) besides *_msgs."""
+
+
+def _setup_keyword(name: str):
+    """The literal value of keyword `name` of setup.py's setup() call."""
+    tree = ast.parse((REPO / 'setup.py').read_text())
+    call = next(node for node in ast.walk(tree)
+                if isinstance(node, ast.Call) and getattr(node.func, 'id', '') == 'setup')
+    return ast.literal_eval(next(k.value for k in call.keywords if k.arg == name))
+
+
+def _launch(monkeypatch, share: Path, **arguments) -> tuple[list, launch_api.Resolver]:
+    """Run generate_launch_description() of the launch file on the Jazzy API stand-ins: (Node actions, resolver)."""
+    launch_api.install(monkeypatch)
+    namespace = {'__name__': 'iguana_launch', '__file__': str(LAUNCH_FILE)}
+    exec(compile(LAUNCH_FILE.read_text(), str(LAUNCH_FILE), 'exec'), namespace)
+    description = namespace['generate_launch_description']()
+    declared = {e.name: e for e in description.entities if isinstance(e, launch_api.DeclareLaunchArgument)}
+    assert set(declared) == {'scene', 'use_sim_time'}
+    for name, value in arguments.items():
+        assert declared[name].choices is None or value in declared[name].choices
+    values = {name: arg.default_value for name, arg in declared.items()} | arguments
+    nodes = [e for e in description.entities if isinstance(e, launch_api.Node)]
+    assert nodes == launch_api.Node.created  # every Node made is in the description
+    return nodes, launch_api.Resolver(values, {PACKAGE: share})
+
+
+def test_launch_file_imports_only_the_documented_jazzy_api():
+    tree = ast.parse(LAUNCH_FILE.read_text(), str(LAUNCH_FILE))
+    imported = [(node.module, alias.name) for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                for alias in node.names]
+    assert not [n for n in ast.walk(tree) if isinstance(n, ast.Import)], 'use `from module import name`'
+    for module, name in imported:
+        if module.split('.')[0] in ('launch', 'launch_ros'):
+            assert name in launch_api.JAZZY_EXPORTS[module], f'{module}.{name} is not in the Jazzy API'
+        else:
+            assert module.startswith(f'{PACKAGE}.') and hasattr(importlib.import_module(module), name), module
+    assert 'generate_launch_description' in {f.name for f in tree.body if isinstance(f, ast.FunctionDef)}
+
+
+def test_launch_file_starts_the_installed_node_executables_with_the_run_params_file(monkeypatch):
+    nodes, resolver = _launch(monkeypatch, REPO)  # the source tree stands for share/iguana_ros
+    assert [n.executable for n in nodes] == list(NODE_EXECUTABLES)
+    assert {n.package for n in nodes} == {PACKAGE} and [n.name for n in nodes] == list(NODE_EXECUTABLES)
+    for node in nodes:
+        files = node.parameter_files(resolver)
+        assert files == [REPO / params_file().relative_to(REPO)]  # the file `iguana run` gives every node
+        assert node.parameter_values(resolver) == {'scene': 'hills', 'use_sim_time': True}
+    assert [n.executable for n in nodes if n.on_exit is not None] == ['simulator_node']
+    nodes, resolver = _launch(monkeypatch, REPO, scene='flat_walk', use_sim_time='false')
+    assert nodes[0].parameter_values(resolver) == {'scene': 'flat_walk', 'use_sim_time': False}
+
+
+def test_iguana_run_gives_each_node_the_params_file_then_its_own_values():
+    from iguana_ros.nodes.launch import RunOptions, node_commands
+    from iguana_ros.scene import load_scene, scene_path
+    for single in (False, True):
+        commands = node_commands(RunOptions(scene='goal_sequence', single_process=single),
+                                 load_scene('goal_sequence'), scene_path('goal_sequence'))
+        assert list(commands) == (['nodes'] if single else list(NODE_EXECUTABLES))
+        for name, command in commands.items():
+            ros = command[command.index('--ros-args'):]
+            assert ros[1:3] == ['--params-file', str(params_file())]
+            values = ros[3:]
+            assert values[::2] == ['-p'] * (len(values) // 2) and values
+            # node:name:=value, since the file's section of a node beats a value given to every node
+            nodes = {value.split(':')[0] for value in values[1::2]}
+            assert nodes == (set(NODE_EXECUTABLES) if single else {name})
+            assert 'simulator_node:wait_for_recorder:=true' in values or name != 'simulator_node'
+    params = yaml.safe_load(params_file().read_text())
+    assert params['/**']['ros__parameters']['use_sim_time'] is True
+    assert params['simulator_node']['ros__parameters']['wait_for_recorder'] is False
+
+
+def test_installed_console_scripts_are_the_nodes_and_the_cli():
+    scripts = {ep.name: ep for ep in importlib.metadata.entry_points(group='console_scripts')
+               if ep.dist is not None and ep.dist.name.replace('-', '_') == PACKAGE}
+    assert set(scripts) == {CLI_EXECUTABLE, *NODE_EXECUTABLES}
+    for name in NODE_EXECUTABLES:
+        assert scripts[name].value == f'iguana_ros.nodes.{name}:main'
+        assert callable(scripts[name].load())
+
+
+def test_version_has_one_source():
+    manifest = ET.parse(REPO / 'package.xml').getroot()
+    version = manifest.findtext('version')
+    assert iguana_ros.__version__ == iguana_ros.package_version() == version
+    assert importlib.metadata.version(PACKAGE) == version
+    assert importlib.metadata.metadata(PACKAGE)['License'] == manifest.findtext('license')
+    assert version not in (REPO / 'setup.py').read_text()
+    result = subprocess.run([sys.executable, '-m', 'iguana_ros.cli', '--version'], capture_output=True, text=True)
+    assert result.stdout.strip() == f'iguana {version}'
+
+
+def _third_party_imports() -> set[str]:
+    """Top-level modules imported anywhere in iguana_ros/ that are neither stdlib, the package nor ROS 2."""
+    found = set()
+    for path in (REPO / PACKAGE).rglob('*.py'):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                found.update(alias.name.split('.')[0] for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                found.add(node.module.split('.')[0])
+    return {m for m in found if m not in sys.stdlib_module_names and m != PACKAGE
+            and m not in ROS_MODULES and not m.endswith(('_msgs', '_interfaces'))}
+
+
+def test_declared_dependencies_are_exactly_the_imported_ones():
+    from packaging.requirements import Requirement
+    declared = {Requirement(r).name.lower() for r in _setup_keyword('install_requires')}
+    providers = importlib.metadata.packages_distributions()
+    imported = {}
+    for module in _third_party_imports():
+        assert module in providers, f'iguana_ros imports {module}, which no installed distribution provides'
+        imported[module] = {d.lower() for d in providers[module]}
+    missing = {m: d for m, d in imported.items() if not d & declared}
+    assert not missing, f'imported but not in install_requires: {missing}'
+    unused = declared - set().union(*imported.values())
+    assert not unused, f'in install_requires but never imported: {unused}'
+
+
+def _colcon(tmp_path: Path, *args: str) -> Path:
+    """`colcon build` of this package (source symlinked into a workspace in tmp_path); the package's prefix."""
+    colcon = shutil.which('colcon', path=str(Path(sys.executable).parent))
+    if colcon is None:
+        pytest.fail('colcon is not installed: pip install -e .[test] (colcon-core, colcon-ros)')
+    (tmp_path / 'src').mkdir()
+    (tmp_path / 'src' / PACKAGE).symlink_to(REPO)
+    result = subprocess.run([colcon, '--log-base', str(tmp_path / 'log'), 'build', '--base-paths', 'src',
+                             '--build-base', str(tmp_path / 'build'), '--install-base', str(tmp_path / 'install'),
+                             *args], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    return tmp_path / 'install' / PACKAGE
+
+
+@pytest.mark.parametrize('symlink', [False, True], ids=['install', 'symlink-install'])
+def test_colcon_build_puts_nodes_in_lib_and_the_cli_on_path(tmp_path, monkeypatch, symlink):
+    prefix = _colcon(tmp_path, *(['--symlink-install'] if symlink else []))
+    for name in NODE_EXECUTABLES:  # where `ros2 run iguana_ros <name>` looks
+        assert os.access(prefix / 'lib' / PACKAGE / name, os.X_OK), name
+    assert os.access(prefix / 'bin' / CLI_EXECUTABLE, os.X_OK)
+    assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PACKAGE).is_file()
+    share = prefix / 'share' / PACKAGE
+    assert (share / 'launch' / 'iguana.launch.py').is_file()
+    nodes, resolver = _launch(monkeypatch, share)
+    for node in nodes:
+        assert all(f.is_file() for f in node.parameter_files(resolver))
+        assert (prefix / 'lib' / node.package / node.executable).is_file()
+    env = {k: v for k, v in os.environ.items() if k not in ('PYTHONPATH', 'AMENT_PREFIX_PATH')}
+    env['PATH'] = '/usr/bin:/bin'  # nothing of the test's venv: the workspace's setup script must do it
+    shell = subprocess.run(['sh', '-c', f'. {tmp_path}/install/setup.sh && command -v iguana && iguana --version'],
+                           capture_output=True, text=True, env=env, timeout=60)
+    version = ET.parse(REPO / 'package.xml').getroot().findtext('version')
+    assert shell.stdout.split() == [str(prefix / 'bin' / CLI_EXECUTABLE), 'iguana', version], shell.stderr
