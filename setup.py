@@ -37,14 +37,19 @@ EXECUTABLES = _executables()
 CLI = EXECUTABLES['CLI_EXECUTABLE']
 
 
+SHARED_FOLDERS = ('msg_configs', 'launch', 'rviz', 'foxglove')
+"""Folders installed under share/iguana_ros/: topics, parameters and scenes; the launch file; the RViz2 config;
+the Foxglove layout."""
+
+
 def _data_files() -> list:
-    """Install msg_configs/ (topics, params, scenes) and launch/ under share/iguana_ros/, keeping folders."""
+    """Install SHARED_FOLDERS under share/iguana_ros/, keeping folders."""
     files = [
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
     ]
     by_dir: dict = {}
-    for folder in ('msg_configs', 'launch'):
+    for folder in SHARED_FOLDERS:
         for path in sorted((HERE / folder).rglob('*')):
             if path.is_file() and '__pycache__' not in path.parts:
                 rel = path.relative_to(HERE)

@@ -14,19 +14,26 @@ def config_dir() -> Path:
     override = os.environ.get(CONFIG_ENV)
     if override:
         return Path(override)
-    source = Path(__file__).resolve().parent.parent / 'msg_configs'
-    if source.is_dir():
+    return shared_path('msg_configs', hint=f'; set {CONFIG_ENV}')
+
+
+def shared_path(*parts: str, hint: str = '') -> Path:
+    """A file or folder the package installs under share/iguana_ros/ (msg_configs/, rviz/iguana.rviz,
+    foxglove/iguana_layout.json): from the source tree, <prefix>/share/iguana_ros (pip), or the ament index
+    (colcon); FileNotFoundError naming where it looked."""
+    source = Path(__file__).resolve().parent.parent.joinpath(*parts)
+    if source.exists():
         return source
-    prefix_share = Path(sys.prefix) / 'share' / 'iguana_ros' / 'msg_configs'  # pip install (non-editable)
-    if prefix_share.is_dir():
+    prefix_share = Path(sys.prefix).joinpath('share', 'iguana_ros', *parts)  # pip install (non-editable)
+    if prefix_share.exists():
         return prefix_share
     try:
         from ament_index_python.packages import get_package_share_directory
-        return Path(get_package_share_directory('iguana_ros')) / 'msg_configs'
+        return Path(get_package_share_directory('iguana_ros')).joinpath(*parts)
     except Exception as exc:  # ament index missing or package not registered
         raise FileNotFoundError(
-            f'cannot find msg_configs/: not in the source tree ({source}) and not installed '
-            f'under share/iguana_ros ({exc}); set {CONFIG_ENV}') from exc
+            f'cannot find {"/".join(parts)}: not in the source tree ({source}) and not installed '
+            f'under share/iguana_ros ({exc}){hint}') from exc
 
 
 def config_path(*parts: str) -> Path:

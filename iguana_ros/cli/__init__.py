@@ -22,6 +22,8 @@ SUBCOMMANDS = (
     ('run', 'iguana_ros.cli.run'),
     ('demo', 'iguana_ros.cli.demo'),
     ('warm', 'iguana_ros.cli.warm'),
+    ('doctor', 'iguana_ros.cli.doctor'),
+    ('layout', 'iguana_ros.cli.layout'),
 )
 
 

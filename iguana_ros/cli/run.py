@@ -24,13 +24,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_and_report(options, prog: str) -> tuple:
-    """Run a scene (RunOptions `options`), print its summary and, unless it completed, one line on stderr headed
+    """Run a scene (RunOptions `options`) after `iguana doctor`'s quick checks (CheckFailed: the failed check's
+    line), print its summary and, unless it completed, one line on stderr headed
     `prog`; returns (the RunSummary or None if nothing was started, the exit status: 0 completed, 1 failed,
     128 + n stopped by signal n, e.g. 143 for SIGTERM)."""
     import sys
 
+    from iguana_ros.doctor import quick_checks, require
     from iguana_ros.nodes.launch import RunInterrupted, run_scene
 
+    require(quick_checks(options.record.parent if options.record is not None else options.bags_dir))
     try:
         summary = run_scene(options)
     except RunInterrupted as exc:  # before anything was started

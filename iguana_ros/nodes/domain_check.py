@@ -55,8 +55,8 @@ class DomainReport:
         """True if anything was found."""
         return bool(self.processes or self.nodes or self.publishers)
 
-    def line(self) -> str:
-        """One line naming the domain and what is on it."""
+    def findings(self) -> str:
+        """What is on the domain, e.g. 'processes of another iguana run: 4711 (bag record); nodes planner_node'."""
         parts = []
         if self.processes:
             parts.append('processes of another iguana run: ' + ', '.join(p.label() for p in self.processes))
@@ -65,9 +65,13 @@ class DomainReport:
         if self.publishers:
             parts.append('publishers of ' + ', '.join(
                 f'{topic} ({", ".join(nodes)})' for topic, nodes in sorted(self.publishers.items())))
+        return '; '.join(parts)
+
+    def line(self) -> str:
+        """One line naming the domain and what is on it."""
         pids = ' '.join(str(p.pid) for p in self.processes)
         stop = f'stop them (kill {pids})' if pids else 'stop them'
-        return (f'ROS_DOMAIN_ID {self.domain_id} is in use: {"; ".join(parts)}; {stop} or run with another '
+        return (f'ROS_DOMAIN_ID {self.domain_id} is in use: {self.findings()}; {stop} or run with another '
                 'ROS_DOMAIN_ID')
 
 
@@ -100,10 +104,10 @@ def other_runs(domain_id: str) -> list[ProcessInfo]:
 
 class DomainWatch:
     """A DDS participant on this process's domain that looks for nodes named `node_names` and publishers of
-    the topics those nodes publish; `close()` leaves the graph."""
+    the topics those nodes publish (`iguana doctor` also lists every other node); `close()` leaves the graph."""
 
-    def __init__(self, node_names: tuple[str, ...]) -> None:
-        """Join the graph (rclpy context of its own, no signal handlers)."""
+    def __init__(self, node_names: tuple[str, ...], watch_name: str = WATCH_NODE_NAME) -> None:
+        """Join the graph as node `watch_name` (rclpy context of its own, no signal handlers)."""
         import rclpy
         from rclpy.signals import SignalHandlerOptions
 
@@ -111,7 +115,13 @@ class DomainWatch:
         self.topics = output_topics(self.node_names)
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node(WATCH_NODE_NAME, context=self.context)
+        self.node = rclpy.create_node(watch_name, context=self.context)
+
+    def other_nodes(self, own: tuple[str, ...] = ()) -> list[str]:
+        """Full names ('/ns/name') of every node on the graph but this watch and the nodes named `own`."""
+        skip = {self.node.get_name(), *own}
+        return sorted({f'{ns.rstrip("/")}/{name}' for name, ns in self.node.get_node_names_and_namespaces()
+                       if name not in skip})
 
     def foreign(self, ours_running: bool) -> tuple[list[str], dict[str, list[str]]]:
         """(node names, {topic: publishing nodes}) that are not the run's own: with `ours_running` one node of

@@ -1,0 +1,62 @@
+"""`iguana doctor`: is this machine ready to run iguana_ros? One ✓/✗ line per check, the fix under each ✗, exit
+status 1 if anything a run needs is missing."""
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `doctor` sub-command."""
+    parser = subparsers.add_parser(
+        'doctor', help='check Python, rclpy/RMW, DDS between processes, the ROS domain, caches, bag folder, ffmpeg')
+    parser.add_argument('--bags-dir', type=Path, default=Path('bags'), help='bag folder to check (default: bags/)')
+    parser.add_argument('--resolution', default='medium', help='model resolution whose cache to check')
+    parser.add_argument('--timeout', type=float, default=None, metavar='S',
+                        help='wall seconds the DDS loopback may take (default 15)')
+    parser.set_defaults(func=run)
+
+
+def environment_line() -> str:
+    """'ROS_DOMAIN_ID 42, RMW_IMPLEMENTATION unset, ROS_AUTOMATIC_DISCOVERY_RANGE LOCALHOST'."""
+    names = ('ROS_DOMAIN_ID', 'RMW_IMPLEMENTATION', 'ROS_AUTOMATIC_DISCOVERY_RANGE')
+    return ', '.join(f'{name} {os.environ.get(name) or "unset"}' for name in names)
+
+
+def all_checks(args: argparse.Namespace) -> list:
+    """Every check in order; the DDS checks only when rclpy works (else they are failed as skipped)."""
+    from iguana_ros import doctor
+    from iguana_ros.errors import InputError
+
+    if args.timeout is not None and not args.timeout > 0:
+        raise InputError(f'--timeout is {args.timeout}; expected a positive number of seconds')
+    checks = [doctor.check_python(), doctor.check_rmw()]
+    if checks[-1].ok:
+        from iguana_ros.bag.record import RECORDER_NODE_NAME
+        from iguana_ros.nodes.doctor_dds import LOOPBACK_TIMEOUT_S, dds_checks
+        from iguana_ros.nodes.launch import NODE_KINDS
+        checks += dds_checks((*NODE_KINDS, RECORDER_NODE_NAME), args.timeout or LOOPBACK_TIMEOUT_S)
+    else:
+        checks += [doctor.Check(name, False, 'not tried: rclpy does not work', 'fix rclpy and RMW first')
+                   for name in ('DDS loopback', 'other participants')]
+    return checks + [doctor.check_kernel_cache(), doctor.check_model_cache(args.resolution),
+                     doctor.check_bag_folder(args.bags_dir), doctor.check_ffmpeg()]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print every check; 1 if a needed one failed."""
+    print(f'iguana doctor: {environment_line()}', flush=True)
+    checks = all_checks(args)
+    for check in checks:
+        for line in check.lines():
+            print(line, flush=True)
+    failed = [c for c in checks if c.needed and not c.ok]
+    optional = [c for c in checks if not c.needed and not c.ok]
+    extra = f' ({len(optional)} optional missing: {", ".join(c.name for c in optional)})' if optional else ''
+    if failed:
+        print(f'iguana doctor: {len(failed)} of {len(checks)} checks failed: {", ".join(c.name for c in failed)}'
+              f'{extra}', flush=True)
+        return 1
+    print(f'iguana doctor: ready ({len(checks) - len(optional)} of {len(checks)} checks passed{extra})', flush=True)
+    return 0

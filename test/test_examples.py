@@ -1,0 +1,84 @@
+"""The three scripts in examples/ run as a new user would run them (short scenes, coarse mesh): the library loop
+with metrics and a plot; driving a real `iguana run` with IguanaCommander; reading its bag with mcap."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+import yaml
+from ros_harness import IGUANA, REPO, NodeProcess, wait_for
+
+EXAMPLES = REPO / 'examples'
+
+DRIVEN_SCENE = {'name': 'driven', 'description': 'flat ground, no goals of its own: the example sends one',
+                'terrain': {'kind': 'flat'}, 'model': {'resolution': 'coarse'}, 'duration': 10.0}
+
+
+def example(name: str, *args, timeout: float = 180.0) -> subprocess.CompletedProcess:
+    """Run examples/<name> with the test interpreter from the repository root."""
+    return subprocess.run([sys.executable, str(EXAMPLES / name), *map(str, args)], cwd=REPO, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+@pytest.mark.timeout(300)
+def test_library_loop_prints_metrics_and_saves_a_plot(tmp_path):
+    plot = tmp_path / 'walk.png'
+    done = example('library_loop.py', 'flat_walk', '--duration', '1.5', '--mesh', 'coarse', '-o', plot)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert re.search(r'^simulated 1\.50 s in [\d.]+ s wall', done.stdout, re.MULTILINE), done.stdout
+    assert re.search(r'^goal not reached, \d\.\d\d m short; walked 0\.\d\d m at 0\.\d+ m/s over \d strides',
+                     done.stdout, re.MULTILINE), done.stdout
+    assert plot.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and plot.stat().st_size > 10_000
+
+
+@pytest.fixture(scope='module')
+def driven(tmp_path_factory):
+    """A lockstep `iguana run` of a goal-less flat scene, driven by examples/drive_running_system.py; yields
+    (run output, example result, bag) once both have finished."""
+    folder = tmp_path_factory.mktemp('driven')
+    scene = folder / 'driven.yaml'
+    scene.write_text(yaml.safe_dump(DRIVEN_SCENE))
+    bag = folder / 'bag'
+    run = NodeProcess([*IGUANA, 'run', str(scene), '--record', str(bag)], 'iguana_run', folder)
+    with run.start():
+        drive = example('drive_running_system.py', '--ahead', '0.25', '--timeout', '120', '--push', '40',
+                        timeout=200)
+        wait_for(lambda: not run.running, 120.0, 0.2)
+    yield run.output, drive, run.proc.returncode, bag
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_drive_example_sends_a_goal_waits_for_it_and_pushes(driven):
+    output, drive, code, _bag = driven
+    assert drive.returncode == 0, drive.stdout + drive.stderr + output[-3000:]
+    lines = drive.stdout.splitlines()
+    assert re.fullmatch(r't=\d+\.\d\d s: root at \(-?\d\.\d\d, -?\d\.\d\d\) m, heading -?\d+ deg', lines[0]), lines
+    assert re.fullmatch(r'goal \(\d\.\d\d, -?\d\.\d\d\) accepted by the planner', lines[1]), lines
+    assert re.fullmatch(r't=\d+\.\d\d s: reached, 0\.\d{3} m from the goal', lines[2]), lines
+    assert re.fullmatch(r'pushed 40 N for 0\.1 s: peak sideways speed \d\.\d{3} m/s', lines[3]), lines
+    assert code == 0, output[-3000:]
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_read_bag_example_reads_the_driven_run(driven, tmp_path):
+    _output, _drive, code, bag = driven
+    assert code == 0
+    csv = tmp_path / 'root.csv'
+    done = example('read_bag.py', bag, '--csv', csv, '-o', tmp_path / 'run.npz')
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert re.search(r'^301 states from t=0\.00 to 10\.00 s; root moved \d\.\d\d m', done.stdout, re.MULTILINE), \
+        done.stdout
+    assert re.search(r'^301 foot frames; fraction in contact: fl 0\.\d\d fr 0\.\d\d hl 0\.\d\d hr 0\.\d\d$',
+                     done.stdout, re.MULTILINE), done.stdout
+    assert re.search(r'^goal 0: \(\d\.\d\d, -?\d\.\d\d\)', done.stdout, re.MULTILINE), done.stdout  # the example's
+    header, *rows = csv.read_text().splitlines()
+    assert header.startswith('t,x,y,z,vx,vy,vz,height_fl') and len(rows) == 301
+    import numpy as np
+    arrays = np.load(tmp_path / 'run.npz')
+    assert arrays['position'].shape == (301, 3) and arrays['foot_position'].shape == (301, 4, 3)
+    assert np.all(np.isfinite(arrays['position']))
