@@ -191,7 +191,7 @@ def check_kernel_cache(package_dir: Path | None = None) -> Check:
     state = 'cold' if len(cold) == len(modules) else f'partly warm ({len(modules) - len(cold)} of {len(modules)})'
     listed = ', '.join(cold[:3]) + (f' and {len(cold) - 3} more' if len(cold) > 3 else '')
     return Check('kernel cache', True, f'{state}, writable: {listed} compile at first use (about a minute on 2 '
-                 'cores for a run), cached afterwards')
+                 'cores), cached afterwards; `iguana warm` (make install runs it) compiles them ahead')
 
 
 def check_model_cache(resolution: str = 'medium') -> Check:

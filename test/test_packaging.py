@@ -168,6 +168,7 @@ def test_colcon_build_puts_nodes_in_lib_and_the_cli_on_path(tmp_path, monkeypatc
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PACKAGE).is_file()
     share = prefix / 'share' / PACKAGE
     assert (share / 'launch' / 'iguana.launch.py').is_file()
+    assert (share / 'rviz' / 'iguana.rviz').is_file() and (share / 'foxglove' / 'iguana_layout.json').is_file()
     nodes, resolver = _launch(monkeypatch, share)
     for node in nodes:
         assert all(f.is_file() for f in node.parameter_files(resolver))
