@@ -31,10 +31,11 @@ from iguana_ros.constants import FRAME_RATE, GRAVITY
 from iguana_ros.errors import InputError
 from iguana_ros.motion.clips import Clip, load_clip_library
 from iguana_ros.physics.simulator import SoftBodySimulator
-from iguana_ros.pipeline import Pipeline, SimulatorStage, build_pipeline, place_on_terrain
+from iguana_ros.pipeline import Pipeline, SimulatorStage, build_pipeline
 from iguana_ros.run_metrics import FEET, TRUNK, bone_node_groups
 from iguana_ros.scene import ModelSpec, Scene, load_scene
 from iguana_ros.terrain.heightfield import HeightField
+from iguana_ros.terrain.placement import place_on_terrain
 
 DIAGONALS = {(True, False, False, True): ('fl+hr', 2), (False, True, True, False): ('fr+hl', 3)}
 """Clip stance flags of a diagonal (two-foot) phase -> (name, index of the swinging hind foot)."""
@@ -204,7 +205,7 @@ def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanc
     `motion.clips.Clip`; default the idle clip, whose first pose stands on all four feet; a frame of a
     diagonal phase of `forward` holds the trot's two-foot support with the swing feet lifted).
 
-    Starts from that pose's reference mesh placed on the ground (`pipeline.place_on_terrain`: no node below
+    Starts from that pose's reference mesh placed on the ground (`terrain.placement.place_on_terrain`: no node below
     it). The reference the offsets are measured from is the same mesh standing on its feet (its lowest sole
     node on the ground, as on the clips' capture floor; the clips press the tail below that floor so it bears
     weight, so placing it by its lowest node would lift the feet). Per region (`sag_regions`): the mean
@@ -222,7 +223,7 @@ def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanc
     lengths = computer(clip.root_positions[frame], clip.local_rotations[frame])
     reference = place_by_feet(pose, np.flatnonzero(model.node_tags['feet']), terrain)
     sim = SoftBodySimulator(model, terrain, fidelity)
-    sim.reset(positions=place_on_terrain(pose, terrain, (0.0, 0.0), 0.0))
+    sim.reset(positions=place_on_terrain(pose, terrain, lift_only=True))
     n_frames = max(1, int(round(seconds * FRAME_RATE)))
     window = max(1, n_frames // 4)
     regions, loads = sag_regions(model), ground_load_groups(model)

@@ -1,6 +1,9 @@
-"""Vectorised rigid-body geometry: quaternions (x, y, z, w order, as ROS and scipy) and rotation vectors.
+"""Vectorised rigid-body geometry: quaternions (x, y, z, w order, as ROS and scipy), rotation vectors, rotation
+matrices, intrinsic Euler angles and the rigid (Kabsch) fit of two point sets.
 
-Every function broadcasts over leading axes: a quaternion array has shape `(..., 4)`, a vector `(..., 3)`.
+The package's one rotation toolkit: code outside numba kernels rotates with these functions (the kernels inline
+the few products they need). Every quaternion function broadcasts over leading axes: a quaternion array has shape
+`(..., 4)`, a vector `(..., 3)`, a matrix `(..., 3, 3)`.
 """
 from __future__ import annotations
 
@@ -87,13 +90,73 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions `(..., 4)` (w >= 0) from rotation matrices `(..., 3, 3)`."""
-    from scipy.spatial.transform import Rotation
+    """Unit quaternions `(..., 4)` (w >= 0) from rotation matrices `(..., 3, 3)` (Markley 2008).
 
+    The largest of (m00, m11, m22, trace) picks the best-conditioned component; the arithmetic is scipy's
+    `Rotation.from_matrix` for orthogonal matrices, operation for operation, so the results equal it bitwise.
+    """
     m = np.asarray(m, dtype=float)
-    flat = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat()
-    flat = np.where(flat[:, 3:4] < 0.0, -flat, flat)
-    return flat.reshape(m.shape[:-2] + (4,))
+    flat = m.reshape(-1, 3, 3)
+    trace = flat[:, 0, 0] + flat[:, 1, 1] + flat[:, 2, 2]
+    choice = np.argmax(np.stack([flat[:, 0, 0], flat[:, 1, 1], flat[:, 2, 2], trace], axis=-1), axis=-1)
+    q = np.empty((len(flat), 4))
+    for i in range(3):
+        rows = choice == i
+        j, k = (i + 1) % 3, (i + 2) % 3
+        r = flat[rows]
+        q[rows, i] = 1.0 - trace[rows] + 2.0 * r[:, i, i]
+        q[rows, j] = r[:, j, i] + r[:, i, j]
+        q[rows, k] = r[:, k, i] + r[:, i, k]
+        q[rows, 3] = r[:, k, j] - r[:, j, k]
+    rows = choice == 3
+    r = flat[rows]
+    q[rows, 0] = r[:, 2, 1] - r[:, 1, 2]
+    q[rows, 1] = r[:, 0, 2] - r[:, 2, 0]
+    q[rows, 2] = r[:, 1, 0] - r[:, 0, 1]
+    q[rows, 3] = 1.0 + trace[rows]
+    norm = np.sqrt(q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2] + q[:, 3] * q[:, 3])
+    q /= norm[:, None]
+    q = np.where(q[:, 3:4] < 0.0, -q, q)
+    return q.reshape(m.shape[:-2] + (4,))
+
+
+_AXES = {'X': 0, 'Y': 1, 'Z': 2}
+
+
+def _tait_bryan(order: str) -> tuple:
+    """Axis indices (i, j, k) of an intrinsic Tait-Bryan `order` such as 'ZXY'; ValueError otherwise."""
+    if len(order) != 3 or set(order) != set(_AXES):
+        raise ValueError(f'Euler order must be an intrinsic Tait-Bryan sequence of X, Y, Z (e.g. ZXY), got {order!r}')
+    return tuple(_AXES[a] for a in order)
+
+
+def quat_from_euler(angles: np.ndarray, order: str) -> np.ndarray:
+    """Unit quaternions `(..., 4)` of intrinsic Euler angles `(..., 3)` rad: R = R_order[0] R_order[1] R_order[2]."""
+    angles = np.asarray(angles, dtype=float)
+    half = 0.5 * angles
+    zeros = np.zeros(angles.shape[:-1])
+    q = None
+    for slot, axis in enumerate(_tait_bryan(order)):
+        comps = [zeros, zeros, zeros]
+        comps[axis] = np.sin(half[..., slot])
+        factor = np.stack(comps + [np.cos(half[..., slot])], axis=-1)
+        q = factor if q is None else quat_mul(q, factor)
+    return q
+
+
+def matrix_to_euler(m: np.ndarray, order: str) -> np.ndarray:
+    """Intrinsic Euler angles `(..., 3)` rad of rotation matrices `(..., 3, 3)`: R = R_order[0] R_order[1] R_order[2],
+    the middle angle in [-pi/2, pi/2]; at gimbal lock (|middle| = pi/2) the last angle is 0."""
+    i, j, k = _tait_bryan(order)
+    m = np.asarray(m, dtype=float)
+    sign = 1.0 if (j - i) % 3 == 1 else -1.0             # +1 for a cyclic order (XYZ, YZX, ZXY)
+    locked = np.abs(m[..., i, k]) > 1.0 - 1e-12
+    middle = np.where(locked, np.copysign(np.pi / 2, sign * m[..., i, k]),
+                      np.arcsin(np.clip(sign * m[..., i, k], -1.0, 1.0)))
+    first = np.where(locked, np.arctan2(sign * m[..., k, j], m[..., j, j]),
+                     np.arctan2(-sign * m[..., j, k], m[..., k, k]))
+    last = np.where(locked, 0.0, np.arctan2(-sign * m[..., i, j], m[..., i, i]))
+    return np.stack([first, middle, last], axis=-1)
 
 
 def quat_from_yaw(yaw: np.ndarray) -> np.ndarray:
@@ -112,3 +175,57 @@ def yaw_of(q: np.ndarray) -> np.ndarray:
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Angles wrapped to [-pi, pi)."""
     return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def quat_between(a: np.ndarray, b: np.ndarray, min_angle: float = 1e-9) -> np.ndarray | None:
+    """The smallest rotation `(4,)` taking unit vector `a (3,)` to unit vector `b (3,)`; None when they are less than
+    `min_angle` rad apart (opposite vectors turn about an axis perpendicular to `a`)."""
+    a = np.asarray(a, dtype=float)
+    axis = np.cross(a, b)
+    angle = np.arctan2(np.linalg.norm(axis), float(a @ b))
+    if angle < min_angle:
+        return None
+    if not np.linalg.norm(axis) > 0.0:                   # opposite: any axis perpendicular to a
+        axis = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+    return quat_from_rotvec(axis / np.linalg.norm(axis) * angle)
+
+
+COLLINEAR_RATIO = 1e-6
+"""`rigid_fit` takes a point set as collinear when the second singular value of its cross-covariance is at most
+this fraction of the first: the roll about the line is then not determined by the points."""
+
+
+def rigid_fit(source: np.ndarray, target: np.ndarray, weights: np.ndarray | None = None,
+              identity_bias: float = 0.0) -> tuple:
+    """Rotation `(3, 3)` and translation `(3,)` minimising Σ w‖R s + t − t'‖² over points `(n, 3)` (Kabsch).
+
+    `weights (n,)` >= 0 with a positive sum (None = equal, plain means). Only proper rotations (det +1): a mirrored
+    set gets the best rotation, a planar set (singular cross-covariance, det 0) its exact one, a collinear set
+    (COLLINEAR_RATIO) the smallest rotation taking the source line onto the target line, coincident points the
+    identity. `identity_bias` > 0 adds that fraction of the cross-covariance's norm (+1e-15) to its diagonal: a
+    pull toward the identity (the terrain plane fit's 1e-6 moves its rotations by < 1e-6 rad).
+    """
+    source = np.asarray(source, dtype=float)
+    target = np.asarray(target, dtype=float)
+    if source.ndim != 2 or source.shape[1] != 3 or target.shape != source.shape or len(source) == 0:
+        raise ValueError(f'rigid_fit needs two (n, 3) point sets of one shape, got {source.shape} and {target.shape}')
+    if weights is None:
+        cs, ct = source.mean(axis=0), target.mean(axis=0)
+        cov = (target - ct).T @ (source - cs)                  # Σ (t' − mean)(s − mean)ᵀ
+    else:
+        w = np.asarray(weights, dtype=float)
+        if w.shape != (len(source),) or np.any(w < 0.0) or not w.sum() > 0.0:
+            raise ValueError(f'rigid_fit weights must be ({len(source)},) values >= 0 with a positive sum')
+        w = w / w.sum()
+        cs, ct = w @ source, w @ target
+        cov = ((target - ct) * w[:, None]).T @ (source - cs)
+    if identity_bias > 0.0:
+        cov = cov + (identity_bias * np.linalg.norm(cov) + 1e-15) * np.eye(3)
+    u, singular, vt = np.linalg.svd(cov)
+    if singular[1] <= COLLINEAR_RATIO * singular[0]:           # collinear or coincident: the roll is free
+        turn = quat_between(vt[0], u[:, 0]) if singular[0] > 0.0 else None
+        rot = np.eye(3) if turn is None else quat_to_matrix(turn)
+    else:
+        d = -1.0 if np.linalg.det(u @ vt) < 0.0 else 1.0
+        rot = u @ np.diag([1.0, 1.0, d]) @ vt
+    return rot, ct - rot @ cs

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from iguana_ros.body.root_tracking import kabsch
+from iguana_ros.geometry import rigid_fit
 
 FALL_TILT = np.radians(60.0)
 """Root tilt (roll or pitch) beyond which the iguana counts as fallen, rad."""
@@ -172,7 +172,7 @@ def rigid_fit_errors(nodes: np.ndarray, reference: np.ndarray, weights: np.ndarr
     w = weights / weights.sum()
     out = np.empty(len(nodes))
     for f in range(len(nodes)):
-        rot, trans = kabsch(reference[f], nodes[f], weights)
+        rot, trans = rigid_fit(reference[f], nodes[f], weights)
         residual = nodes[f] - (reference[f] @ rot.T + trans)
         out[f] = np.sqrt(np.sum(w * np.einsum('nc,nc->n', residual, residual)))
     return out

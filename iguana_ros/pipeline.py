@@ -15,7 +15,7 @@ from iguana_ros.body.model import build_model
 from iguana_ros.body.root_tracking import RootTracker
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE
-from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
+from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip, MotionGraph, PolicyParams
 from iguana_ros.physics.pushes import region_force
 from iguana_ros.physics.simulator import SoftBodySimulator
@@ -24,6 +24,7 @@ from iguana_ros.terrain.adaptation import (AdaptationState, adapt_pose, pose_kin
                                            residual_heights_of)
 from iguana_ros.terrain.from_scene import terrain_from_spec
 from iguana_ros.terrain.heightfield import HeightField
+from iguana_ros.terrain.placement import place_on_terrain
 
 STANCE_HEIGHT = 0.006
 """A clip foot lower than this above the capture floor counts as in stance for residual fitting, m."""
@@ -175,7 +176,8 @@ class SimulatorStage:
         self.model = model
         self.pushes = tuple(pushes)
         self.sim = SoftBodySimulator(model, terrain, fidelity)
-        self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, start_xy, start_yaw))
+        self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
+                                                  lift_only=True))
         self.tracker = RootTracker(model)
         self.frame = 0
 
@@ -196,17 +198,6 @@ class SimulatorStage:
             forces = extra_forces if forces is None else forces + extra_forces
         self.sim.advance_frame(desired_lengths, forces)
         self.frame += 1
-
-
-def place_on_terrain(rest_positions: np.ndarray, terrain: HeightField, start_xy: tuple,
-                     start_yaw: float) -> np.ndarray:
-    """Rest nodes `(n, 3)` turned by `start_yaw`, moved to `start_xy` and lifted so none is below the terrain."""
-    q = quat_from_yaw(start_yaw)
-    moved = quat_rotate(q, np.asarray(rest_positions, float))
-    moved[:, :2] += np.asarray(start_xy, float)
-    ground = terrain.height(moved[:, :2])
-    moved[:, 2] += max(0.0, float(np.max(ground - moved[:, 2])))
-    return moved
 
 
 @dataclass

@@ -9,7 +9,6 @@ from iguana_ros import pipeline
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.geometry import quat_from_yaw, quat_identity
 from iguana_ros.scene import PushSpec, parse_scene
-from iguana_ros.terrain.heightfield import HeightField
 
 
 def _synthetic_library(n=12):
@@ -57,14 +56,6 @@ def test_push_forces_sum_to_the_push_on_its_region():
     assert np.allclose(forces.sum(axis=0), [0.0, -40.0, 0.0])
     assert np.all(forces[~model.node_tags['trunk_left']] == 0.0)
     assert pipeline.push_forces(model, (push,), 1.1) is None
-
-
-def test_place_on_terrain_turns_moves_and_lifts():
-    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.1]])
-    placed = pipeline.place_on_terrain(rest, HeightField.tilted_plane(20.0), (2.0, 0.0), np.pi / 2)
-    assert np.allclose(placed[:, :2], [[2.0, 0.0], [2.0, 1.0]])
-    ground = HeightField.tilted_plane(20.0).height(placed[:, :2])
-    assert np.all(placed[:, 2] >= ground - 1e-12) and np.isclose(np.min(placed[:, 2] - ground), 0.0)
 
 
 def test_scene_goal_schedule(coarse_scene):

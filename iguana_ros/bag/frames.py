@@ -21,6 +21,7 @@ import numpy as np
 
 from iguana_ros.bag.storage import BagReader, BagSummary, summarize
 from iguana_ros.errors import InputError
+from iguana_ros.geometry import quat_normalize, quat_rotate, yaw_of
 from iguana_ros.render.run import GoalSet, RecordedRun
 from iguana_ros.topics import topic
 
@@ -254,17 +255,11 @@ def _odometry(c: _Collector) -> tuple:
     for stamp, log_ns, data in c.odometry:
         pos, quat, _, _ = odometry_to_numpy(deserialize_message(data, cls))
         if np.isfinite(pos).all() and np.isfinite(quat).all():
-            rows.append((c.time_of(stamp, log_ns), *pos, _yaw(quat)))
+            rows.append((c.time_of(stamp, log_ns), *pos, float(yaw_of(quat))))
     if not rows:
         return None, None, None, None
     table = np.array(sorted(rows, key=lambda r: r[0]))
     return table[:, 0], table[:, 1:4], table[:, 0], table[:, 4]
-
-
-def _yaw(quat: np.ndarray) -> float:
-    """Heading (rad) about +z of a quaternion xyzw."""
-    x, y, z, w = quat
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
@@ -287,12 +282,10 @@ def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
 
 def _marker_triangles(m: MarkerData) -> tuple[np.ndarray, np.ndarray]:
     """World corners `(3n, 3)` and RGBA `(3n, 4)` of a TRIANGLE_LIST marker (its pose and scale applied)."""
-    from scipy.spatial.transform import Rotation
-
     n = len(m.points) - len(m.points) % 3
     points = m.points[:n] * m.scale
     if np.any(m.orientation[:3] != 0.0) and np.isfinite(m.orientation).all():
-        points = Rotation.from_quat(m.orientation).apply(points)
+        points = quat_rotate(quat_normalize(m.orientation), points)
     points = points + m.position
     colors = m.colors[:n] if len(m.colors) >= n else np.tile(m.color, (n, 1))
     if not np.isfinite(points).all():

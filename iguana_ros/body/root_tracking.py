@@ -8,21 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from iguana_ros.geometry import matrix_to_quat, yaw_of
+from iguana_ros.geometry import matrix_to_quat, rigid_fit, yaw_of
 
 ROOT_REGION_BONES = ('pelvis', 'spine_1', 'spine_2', 'hip_hl', 'hip_hr', 'tail_1')
 """Bones whose dominantly-skinned nodes define the root region."""
-
-
-def kabsch(source: np.ndarray, target: np.ndarray, weights: np.ndarray) -> tuple:
-    """Rotation `(3, 3)` and translation `(3,)` minimising the weighted distance from R·source + t to target."""
-    w = weights / weights.sum()
-    cs, ct = w @ source, w @ target
-    cov = ((target - ct) * w[:, None]).T @ (source - cs)
-    u, _, vt = np.linalg.svd(cov)
-    d = np.sign(np.linalg.det(u @ vt)) or 1.0
-    rot = u @ np.diag([1.0, 1.0, d]) @ vt
-    return rot, ct - rot @ cs
 
 
 class RootTracker:
@@ -42,7 +31,7 @@ class RootTracker:
 
     def root_pose(self, positions: np.ndarray) -> tuple:
         """(root position (3,), root orientation xyzw (4,)) for node positions `(n_nodes, 3)`."""
-        rot, trans = kabsch(self.rest, np.asarray(positions, float)[self.nodes], self.weights)
+        rot, trans = rigid_fit(self.rest, np.asarray(positions, float)[self.nodes], self.weights)
         return rot @ self.rest_root + trans, matrix_to_quat(rot)
 
     def heading(self, positions: np.ndarray) -> float:

@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from iguana_ros.body.skeleton import Skeleton
 from iguana_ros.errors import InputError
+from iguana_ros.geometry import matrix_to_euler, quat_from_euler, quat_mul, quat_rotate, quat_to_matrix
 
 _PERM = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 """Maps iguana vectors (x fwd, y left, z up) to BVH vectors (X, Y up, Z fwd)."""
@@ -22,9 +22,8 @@ _PERM = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 def _to_bvh_rotations(local_rotations: np.ndarray) -> np.ndarray:
     """Euler angles `(F, n_bones, 3)` in degrees (Z, X, Y order, intrinsic) in BVH axes."""
     shape = local_rotations.shape[:-1]
-    mats = Rotation.from_quat(local_rotations.reshape(-1, 4)).as_matrix()
-    mats = _PERM @ mats @ _PERM.T
-    return Rotation.from_matrix(mats).as_euler('ZXY', degrees=True).reshape(shape + (3,))
+    mats = _PERM @ quat_to_matrix(local_rotations.reshape(-1, 4)) @ _PERM.T
+    return np.degrees(matrix_to_euler(mats, 'ZXY')).reshape(shape + (3,))
 
 
 def write_bvh(path: str | Path, skeleton: Skeleton, root_positions: np.ndarray, local_rotations: np.ndarray,
@@ -97,9 +96,9 @@ def read_bvh_positions(path: str | Path) -> tuple:
             positions[:, j] = motion[:, col:col + 3]
             col += 3
         else:
-            positions[:, j] = positions[:, parent] + rotations[parent].apply(offsets[j])
+            positions[:, j] = positions[:, parent] + quat_rotate(rotations[parent], offsets[j])
         if count:
-            local = Rotation.from_euler('ZXY', motion[:, col:col + 3], degrees=True)
-            rotations[j] = local if parent < 0 else rotations[parent] * local
+            local = quat_from_euler(np.radians(motion[:, col:col + 3]), 'ZXY')
+            rotations[j] = local if parent < 0 else quat_mul(rotations[parent], local)
             col += 3
     return tuple(names), positions @ _PERM

@@ -19,7 +19,7 @@ import numpy as np
 
 from iguana_ros.body.markers import MarkerSet, iguana_markers
 from iguana_ros.body.skeleton import Skeleton, iguana_skeleton
-from iguana_ros.geometry import quat_mul
+from iguana_ros.geometry import quat_from_euler
 
 AXIS_Z, AXIS_Y, AXIS_X = 0, 1, 2
 """Euler-angle slots of a bone: yaw (about z) first, then pitch (y), then roll (x)."""
@@ -131,17 +131,7 @@ def euler_matrices(angles: np.ndarray) -> np.ndarray:
 
 def euler_quaternions(angles: np.ndarray) -> np.ndarray:
     """Unit quaternions `(..., 4)` (xyzw) of `Rz Ry Rx` from Euler angles `(..., 3)` (z, y, x slots)."""
-    angles = np.asarray(angles, dtype=float)
-    zeros = np.zeros(angles.shape[:-1])
-    half = 0.5 * angles
-
-    def axis_quat(k: int, a: np.ndarray) -> np.ndarray:
-        comps = [zeros, zeros, zeros]
-        comps[k] = np.sin(a)
-        return np.stack(comps + [np.cos(a)], axis=-1)
-
-    q = quat_mul(axis_quat(2, half[..., 0]), axis_quat(1, half[..., 1]))
-    return quat_mul(q, axis_quat(0, half[..., 2]))
+    return quat_from_euler(angles, 'ZYX')
 
 
 def local_rotations(dofs: ActiveDofs, theta: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from iguana_ros.errors import InputError
+from iguana_ros.geometry import rigid_fit
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, marker_model
 
 FOOT_MARKERS = ('FOOT_FL', 'FOOT_FR', 'FOOT_HL', 'FOOT_HR')
@@ -64,18 +65,14 @@ class IKResult:
         return np.sqrt(np.nanmean(self.residual ** 2, axis=0)) * 1e3
 
 
-def _kabsch(reference: np.ndarray, observed: np.ndarray, weight: np.ndarray) -> tuple:
-    """Rotations `(F, 3, 3)` and translations `(F, 3)` with observed ~ R @ reference + t (weighted)."""
-    w = weight / np.maximum(weight.sum(axis=1, keepdims=True), 1e-12)
-    ref_c = np.einsum('fm,mi->fi', w, reference)
-    obs_c = np.einsum('fm,fmi->fi', w, observed)
-    h = np.einsum('fm,fmi,fmj->fij', w, reference[None] - ref_c[:, None], observed - obs_c[:, None])
-    u, _, vt = np.linalg.svd(h)
-    d = np.sign(np.linalg.det(np.einsum('fji,fkj->fik', vt, u)))
-    fix = np.ones((len(d), 3))
-    fix[:, 2] = d
-    rot = np.einsum('fji,fj,fkj->fik', vt, fix, u)
-    return rot, obs_c - np.einsum('fij,fj->fi', rot, ref_c)
+def _frame_fits(reference: np.ndarray, observed: np.ndarray, weight: np.ndarray, valid: np.ndarray) -> tuple:
+    """Rotations `(F, 3, 3)` and translations `(F, 3)` with observed ~ R @ reference + t (weighted), frame by frame;
+    frames not `valid (F,)` get the identity (the caller interpolates them)."""
+    rot = np.tile(np.eye(3), (len(observed), 1, 1))
+    trans = np.zeros((len(observed), 3))
+    for f in np.flatnonzero(valid):              # one 3x3 SVD per frame of a take
+        rot[f], trans[f] = rigid_fit(reference, observed[f], weight[f])
+    return rot, trans
 
 
 def _fill_frames(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -100,7 +97,7 @@ def initial_guess(model: BodyModel, observed: np.ndarray) -> np.ndarray:
     if valid.sum() < 1:
         raise InputError('IK needs at least 3 visible trunk markers in some frame '
                          f'({", ".join(TRUNK_MARKERS)})')
-    rot, trans = _kabsch(reference, np.nan_to_num(obs), visible.astype(float))
+    rot, trans = _frame_fits(reference, np.nan_to_num(obs), visible.astype(float), valid)
     yaw = np.unwrap(np.arctan2(rot[:, 1, 0], rot[:, 0, 0]))
     pitch = -np.arcsin(np.clip(rot[:, 2, 0], -1.0, 1.0))
     roll = np.arctan2(rot[:, 2, 1], rot[:, 2, 2])

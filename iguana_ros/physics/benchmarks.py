@@ -9,12 +9,16 @@ import time
 import numpy as np
 
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.scenes import bench_model, gait_for, place_on_terrain, run_gait
+from iguana_ros.physics.scenes import bench_model, gait_for, run_gait
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
+from iguana_ros.terrain.placement import place_on_terrain
 
 HILLS = dict(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
 """The benchmark terrain: ±3 cm hills of ~0.6 m wavelength."""
+
+START_CLEARANCE = 1e-3
+"""Height of the lowest node above the terrain when a benchmark body is set down, m."""
 
 
 def cpu_model() -> str:
@@ -41,7 +45,7 @@ def make_scene(resolution: str = 'medium', preset='balanced', **overrides) -> tu
     build_s = time.perf_counter() - t0
     terrain = HeightField.hills(**HILLS)
     sim = SoftBodySimulator(model, terrain, preset, **overrides)
-    sim.reset(place_on_terrain(sim.rest_positions, terrain))
+    sim.reset(place_on_terrain(sim.rest_positions, terrain, clearance=START_CLEARANCE))
     return sim, gait_for(model), name, build_s
 
 
@@ -164,7 +168,7 @@ def _run(resolution: str, seconds: float, settings: dict) -> dict:
     preset = settings.pop('preset', 'balanced')
     sim, gait, _, _ = make_scene(resolution, preset, **settings)
     sim.advance_frame(gait.desired_lengths(0.0), n_steps=1)         # compile outside the timing
-    sim.reset(place_on_terrain(sim.rest_positions, sim.terrain))
+    sim.reset(place_on_terrain(sim.rest_positions, sim.terrain, clearance=START_CLEARANCE))
     cpu0 = time.process_time()
     try:
         timing = run_gait(sim, gait, seconds)

@@ -29,12 +29,6 @@ def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
     return build_model(resolution=resolution, stiffness=stiffness), f'iguana ({resolution}, {stiffness})'
 
 
-def place_on_terrain(positions: np.ndarray, terrain, clearance: float = 1e-3) -> np.ndarray:
-    """`positions (n, 3)` lifted so that the lowest node relative to the terrain is `clearance` m above it."""
-    gap = positions[:, 2] - terrain.height(positions[:, :2])
-    return positions + [0.0, 0.0, clearance - gap.min()]
-
-
 @dataclass
 class LateralBendGait:
     """Desired spring lengths of a travelling lateral bend: l_d = l_0 (1 − κ(t, x) y u_x²).

@@ -11,6 +11,7 @@ from iguana_ros.constants import (
     CONTACT_DAMPING_RATIO, CONTACT_STIFFNESS, FRAME_RATE, FRICTION_COEFFICIENT, FRICTION_STIFFNESS, GRAVITY,
     MAX_NODE_SPEED, MAX_PENETRATION, RAYLEIGH_ALPHA, RAYLEIGH_BETA)
 from iguana_ros.errors import InputError
+from iguana_ros.geometry import matrix_to_quat, rigid_fit
 from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
@@ -359,14 +360,7 @@ class SoftBodySimulator:
 
     def root_pose(self) -> tuple:
         """Best rigid fit of the rest shape to the current nodes: (COM position (3,), quaternion xyzw (4,))."""
-        from scipy.spatial.transform import Rotation
-
         mass = self._model[0]
         x = self._state[0]
-        com = mass @ x / mass.sum()
-        rest_com = mass @ self.rest_positions / mass.sum()
-        cov = ((x - com) * mass[:, None]).T @ (self.rest_positions - rest_com)
-        u, _, vt = np.linalg.svd(cov)
-        d = np.sign(np.linalg.det(u @ vt))
-        rot = u @ np.diag([1.0, 1.0, d]) @ vt
-        return com, Rotation.from_matrix(rot).as_quat()
+        rot, _ = rigid_fit(self.rest_positions, x, mass)
+        return mass @ x / mass.sum(), matrix_to_quat(rot)

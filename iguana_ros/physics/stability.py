@@ -9,9 +9,9 @@ from iguana_ros.constants import MAX_NODE_SPEED
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.meshes import SoftBodyMesh, tet_volumes
 from iguana_ros.physics.pushes import region_force
-from iguana_ros.physics.scenes import place_on_terrain
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
+from iguana_ros.terrain.placement import place_on_terrain
 
 REST_DEPTH_LIMIT = 0.01
 """A stable run ends with no node deeper than this below the terrain, m."""

@@ -29,8 +29,8 @@ import numpy as np
 
 from iguana_ros.body.skeleton import FOOT_PIVOTS, Skeleton
 from iguana_ros.errors import IguanaError, InputError
-from iguana_ros.geometry import (matrix_to_quat, quat_conjugate, quat_from_rotvec, quat_mul, quat_normalize,
-                                 quat_rotate, quat_to_matrix, quat_to_rotvec)
+from iguana_ros.geometry import (matrix_to_quat, quat_between, quat_conjugate, quat_from_rotvec, quat_mul,
+                                 quat_normalize, quat_rotate, quat_to_matrix, quat_to_rotvec, rigid_fit)
 from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.terrain.heightfield import HeightField, bilinear_height_gradient
 
@@ -149,21 +149,8 @@ def pose_kinematics(skeleton: Skeleton, root_position: np.ndarray, local_rotatio
 
 # --------------------------------------------------------------------------------------------- plane fitting
 
-def rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple:
-    """Rotation `(3, 3)` and translation `(3,)` minimising Σ‖R s + t − t_i‖² over points `(n, 3)` (Kabsch).
-
-    Reflections are excluded; a degenerate set (collinear or coincident points) gets the smallest rotation
-    that fits, through a tiny bias of the cross-covariance toward the identity.
-    """
-    source = np.asarray(source, dtype=float)
-    target = np.asarray(target, dtype=float)
-    cs, ct = source.mean(axis=0), target.mean(axis=0)
-    cov = (source - cs).T @ (target - ct)
-    cov = cov + (1e-6 * np.linalg.norm(cov) + 1e-15) * np.eye(3)
-    u, _s, vt = np.linalg.svd(cov)
-    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
-    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return rotation, ct - rotation @ cs
+PLANE_FIT_BIAS = 1e-6
+"""`geometry.rigid_fit` identity bias of the plane fit: four feet on a line still get the smallest rotation."""
 
 
 def terrain_targets(terrain: HeightField, points: np.ndarray, residual_heights: np.ndarray) -> np.ndarray:
@@ -193,7 +180,11 @@ def plane_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.ndarra
     positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
     feet = positions[skeleton.indices(list(FOOT_BONES))]
     targets = terrain_targets(terrain, feet, np.maximum(foot_residual_heights, 0.0))
-    rotation, translation = rigid_fit(feet, targets)
+    # the fit of the targets onto the feet, transposed: the very rotation taking the feet onto the targets, in the
+    # arithmetic the plane fit has always had (terrain runs keep their bits; they are chaotic in the last bit)
+    back, _ = rigid_fit(targets, feet, identity_bias=PLANE_FIT_BIAS)
+    rotation = back.T.copy()                    # C order, as the product below has always taken it
+    translation = targets.mean(axis=0) - rotation @ feet.mean(axis=0)
     fitted = local_rotations.copy()
     fitted[0] = quat_mul(matrix_to_quat(rotation), local_rotations[0])
     return PlaneFit(rotation @ root_position + translation, fitted, rotation, translation, targets)
@@ -501,11 +492,9 @@ def align_soles(skeleton: Skeleton, terrain: HeightField, pose: AdaptedPose, sta
         world = pose.joint_rotations[bone]
         up = quat_rotate(world, np.array([0.0, 0.0, 1.0]))
         normal = terrain.normal(pose.joint_positions[bone, :2])
-        axis = np.cross(up, normal)
-        angle = np.arctan2(np.linalg.norm(axis), float(up @ normal))
-        if angle < 1e-9:
+        turn = quat_between(up, normal)
+        if turn is None:
             continue
-        turn = quat_from_rotvec(axis / np.linalg.norm(axis) * angle)
         parent = pose.joint_rotations[skeleton.parents[bone]]
         local[bone] = quat_normalize(quat_mul(quat_conjugate(parent), quat_mul(turn, world)))
     positions, rotations = pose_kinematics(skeleton, pose.root_position, local)

@@ -24,7 +24,7 @@ from iguana_ros.nodes import messages as m  # noqa: E402
 from iguana_ros.nodes.launch import RunSummary  # noqa: E402
 from iguana_ros.nodes.ros_topics import resolve  # noqa: E402
 from iguana_ros.nodes.run_gait import GAIT_TOPICS, run_gait  # noqa: E402
-from iguana_ros.pipeline import place_on_terrain  # noqa: E402
+from iguana_ros.terrain.placement import place_on_terrain  # noqa: E402
 from iguana_ros.pipeline import run as run_pipeline  # noqa: E402
 from iguana_ros.run_metrics import FootProbe, metrics_of_run  # noqa: E402
 from iguana_ros.scene import load_scene  # noqa: E402
@@ -73,7 +73,8 @@ def _placed_clips(scene, result) -> list:
     graph = MotionGraph(load_clip_library())
     model = build_model(scene.model.resolution, scene.model.stiffness)
     start_nodes = place_on_terrain(model.rest_positions, terrain_from_spec(scene.terrain),
-                                   (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg))
+                                   xy=(scene.start.x, scene.start.y), yaw=np.radians(scene.start.yaw_deg),
+                                   lift_only=True)
     root0, quat0 = RootTracker(model).root_pose(start_nodes)
     out, previous = [], None
     for start, name in result.clip_history:
