@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 
-.PHONY: install test demo bench clean
+.PHONY: install browser test demo bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -16,9 +16,17 @@ $(STAMP): $(PY) setup.py setup.cfg package.xml
 	$(VENV)/bin/iguana warm   # compile the kernels and cache the model once, not in four processes at the first run
 	touch $(STAMP)
 
-install: $(STAMP)
+install: $(STAMP) browser
 
-test: $(STAMP)
+# Debian's Chromium and ChromeDriver for the browser tests of `iguana view` (skipped, saying why, without them).
+browser:
+	@if command -v chromium >/dev/null && command -v chromedriver >/dev/null; then :; \
+	elif command -v apt-get >/dev/null && [ "$$(id -u)" = 0 ]; then \
+		{ apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium chromium-driver; } || \
+		echo "make: apt-get could not install chromium and chromium-driver; the browser tests will be skipped"; \
+	else echo "make: chromium and chromedriver are missing and cannot be installed here; the browser tests will be skipped"; fi
+
+test: $(STAMP) browser
 	$(PY) -m pytest -q
 
 demo: $(STAMP)

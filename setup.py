@@ -117,6 +117,7 @@ setup(
         'pillow>=9',
         'tqdm>=4.60',
         'threadpoolctl>=3.1',
+        'viser>=1.0,<2',     # `iguana view`: the web page and its client (shipped in the wheel)
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
@@ -125,6 +126,7 @@ setup(
             'pytest>=7', 'pytest-timeout>=2.1',
             # a real `colcon build` of the package (test/test_packaging.py)
             'colcon-core>=0.15', 'colcon-ros>=0.4',
+            'selenium>=4.10',    # drives headless Chromium in the `iguana view` tests
         ],
     },
     zip_safe=False,

@@ -48,7 +48,7 @@ def match_topic(recorded: list[str], name: str) -> str | None:
     return namespaced[0] if namespaced else None
 
 
-def _stamp_ns(data: bytes) -> int:
+def stamp_ns(data: bytes) -> int:
     """header.stamp (ns) of a serialized stamped message (the stamp opens the CDR payload)."""
     sec, nsec = struct.unpack_from('<iI', data, 4)
     return sec * NS + nsec
@@ -104,7 +104,7 @@ class _Collector:
     def add_mesh(self, data: bytes, log_ns: int) -> None:
         """Take one serialized mesh Marker; the time base is fixed by the first two messages."""
         self.mesh_count += 1
-        stamp = _stamp_ns(data)
+        stamp = stamp_ns(data)
         if self.base is None:
             if not self.stamps:
                 self.stamps.append((stamp, log_ns, data))
@@ -195,7 +195,7 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
         if role == 'mesh_marker':
             collector.add_mesh(msg.data, msg.log_time)
         elif role == 'iguana_state':
-            collector.odometry.append((_stamp_ns(msg.data), msg.log_time, msg.data))
+            collector.odometry.append((stamp_ns(msg.data), msg.log_time, msg.data))
         elif role == 'scene_markers':
             collector.scenes.append((msg.log_time, msg.data))
         if progress is not None and k % 64 == 63:
@@ -267,20 +267,29 @@ def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
     terrain: tuple = (None, None)
     goals: list[GoalSet] = []
     for log_ns, data in sorted(c.scenes, key=lambda s: s[0]):
-        markers = marker_array_from_cdr(data)
         t = c.receive_time_of(log_ns)  # a MarkerArray has no header; its markers' stamps are often 0
-        if any(m.action == _DELETEALL for m in markers):
-            goals.append(GoalSet(t, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))))
-        for m in markers:
-            if m.ns == TERRAIN_NS and m.type == _TRIANGLE_LIST and m.action == _ADD:
-                terrain = _marker_triangles(m)
-        goal = [m for m in markers if m.ns == GOAL_NS and m.action == _ADD]
-        if goal:
-            goals.append(_goal_set(t, goal))
+        new_terrain, new_goals = scene_update(marker_array_from_cdr(data), t)
+        terrain = new_terrain or terrain
+        goals.extend(new_goals)
     return terrain, goals
 
 
-def _marker_triangles(m: MarkerData) -> tuple[np.ndarray, np.ndarray]:
+def scene_update(markers: list[MarkerData], t: float) -> tuple[tuple | None, list[GoalSet]]:
+    """What one scene_markers message received at `t` s changes: the terrain's (corners `(3n, 3)`, RGBA `(3n, 4)`)
+    or None, and the goal sets it starts (an empty one for a DELETEALL, then its goal spheres)."""
+    terrain, goals = None, []
+    if any(m.action == _DELETEALL for m in markers):
+        goals.append(GoalSet(t, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))))
+    for m in markers:
+        if m.ns == TERRAIN_NS and m.type == _TRIANGLE_LIST and m.action == _ADD:
+            terrain = marker_triangles(m)
+    goal = [m for m in markers if m.ns == GOAL_NS and m.action == _ADD]
+    if goal:
+        goals.append(goal_set(t, goal))
+    return terrain, goals
+
+
+def marker_triangles(m: MarkerData) -> tuple[np.ndarray, np.ndarray]:
     """World corners `(3n, 3)` and RGBA `(3n, 4)` of a TRIANGLE_LIST marker (its pose and scale applied)."""
     n = len(m.points) - len(m.points) % 3
     points = m.points[:n] * m.scale
@@ -293,7 +302,7 @@ def _marker_triangles(m: MarkerData) -> tuple[np.ndarray, np.ndarray]:
     return points, colors
 
 
-def _goal_set(t: float, markers: list[MarkerData]) -> GoalSet:
+def goal_set(t: float, markers: list[MarkerData]) -> GoalSet:
     """GoalSet of goal markers (spheres of diameter scale.x at their pose)."""
     pos = np.array([m.position for m in markers])
     radii = np.array([0.5 * max(float(m.scale[0]), 1e-3) for m in markers])

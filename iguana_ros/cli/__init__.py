@@ -14,6 +14,7 @@ SUBCOMMANDS = (
     ('bag', 'iguana_ros.cli.bag'),
     ('goal', 'iguana_ros.cli.goal'),
     ('render', 'iguana_ros.cli.render'),
+    ('view', 'iguana_ros.cli.view'),
     ('motion', 'iguana_ros.cli.motion'),
     ('model', 'iguana_ros.cli.model'),
     ('bench', 'iguana_ros.cli.bench'),

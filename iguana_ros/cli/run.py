@@ -20,6 +20,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help='wall-clock limit of the run (default: 120 s + 30 x the scene duration)')
     parser.add_argument('--duration', type=float, default=None, metavar='S',
                         help="simulated seconds to run (default: the scene's duration)")
+    parser.add_argument('--view', action='store_true',
+                        help='also start `iguana view` (live, in a web browser; it stops with the run)')
+    parser.add_argument('--view-port', type=int, default=8080, metavar='PORT',
+                        help='port of the viewer page (default 8080; 0 = any free port)')
+    parser.add_argument('--view-host', default='127.0.0.1', metavar='HOST',
+                        help='address the viewer serves on (default 127.0.0.1)')
     parser.set_defaults(func=run)
 
 
@@ -55,6 +61,11 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
     extra = {} if args.duration is None else {'duration': float(args.duration)}
+    view = None
+    if args.view:
+        from iguana_ros.view.server import check_port
+        check_port(args.view_host, args.view_port)  # before anything starts: one line, exit 1
+        view = ['--port', str(args.view_port), '--host', args.view_host]
     return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
                                      single_process=args.single_process, timeout=args.timeout,
-                                     extra_params=extra), 'iguana run')[1]
+                                     extra_params=extra, view=view), 'iguana run')[1]

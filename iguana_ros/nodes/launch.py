@@ -46,6 +46,10 @@ NODE_STOP_S = 5.0
 RECORDER_STOP_S = 20.0
 """Wall seconds the recorder gets for each step (it finalises the bag on SIGINT)."""
 
+VIEWER_START_S = 60.0
+"""Wall seconds the viewer of `iguana run --view` gets to print its address."""
+"""Wall seconds the recorder gets for each step (it finalises the bag on SIGINT)."""
+
 DOMAIN_WATCH_S = 5.0
 """Wall seconds after the domain check during which the graph is still watched for a foreign node discovered
 late (at least until the scene's goals are sent)."""
@@ -70,6 +74,8 @@ class RunOptions:
     bags_dir: Path = Path('bags')
     extra_params: dict = field(default_factory=dict)
     domain_check_s: float = GRAPH_LISTEN_S
+    view: list[str] | None = None
+    """Arguments of an `iguana view` (live) started as a child of the run, e.g. ['--port', '8080']; None: none."""
 
 
 class RunInterrupted(IguanaError):
@@ -243,9 +249,21 @@ class SceneRun:
         if not child.wait_for_output('recording to', 30.0):
             self.alive_or_raise()
             raise IguanaError(f'the recorder did not start within 30 s; logs in {self.logs}')
+        if self.options.view is not None:
+            self.start_viewer()
         for name, command in node_commands(self.options, self.scene, self.scene_file).items():
             self.keep_going()
             self._child(name, command).start()
+
+    def start_viewer(self) -> None:
+        """`iguana view` (live) as a child of the run, like the nodes; prints the page's address once it serves."""
+        from iguana_ros.cli.view import URL_PREFIX
+        child = self._child('viewer', [sys.executable, '-m', 'iguana_ros.cli', 'view', *self.options.view])
+        child.start()
+        if not child.wait_for_output(URL_PREFIX, VIEWER_START_S):
+            self.alive_or_raise()
+            raise IguanaError(f'the viewer did not start within {VIEWER_START_S:g} s; logs in {self.logs}')
+        print(next(line for line in child.output.splitlines() if line.startswith(URL_PREFIX)), flush=True)
 
     def send_goals(self) -> None:
         """Publish the scene's goals (stamped with their times) once planner and simulator listen."""

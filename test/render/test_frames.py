@@ -137,12 +137,12 @@ def test_marker_array_reader_matches_rclpy():
 def test_terrain_marker_pose_and_scale_are_applied(tmp_path):
     from rclpy.serialization import serialize_message
 
-    from iguana_ros.bag.frames import _marker_triangles
+    from iguana_ros.bag.frames import marker_triangles
     from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker
     m = triangle_list_marker(np.array([[1.0, 0, 0], [0, 1, 0], [0, 0, 1]]), np.array([[0, 1, 2]]),
                              np.ones((3, 4)), ns='terrain')
     m.scale.x = m.scale.y = m.scale.z = 2.0
     m.pose.position.x = 10.0
     m.pose.orientation.z, m.pose.orientation.w = math.sin(math.pi / 4), math.cos(math.pi / 4)  # +90 deg yaw
-    points, _ = _marker_triangles(marker_array_from_cdr(serialize_message(marker_array_msg([m])))[0])
+    points, _ = marker_triangles(marker_array_from_cdr(serialize_message(marker_array_msg([m])))[0])
     assert np.allclose(points, [[10, 2, 0], [8, 0, 0], [10, 0, 2]])

@@ -1,0 +1,100 @@
+"""`iguana view [BAG]`: the iguana in a web browser, live from the running nodes (default) or from a bag."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+URL_PREFIX = 'iguana view: http'
+"""How the line naming the page's address starts (`iguana run --view` looks for it)."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `view` sub-command."""
+    parser = subparsers.add_parser(
+        'view', help='show the iguana in a web browser: live (click to set a goal) or a bag with a timeline')
+    parser.add_argument('bag', nargs='?', type=Path, default=None,
+                        help='a recorded bag (directory or .mcap) to play with a timeline (default: live)')
+    parser.add_argument('--port', type=int, default=8080, help='port of the web page (default 8080; 0 = any free)')
+    parser.add_argument('--host', default='127.0.0.1',
+                        help='address to serve on (default 127.0.0.1: this machine only; 0.0.0.0 for every interface)')
+    parser.add_argument('--speed', type=float, default=1.0, help='bag mode: playback speed (default 1)')
+    parser.add_argument('--loop', action='store_true', help='bag mode: start again at the end')
+    parser.add_argument('--paused', action='store_true', help='bag mode: start paused')
+    parser.add_argument('--allow-damaged', action='store_true',
+                        help='bag mode: show the frames of every intact chunk of a damaged or truncated bag')
+    parser.set_defaults(func=view)
+
+
+def view(args: argparse.Namespace) -> int:
+    """Serve the page until Ctrl-C / SIGTERM / SIGHUP; one line on stderr and status 1 for bad input."""
+    from iguana_ros.errors import InputError
+    from iguana_ros.view.server import check_port
+
+    if not args.speed > 0:
+        raise InputError(f'--speed is {args.speed}; expected a positive factor')
+    check_port(args.host, args.port)
+    return _serve_bag(args) if args.bag is not None else _serve_live(args)
+
+
+def _defaults() -> tuple[dict, float]:
+    """(the clip library, to name the planner's clips; the simulator's push duration, s)."""
+    from iguana_ros.motion.clips import load_clip_library
+    from iguana_ros.parameters import node_parameters
+    return load_clip_library(), float(node_parameters('simulator_node')['push_duration'].default)
+
+
+def _serve_bag(args: argparse.Namespace) -> int:
+    """Bag mode: the whole recording on a timeline."""
+    from iguana_ros.view.bag_source import load_bag
+    from iguana_ros.view.playback import Playback
+    from iguana_ros.view.server import ViewerPage
+
+    library, push_duration = _defaults()
+    bag = load_bag(args.bag, allow_damaged=args.allow_damaged, library=library, push_duration=push_duration)
+    playback = Playback(bag.view.start_time, bag.view.end_time, speed=args.speed, playing=not args.paused,
+                        loop=args.loop)
+    notes = tuple(([bag.damage] if bag.damage else []) + bag.notes)
+    page = ViewerPage(bag.view, args.host, args.port, title=f'iguana view: {Path(args.bag).name}',
+                      playback=playback, notes=notes)
+    _announce(page.url, f'bag {args.bag}, {playback.end - playback.start:.1f} s', notes)
+    return _until_stopped(page)
+
+
+def _serve_live(args: argparse.Namespace) -> int:
+    """Live mode: the running system's topics, goals and pushes sent from the page."""
+    from iguana_ros.nodes.domain_check import current_domain_id
+    from iguana_ros.view.live import LiveSource
+    from iguana_ros.view.scene import RunView
+    from iguana_ros.view.server import ViewerPage
+
+    library, push_duration = _defaults()
+    view = RunView(keep_meshes=1)
+    live = LiveSource(view, library, push_duration)
+    try:
+        page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live)
+        _announce(page.url, f'live on ROS_DOMAIN_ID {current_domain_id()}', ())
+        return _until_stopped(page)
+    finally:
+        live.close()
+
+
+def _announce(url: str, what: str, notes: tuple) -> None:
+    """Print the page's address (and what the bag reader tolerated) on stdout."""
+    print(f'iguana view: {url} ({what}; Ctrl-C stops)', flush=True)
+    for note in notes:
+        print(f'iguana view: note: {note}', flush=True)
+
+
+def _until_stopped(page) -> int:
+    """Serve `page` until SIGINT, SIGTERM or SIGHUP, then stop its server; returns 0."""
+    import signal
+    import threading
+
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, lambda _signum, _frame: stop.set())
+    try:
+        page.serve(stop)
+    finally:
+        page.close()
+    return 0

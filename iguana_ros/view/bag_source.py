@@ -1,0 +1,108 @@
+"""A recorded bag read into a `RunView` for the timeline: every mesh frame, the root's states, the feet, pushes,
+clips, terrain and goals, in one pass over the bag (the same decoders as live mode)."""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from rclpy.serialization import deserialize_message
+
+from iguana_ros.bag.frames import NS, match_topic
+from iguana_ros.bag.storage import BagReader, accept, summarize
+from iguana_ros.errors import IguanaError, InputError
+from iguana_ros.nodes.ros_topics import message_class
+from iguana_ros.topics import topic
+from iguana_ros.view import decode
+from iguana_ros.view.scene import RunView
+
+ROLES = ('mesh_marker', 'scene_markers', 'iguana_state', 'foot_state', 'foot_positions', 'push', 'motion_clip')
+"""Topic-table keys the viewer reads from a bag."""
+
+
+@dataclass
+class BagView:
+    """A bag's RunView, its damage report line ('' when sound) and what was skipped, one sentence each."""
+
+    view: RunView
+    damage: str = ''
+    notes: list[str] = field(default_factory=list)
+
+
+def _roles(path: str | Path) -> tuple[dict, object]:
+    """({recorded topic: table key} of the ROLES in the bag, its BagSummary, checked in full); InputError for a
+    missing bag or one without a mesh_marker topic."""
+    summary = summarize(path)
+    recorded = {t.name: t.type for t in summary.topics}
+    roles = {}
+    for key in ROLES:
+        spec = topic(key)
+        name = match_topic(list(recorded), spec.name)
+        if name is not None and recorded[name] == spec.type:
+            roles[name] = key
+    if 'mesh_marker' not in roles.values():
+        raise InputError(f'bag {path} has no {topic("mesh_marker").name} topic of type {topic("mesh_marker").type} '
+                         f'(recorded: {", ".join(sorted(recorded)) or "nothing"}); nothing to show')
+    return roles, summary
+
+
+def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None = None,
+             push_duration: float = 0.1) -> BagView:
+    """Read bag `path` (see the module docstring); `library` names the clips (name -> clip), pushes last
+    `push_duration` s. InputError for a missing bag or one without mesh frames; DamagedBag for a damaged or
+    truncated bag unless `allow_damaged`."""
+    roles, summary = _roles(path)
+    damage = accept(summary, allow_damaged)
+    view, skipped = RunView(), {}
+    pushes, scenes = [], []
+    classes = {key: message_class(topic(key).type) for key in set(roles.values())}
+    takers: dict[str, Callable] = {
+        'iguana_state': lambda msg, log_ns: decode.take_state(view, msg, log_ns / NS),
+        'foot_state': lambda msg, _: decode.take_foot_state(view, msg),
+        'foot_positions': lambda msg, _: decode.take_foot_positions(view, msg),
+        'motion_clip': lambda msg, _: decode.take_clip(view, msg, library or {}),
+        'push': lambda msg, log_ns: pushes.append((log_ns, msg)),
+    }
+    for record in BagReader(path).messages():
+        key = roles.get(record.topic)
+        if key is None:
+            continue
+        try:
+            if key == 'mesh_marker':
+                decode.take_mesh(view, record.data)
+            elif key == 'scene_markers':
+                scenes.append((record.log_time, record.data))
+            else:
+                takers[key](deserialize_message(record.data, classes[key]), record.log_time)
+        except (IguanaError, ValueError, TypeError) as exc:  # a message that does not fit: counted, not fatal
+            skipped.setdefault(key, [0, str(exc)])[0] += 1
+    _place_by_receive_time(view, scenes, pushes, push_duration)
+    if not view.meshes:
+        raise InputError(f'bag {path} has no usable {topic("mesh_marker").name} messages; nothing to show')
+    notes = [f'skipped {n} {key} message(s) that did not fit (first: {why})' for key, (n, why) in skipped.items()]
+    return BagView(view, damage, notes)
+
+
+def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_duration: float) -> None:
+    """Scene markers and pushes carry no simulated time: each takes the simulated time of the states received
+    around it (from the recorder's receive times)."""
+    states = view.states
+    walls, times = states.values[:, 5], states.times
+    known = np.isfinite(walls)
+
+    def sim_time(log_ns: int) -> float:
+        if not known.any():
+            return view.start_time
+        return float(np.interp(log_ns / NS, walls[known], times[known]))
+
+    for log_ns, data in scenes:
+        try:
+            decode.take_scene(view, data, sim_time(log_ns))
+        except IguanaError:  # a damaged marker array: the terrain and goals of the others still show
+            continue
+    for log_ns, msg in pushes:
+        try:
+            decode.take_push(view, msg, sim_time(log_ns), push_duration)
+        except IguanaError:
+            continue

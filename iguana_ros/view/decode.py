@@ -1,0 +1,71 @@
+"""The topic table's messages into a `RunView`, one function per topic; the live node and the bag reader both use
+these. Messages that do not fit their topic (the decoders of nodes/messages.py decide) raise InputError; the
+caller counts or logs them and goes on."""
+from __future__ import annotations
+
+import numpy as np
+
+from iguana_ros.bag.frames import DEFAULT_MESH_RGBA, NS, marker_array_from_cdr, scene_update, stamp_ns
+from iguana_ros.errors import InputError
+from iguana_ros.geometry import yaw_of
+from iguana_ros.nodes.conversions import (multi_dof_trajectory_to_numpy, odometry_to_numpy, time_from_msg,
+                                          triangle_list_from_cdr)
+from iguana_ros.nodes.messages import foot_positions_from_msg, foot_state_from_msg
+from iguana_ros.view.scene import ClipEvent, MeshFrame, PushEvent, RunView, identify_clip
+
+DEFAULT_PUSH_REGION = 'trunk_left'
+"""The region of a push whose header.frame_id is empty (as the simulator reads it)."""
+
+
+def take_mesh(view: RunView, data: bytes) -> None:
+    """A serialized mesh_marker (TRIANGLE_LIST): the iguana's surface at its stamp."""
+    points, colors = triangle_list_from_cdr(data)
+    if len(points) < 3 or not np.isfinite(points).all():
+        raise InputError(f'mesh_marker with {len(points)} points, or NaN/Inf coordinates')
+    if len(colors) != len(points):
+        colors = np.tile(DEFAULT_MESH_RGBA, (len(points), 1))
+    view.add_mesh(MeshFrame(stamp_ns(data) / NS, points.astype(np.float32), colors.astype(np.float32)))
+
+
+def take_scene(view: RunView, data: bytes, time: float) -> None:
+    """A serialized scene_markers (MarkerArray) received at simulated time `time` s: terrain and goals."""
+    terrain, goals = scene_update(marker_array_from_cdr(data), time)
+    if terrain is not None:
+        view.set_terrain(*terrain)
+    for goal in goals:
+        view.add_goals(goal)
+
+
+def take_state(view: RunView, msg, wall: float) -> None:
+    """An iguana_state (Odometry) received at wall time `wall` s: root position, heading, horizontal speed."""
+    position, quaternion, linear, _ = odometry_to_numpy(msg)
+    if not (np.isfinite(position).all() and np.isfinite(quaternion).all() and np.isfinite(linear).all()):
+        raise InputError('iguana_state with NaN or Inf values')
+    view.add_state(time_from_msg(msg.header.stamp), position, float(yaw_of(quaternion)),
+                   float(np.hypot(linear[0], linear[1])), wall)
+
+
+def take_foot_state(view: RunView, msg) -> None:
+    """A foot_state (JointState named by foot): which feet touch the ground."""
+    _, _, contact = foot_state_from_msg(msg)
+    view.add_feet(time_from_msg(msg.header.stamp), contact=contact)
+
+
+def take_foot_positions(view: RunView, msg) -> None:
+    """A foot_positions (PoseArray): the sole centroids of the feet."""
+    _, centroids = foot_positions_from_msg(msg)
+    view.add_feet(time_from_msg(msg.header.stamp), positions=centroids)
+
+
+def take_clip(view: RunView, msg, library: dict) -> None:
+    """A motion_clip (MultiDOFJointTrajectory): the clip playing from its stamp, named from `library`."""
+    _, _, _, rotations = multi_dof_trajectory_to_numpy(msg)
+    view.add_clip(ClipEvent(time_from_msg(msg.header.stamp), identify_clip(rotations, library)))
+
+
+def take_push(view: RunView, msg, time: float, duration: float) -> None:
+    """A push (WrenchStamped) that acts from simulated time `time` s for `duration` s."""
+    force = np.array([msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z])
+    if not np.isfinite(force).all():
+        raise InputError('push with a NaN or Inf force')
+    view.add_push(PushEvent(time, force, msg.header.frame_id or DEFAULT_PUSH_REGION, duration))

@@ -1,0 +1,126 @@
+"""Live mode: an rclpy node of the viewer's own feeding a `RunView` from the running system's topics (QoS as
+msg_configs/topics.yaml says) and publishing the user's goals (`goal_pose`, PoseStamped, like RViz2's "2D Goal
+Pose") and pushes (`push`, WrenchStamped). It spins in a thread of its own; messages that do not fit their topic
+are counted and the first of each topic is logged, never drawn."""
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+
+import numpy as np
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
+
+from iguana_ros.errors import IguanaError
+from iguana_ros.nodes.conversions import time_to_msg
+from iguana_ros.nodes.goal_sender import goal_message, same_goal
+from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.view import decode
+from iguana_ros.view.scene import RunView
+
+VIEW_NODE_NAME = 'iguana_view'
+"""ROS node name of the viewer."""
+
+SPIN_TIMEOUT_S = 0.05
+"""Wall seconds an executor spin waits for work (how quickly the thread notices `close`)."""
+
+
+class LiveSource:
+    """The viewer's node (see the module docstring); `close()` leaves the graph."""
+
+    def __init__(self, view: RunView, library: dict, push_duration: float) -> None:
+        """Join the graph (rclpy context of its own, no signal handlers), subscribe and start spinning."""
+        self.view, self.library, self.push_duration = view, library, push_duration
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(VIEW_NODE_NAME, context=self.context)
+        self.rejected: dict[str, int] = {}
+        self.accepted: list = []
+        self.sent: list = []
+        self._subscribe()
+        self.goal_pub = self._publisher('goal_pose')
+        self.push_pub = self._publisher('push')
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._running = True
+        self.thread = threading.Thread(target=self._spin, name='iguana-view-ros', daemon=True)
+        self.thread.start()
+
+    def _publisher(self, key: str):
+        """Publisher of topic-table key `key`."""
+        name, cls, qos = resolve(key)
+        return self.node.create_publisher(cls, name, qos)
+
+    def _subscribe(self) -> None:
+        """Subscriptions to the topics drawn (mesh and scene markers as raw bytes, read with numpy)."""
+        view = self.view
+        handlers = {
+            'mesh_marker': (True, lambda data: decode.take_mesh(view, data)),
+            'scene_markers': (True, lambda data: decode.take_scene(view, data, view.end_time)),
+            'iguana_state': (False, lambda msg: decode.take_state(view, msg, time.monotonic())),
+            'foot_state': (False, lambda msg: decode.take_foot_state(view, msg)),
+            'foot_positions': (False, lambda msg: decode.take_foot_positions(view, msg)),
+            'motion_clip': (False, lambda msg: decode.take_clip(view, msg, self.library)),
+            'push': (False, lambda msg: decode.take_push(view, msg, view.end_time, self.push_duration)),
+            'accepted_goals': (False, lambda msg: setattr(self, 'accepted', list(msg.poses))),
+        }
+        for key, (raw, handler) in handlers.items():
+            name, cls, qos = resolve(key)
+            self.node.create_subscription(cls, name, self._guarded(key, handler), qos, raw=raw)
+
+    def _guarded(self, key: str, handler):
+        """`handler` that counts (and logs the first of) the messages of `key` that do not fit."""
+        def callback(msg) -> None:
+            try:
+                handler(msg)
+            except (IguanaError, ValueError, TypeError) as exc:
+                self.rejected[key] = self.rejected.get(key, 0) + 1
+                if self.rejected[key] == 1:
+                    print(f'iguana view: ignored a {key} message: {exc}', file=sys.stderr, flush=True)
+        return callback
+
+    def _spin(self) -> None:
+        """Executor loop of the thread (ends at `close`)."""
+        while self._running and self.context.ok():
+            try:
+                self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+            except ExternalShutdownException:
+                return
+
+    def send_goal(self, x: float, y: float) -> None:
+        """Publish a goal at (x, y) m, heading from the iguana towards it, for the planner to adopt at once."""
+        frame = self.view.frame()
+        yaw = 0.0
+        if frame.root is not None and math.hypot(x - frame.root[0], y - frame.root[1]) > 1e-6:
+            yaw = math.degrees(math.atan2(y - frame.root[1], x - frame.root[0]))
+        msg = goal_message(x, y, yaw_deg=yaw, at=0.0)
+        self.sent.append(msg)
+        self.goal_pub.publish(msg)
+
+    def goal_accepted(self) -> bool | None:
+        """Whether the planner lists the last goal sent among its accepted goals (None before any goal)."""
+        if not self.sent:
+            return None
+        return any(same_goal(self.sent[-1], msg) for msg in self.accepted)
+
+    def send_push(self, force: np.ndarray, region: str) -> None:
+        """Publish a push of `force (3,)` N in the world frame on tagged region `region`."""
+        from geometry_msgs.msg import WrenchStamped
+        msg = WrenchStamped()
+        msg.header.stamp = time_to_msg(max(self.view.end_time, 0.0))
+        msg.header.frame_id = region
+        msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z = (float(v) for v in force)
+        self.push_pub.publish(msg)
+
+    def close(self) -> None:
+        """Stop spinning and leave the graph."""
+        self._running = False
+        self.thread.join(timeout=2.0)
+        try:
+            self.executor.shutdown()
+            self.node.destroy_node()
+        finally:
+            rclpy.try_shutdown(context=self.context)

@@ -1,0 +1,328 @@
+"""The viewer's web page (viser): scene nodes drawn from a `RunView`'s frames, a panel of figures, and either the
+live controls (a click on the terrain sends a goal, buttons send pushes) or the bag timeline (play, pause,
+scrub, speed). viser serves its own web client from the wheel; the page shows "Connecting..." in its panel when
+it loses the server and reconnects by itself when a server is back."""
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from iguana_ros.errors import InputError
+from iguana_ros.render.renderer import TRAIL_LIFT, TRAIL_RGB
+from iguana_ros.scene import MAX_PUSH_FORCE
+from iguana_ros.view.playback import SPEEDS, Playback
+from iguana_ros.view.scene import PUSH_SIDES, RunView, ViewFrame, flank_push, panel_lines, terrain_hit
+
+DRAW_HZ = 20.0
+"""How often the page is redrawn, per wall second."""
+
+CAMERA_OFFSET = np.array([-0.8, -0.9, 0.55])
+"""Where the camera starts, relative to the root, m (behind-left and above, looking at the root)."""
+
+FOLLOW_STEP_M = 0.01
+"""The cameras follow the root once it has moved this far, m."""
+
+CONTACT_RGB = (240, 140, 40)
+PUSH_RGB = (220, 30, 30)
+DEFAULT_PUSH_N = 40.0
+"""The push button's default force, N (Section VIII-D)."""
+
+
+def _rgb(rgba: np.ndarray) -> tuple[int, int, int]:
+    """0..255 RGB of the median colour of RGBA rows `(n, 4)` in [0, 1]."""
+    rgb = np.clip(np.median(np.asarray(rgba, float)[:, :3], axis=0), 0.0, 1.0)
+    return tuple(int(round(c * 255)) for c in rgb)
+
+
+def _quiet():
+    """Context in which stdout is swallowed: viser prints a banner of its own at start and a line at stop (the
+    CLI prints one line with the address)."""
+    import contextlib
+    import io
+    return contextlib.redirect_stdout(io.StringIO())
+
+
+def check_port(host: str, port: int) -> None:
+    """InputError (one line) unless a server can listen on `host`:`port` (0 = any free port)."""
+    if not 0 <= port <= 65535:
+        raise InputError(f'port {port} is out of range; expected 0..65535 (0 = any free port)')
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as exc:
+        raise InputError(f'cannot listen on host {host!r}: {exc.strerror}') from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server will: TIME_WAIT is no obstacle
+        try:
+            probe.bind(address)
+        except OSError as exc:
+            what = 'is in use' if exc.errno == 98 else f'cannot be used ({exc.strerror})'
+            raise InputError(f'port {port} on {host} {what}; choose another with --port (0 = any free port)') from None
+
+
+@dataclass
+class _Drawn:
+    """What the page shows now, so only changes are sent."""
+
+    terrain_version: int = 0
+    mesh_time: float | None = None
+    path_points: int = -1
+    contacts: bytes = b'-'
+    arrows: bytes = b'-'
+    goals: object = None
+    panel: str = ''
+    followed: np.ndarray | None = None
+    """The root position the cameras were last moved for."""
+
+
+class ViewerPage:
+    """The web page of one viewer: `serve(stop)` draws until `stop` is set, `close()` stops the server.
+
+    `live` (a LiveSource) enables goals and pushes; `playback` (a Playback) shows the timeline."""
+
+    def __init__(self, view: RunView, host: str = '127.0.0.1', port: int = 8080, title: str = 'iguana view',
+                 live=None, playback: Playback | None = None, notes: tuple = ()) -> None:
+        """Start the server on `host`:`port` (InputError if the port is taken) and lay out the page."""
+        import viser
+
+        check_port(host, port)
+        self.view, self.live, self.playback, self.host = view, live, playback, host
+        with _quiet():
+            self.server = viser.ViserServer(host=host, port=port, verbose=False)  # its label: Connected / Connecting...
+        self.port = self.server.get_port()
+        if port and self.port != port:  # taken between the check and the bind: viser moved on to the next one
+            self.close()
+            raise InputError(f'port {port} on {host} is in use; choose another with --port (0 = any free port)')
+        self.server.scene.set_up_direction('+z')
+        self.drawn = _Drawn()
+        self.handles: dict[str, object] = {}
+        self.status = 'Click on the terrain to send a goal.' if live is not None else ''
+        self.pending_goal: tuple[float, float] | None = None
+        self.server.gui.add_markdown(f'**{title}**')
+        self._panel = self.server.gui.add_markdown('')
+        self._status = self.server.gui.add_markdown(self.status)
+        for note in notes:
+            self.server.gui.add_markdown(f'*{note}*')
+        self._follow = self.server.gui.add_checkbox('follow the iguana', initial_value=True)
+        if live is not None:
+            self._live_controls()
+        if playback is not None:
+            self._timeline()
+        self.server.scene.on_click()(self._on_click)
+        self.server.on_client_connect(self._on_connect)
+
+    @property
+    def url(self) -> str:
+        """The page's address."""
+        host = f'[{self.host}]' if ':' in self.host else self.host
+        return f'http://{host}:{self.port}/'
+
+    # ------------------------------------------------------------------------------------------ controls
+    def _live_controls(self) -> None:
+        """Push force and one button per flank."""
+        gui = self.server.gui
+        self._force = gui.add_number('push force (N)', initial_value=DEFAULT_PUSH_N, min=0.0,
+                                     max=float(MAX_PUSH_FORCE), step=1.0)
+        for side in PUSH_SIDES:
+            button = gui.add_button(f'push {side} flank')
+            button.on_click(lambda _event, side=side: self._push(side))
+
+    def _push(self, side: str) -> None:
+        """Send a push on flank `side` with the panel's force, sideways to the iguana's heading."""
+        frame = self.view.frame()
+        k = self.view.states.index_at(frame.time)
+        yaw = float(self.view.states.values[k, 3]) if k >= 0 else 0.0
+        force, region = flank_push(yaw, self._force.value, side)
+        self.live.send_push(force, region)
+        self._set_status(f'push of {self._force.value:g} N sent on {region}.')
+
+    def _timeline(self) -> None:
+        """Play/pause, time slider, speed and loop (bag mode)."""
+        gui, pb = self.server.gui, self.playback
+        folder = gui.add_folder('timeline')
+        with folder:
+            self._play = gui.add_button('pause' if pb.playing else 'play')
+            self._time = gui.add_slider('time (s)', min=round(pb.start, 3), max=round(max(pb.end, pb.start + 1e-3), 3),
+                                        step=0.01, initial_value=round(pb.time, 3))
+            self._speed = gui.add_dropdown('speed', [f'{s:g}x' for s in SPEEDS], initial_value=f'{pb.speed:g}x')
+            self._loop = gui.add_checkbox('loop', initial_value=pb.loop)
+        self._play.on_click(lambda _event: pb.toggle())
+        self._time.on_update(lambda event: pb.seek(self._time.value) if event.client is not None else None)
+        self._speed.on_update(lambda _event: setattr(pb, 'speed', float(self._speed.value.rstrip('x'))))
+        self._loop.on_update(lambda _event: setattr(pb, 'loop', bool(self._loop.value)))
+
+    def _on_click(self, event) -> None:
+        """A click in the scene: on the terrain in live mode, a goal there."""
+        with self.view.lock:
+            corners = self.view.terrain_points
+        hit = None if corners is None else terrain_hit(event.ray_origin, event.ray_direction, corners)
+        if hit is None:
+            self._set_status('That click missed the terrain; click on the ground to send a goal.')
+        elif self.live is None:
+            self._set_status(f'Bag mode: goals are sent in live mode (clicked x {hit[0]:.2f} m, y {hit[1]:.2f} m).')
+        else:
+            self.live.send_goal(float(hit[0]), float(hit[1]))
+            self.pending_goal = (float(hit[0]), float(hit[1]))
+            self._set_status(f'goal x {hit[0]:.2f} m, y {hit[1]:.2f} m sent on goal_pose; waiting for the planner.')
+
+    def _set_status(self, text: str) -> None:
+        """Show `text` under the figures."""
+        self.status = text
+        self._status.content = text
+
+    def _on_connect(self, client) -> None:
+        """Point a new browser's camera at the iguana."""
+        frame = self.view.frame(self.playback.time if self.playback else None)
+        if frame.root is not None:
+            self._aim(client.camera, frame.root)
+
+    @staticmethod
+    def _aim(camera, root: np.ndarray) -> None:
+        """Camera behind-left of and above `root`, looking at it."""
+        camera.position = tuple(root + CAMERA_OFFSET)
+        camera.look_at = tuple(root)
+
+    # ------------------------------------------------------------------------------------------ drawing
+    def serve(self, stop: threading.Event) -> None:
+        """Advance the timeline (while a browser is connected) and redraw at DRAW_HZ until `stop` is set."""
+        last = time.monotonic()
+        while not stop.wait(1.0 / DRAW_HZ):
+            now = time.monotonic()
+            watched = bool(self.server.get_clients())
+            t = self.playback.advance(now - last if watched else 0.0) if self.playback else None
+            last = now
+            self.draw(self.view.frame(t))
+            if self.playback is not None:
+                self._show_playback()
+            if self.live is not None:
+                self._goal_status()
+
+    def _show_playback(self) -> None:
+        """The timeline's controls as the clock stands."""
+        pb = self.playback
+        if abs(self._time.value - pb.time) >= 0.01:
+            self._time.value = round(pb.time, 3)
+        self._play.label = 'pause' if pb.playing else 'play'
+
+    def draw(self, frame: ViewFrame) -> None:
+        """Send what changed since the last draw."""
+        drawn, scene = self.drawn, self.server.scene
+        with self.server.atomic():
+            if frame.terrain_version != drawn.terrain_version:
+                self._draw_terrain()
+                drawn.terrain_version = frame.terrain_version
+            if frame.mesh is not None and frame.mesh.time != drawn.mesh_time:
+                self._draw_mesh(frame)
+                drawn.mesh_time = frame.mesh.time
+            if len(frame.path) != drawn.path_points:
+                self._draw_path(frame.path)
+                drawn.path_points = len(frame.path)
+            self._draw_points('contacts', frame.contacts, lambda p: scene.add_point_cloud(
+                '/contacts', p.astype(np.float32), colors=CONTACT_RGB, point_size=0.035, point_shape='circle',
+                precision='float32'))
+            self._draw_points('arrows', frame.arrows, lambda a: scene.add_arrows(
+                '/pushes', a.astype(np.float32), colors=PUSH_RGB, shaft_radius=0.012, head_radius=0.03,
+                head_length=0.07))
+            if frame.goals is not drawn.goals:
+                self._draw_goals(frame)
+                drawn.goals = frame.goals
+            panel = '  \n'.join(panel_lines(frame))
+            if panel != drawn.panel:
+                self._panel.content = panel
+                drawn.panel = panel
+            if frame.root is not None:
+                self._follow_root(frame.root)
+
+    def _follow_root(self, root: np.ndarray) -> None:
+        """Aim new browsers at the root; with 'follow the iguana', move every camera along with it (keeping the
+        viewing angle each browser has)."""
+        drawn = self.drawn
+        if drawn.followed is not None and np.linalg.norm(root - drawn.followed) < FOLLOW_STEP_M:
+            return
+        self._aim(self.server.initial_camera, root)
+        clients = self.server.get_clients().values()
+        if drawn.followed is None or not self._follow.value:
+            for client in clients if drawn.followed is None else ():
+                self._aim(client.camera, root)
+            drawn.followed = root.copy()
+            return
+        shift = root - drawn.followed
+        for client in clients:
+            camera = client.camera
+            camera.look_at, camera.position = tuple(camera.look_at + shift), tuple(camera.position + shift)
+        drawn.followed = root.copy()
+
+    def _replace(self, name: str, handle) -> None:
+        """Keep `handle` as the scene node `name` (None: remove the old one)."""
+        old = self.handles.pop(name, None)
+        if handle is None and old is not None:  # a new node of the same name replaces the old one by itself
+            old.remove()
+        if handle is not None:
+            self.handles[name] = handle
+
+    def _draw_terrain(self) -> None:
+        """The terrain mesh (its median colour, both sides)."""
+        with self.view.lock:
+            points, colors = self.view.terrain_points, self.view.terrain_colors
+        n = len(points) - len(points) % 3
+        self._replace('terrain', self.server.scene.add_mesh_simple(
+            '/terrain', points[:n].astype(np.float32), np.arange(n, dtype=np.uint32).reshape(-1, 3),
+            color=_rgb(colors[:n]), side='double', cast_shadow=False))
+
+    def _draw_mesh(self, frame: ViewFrame) -> None:
+        """The iguana's surface (its median colour, flat-shaded); the same triangle count only moves vertices."""
+        points = frame.mesh.points.astype(np.float32)
+        handle = self.handles.get('iguana')
+        if handle is not None and handle.vertices.shape == points.shape:
+            handle.vertices = points
+            return
+        self._replace('iguana', self.server.scene.add_mesh_simple(
+            '/iguana', points, np.arange(len(points), dtype=np.uint32).reshape(-1, 3), color=_rgb(frame.mesh.colors),
+            flat_shading=True, side='double'))
+
+    def _draw_path(self, path: np.ndarray) -> None:
+        """The root's path so far, lifted a little off the ground."""
+        if len(path) < 2:
+            self._replace('path', None)
+            return
+        lifted = path + np.array([0.0, 0.0, TRAIL_LIFT])
+        segments = np.stack([lifted[:-1], lifted[1:]], axis=1).astype(np.float32)
+        self._replace('path', self.server.scene.add_line_segments(
+            '/path', segments, colors=tuple(int(c * 255) for c in TRAIL_RGB), thickness=0.012))
+
+    def _draw_points(self, name: str, values: np.ndarray, add) -> None:
+        """Contacts or arrows: redrawn by `add(values)` when they changed, removed when there are none."""
+        key = values.tobytes()
+        if key == getattr(self.drawn, name):
+            return
+        setattr(self.drawn, name, key)
+        self._replace(name, add(values) if len(values) else None)
+
+    def _draw_goals(self, frame: ViewFrame) -> None:
+        """One sphere per goal marker."""
+        for name in [n for n in self.handles if n.startswith('goal/')]:
+            self._replace(name, None)
+        goals = frame.goals
+        if goals is None:
+            return
+        for i, (position, radius, color) in enumerate(zip(goals.positions, goals.radii, goals.colors)):
+            self._replace(f'goal/{i}', self.server.scene.add_icosphere(
+                f'/goals/{i}', radius=float(radius), color=_rgb(np.asarray(color)[None]),
+                position=tuple(float(v) for v in position)))
+
+    def _goal_status(self) -> None:
+        """Once the planner lists the last goal sent among its accepted goals, say so (live mode)."""
+        if self.pending_goal is not None and self.live.goal_accepted():
+            x, y = self.pending_goal
+            self._set_status(f'goal x {x:.2f} m, y {y:.2f} m accepted by the planner.')
+            self.pending_goal = None
+
+    def close(self) -> None:
+        """Stop the server (the page then shows that it lost it)."""
+        with _quiet():
+            self.server.stop()
+

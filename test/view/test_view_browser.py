@@ -1,0 +1,207 @@
+"""`iguana view` in a real browser (headless Chromium driven by Selenium).
+
+One `iguana run flat_walk --view` with the four real node processes in realtime mode: the page shows the iguana
+(green mesh pixels), a click on the terrain sends a goal that the run's planner accepts, the push button sends a
+push whose arrow is drawn, and the viewer, a child in the run's process group, stops with the run while the page
+says it lost its server. Then `iguana view BAG` plays that run's bag on a timeline (plays, pauses, scrubs). One
+browser for the module. IGUANA_UPDATE_SCREENSHOT=1 saves the live screenshot to docs/view_screenshot.png.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+import signal
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ros_harness import IGUANA, REPO, NodeProcess
+from view_harness import (click_button, click_canvas, colored_pixels, dismiss_notifications, figure, find_browser,
+                          page_text, screenshot, start_browser, wait_until)
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(600)]
+
+RUN_S = 40.0
+"""Simulated seconds the run may last; it is stopped as soon as the live tests are done."""
+
+START_S = 300.0
+"""Wall seconds the run gets to serve the page and simulate its first frames (a fresh clone compiles kernels)."""
+
+MIN_GREEN, MIN_RED = 300, 40
+"""Pixels of the iguana's green and of a push arrow's red that a screenshot must hold."""
+
+SCREENSHOT = REPO / 'docs' / 'view_screenshot.png'
+
+
+@dataclass
+class LiveRun:
+    """The run under test, its viewer's address, its bag, and what the tests sent."""
+
+    process: NodeProcess
+    url: str
+    bag: Path
+    tmp: Path
+    goal: tuple | None = None
+    sent: list = field(default_factory=list)
+
+
+@pytest.fixture(scope='module')
+def browser():
+    """Headless Chromium (skipped, saying why, where none can be had)."""
+    found = find_browser()
+    if isinstance(found, str):
+        pytest.skip(f'no browser for the viewer tests: {found}')
+    driver = start_browser(*found)
+    yield driver
+    driver.quit()
+
+
+def _url(output: str) -> str:
+    """The address in an `iguana view: http://...` line."""
+    return re.search(r'iguana view: (http://\S+)', output).group(1)
+
+
+@pytest.fixture(scope='module')
+def live_run(tmp_path_factory, browser):
+    """`iguana run flat_walk --view` in realtime mode, recording a bag; stopped (SIGINT) at the end if need be."""
+    tmp = tmp_path_factory.mktemp('view_run')
+    bag = tmp / 'bag'
+    command = [*IGUANA, 'run', 'flat_walk', '--view', '--view-port', '0', '--mode', 'realtime',
+               '--duration', str(RUN_S), '--record', str(bag)]
+    process = NodeProcess(command, 'iguana_run', tmp).start(ready='iguana view: http', timeout=START_S)
+    run = LiveRun(process, _url(process.output), bag, tmp)
+    yield run
+    if process.running:
+        process.stop(timeout=60.0)
+
+
+def _shows_simulated_time(driver) -> bool:
+    """Whether the panel shows a state after the first frames."""
+    t = figure(driver, 'simulated time')
+    return t is not None and t > 0.2
+
+
+def _green(driver, keep: Path) -> int:
+    """Green pixels of a screenshot if at least MIN_GREEN, else 0 (the screenshot is kept at `keep`)."""
+    png, pixels = screenshot(driver)
+    keep.write_bytes(png)
+    n = colored_pixels(pixels, 1)
+    return n if n >= MIN_GREEN else 0
+
+
+def test_live_page_shows_the_iguana(browser, live_run):
+    browser.get(live_run.url)
+    assert wait_until(lambda: _shows_simulated_time(browser), START_S), page_text(browser)
+    dismiss_notifications(browser)
+    green = wait_until(lambda: _green(browser, live_run.tmp / 'live.png'), 60.0)
+    assert green, f'no green iguana pixels in {live_run.tmp / "live.png"}; page: {page_text(browser)}'
+    text = page_text(browser)
+    assert 'Connected' in text and 'realtime factor' in text and 'clip ' in text and 'speed ' in text
+
+
+def test_a_click_on_the_terrain_sends_a_goal_the_planner_accepts(browser, live_run):
+    if live_run.url not in browser.current_url:
+        browser.get(live_run.url)
+        wait_until(lambda: _shows_simulated_time(browser), START_S)
+    dismiss_notifications(browser)
+    click_canvas(browser, 0.35, 0.85)                                  # the ground in front of the camera
+    accepted = wait_until(lambda: re.search(r'goal x (-?[\d.]+) m, y (-?[\d.]+) m accepted by the planner',
+                                            page_text(browser)), 60.0)
+    assert accepted, page_text(browser)
+    live_run.goal = (float(accepted.group(1)), float(accepted.group(2)))
+
+
+def test_the_push_button_sends_a_push_and_its_arrow_is_drawn(browser, live_run):
+    if live_run.url not in browser.current_url:
+        browser.get(live_run.url)
+        wait_until(lambda: _shows_simulated_time(browser), START_S)
+    dismiss_notifications(browser)
+    click_button(browser, 'push left flank')
+    assert wait_until(lambda: 'push of 40 N sent on trunk_left' in page_text(browser), 30.0), page_text(browser)
+    live_run.sent.append('trunk_left')
+    shot = wait_until(lambda: (lambda s: s if colored_pixels(s[1], 0) >= MIN_RED else None)(screenshot(browser)),
+                      30.0, period=0.1)
+    assert shot is not None, 'no red push arrow in the screenshots'
+    assert colored_pixels(shot[1], 1) >= MIN_GREEN
+    if os.environ.get('IGUANA_UPDATE_SCREENSHOT') == '1':
+        SCREENSHOT.write_bytes(shot[0])
+
+
+def _children(pid: int) -> dict[str, int]:
+    """{'viewer' | 'recorder': pid} among the child processes of `pid`."""
+    import psutil
+    out = {}
+    for child in psutil.Process(pid).children():
+        line = ' '.join(child.cmdline())
+        if ' view ' in line + ' ':
+            out['viewer'] = child.pid
+        elif ' bag record ' in line:
+            out['recorder'] = child.pid
+    return out
+
+
+def test_the_viewer_is_a_child_of_the_run_and_stops_with_it(browser, live_run):
+    import psutil
+    children = _children(live_run.process.pid)
+    assert set(children) == {'viewer', 'recorder'}, children
+    assert os.getpgid(children['viewer']) == os.getpgid(children['recorder']) != os.getpgid(os.getpid())
+    live_run.process.send(signal.SIGINT)
+    code = live_run.process.wait(timeout=120.0)
+    assert code == 128 + signal.SIGINT, live_run.process.tail()
+    assert 'stopped by SIGINT' in live_run.process.output
+    assert not psutil.pid_exists(children['viewer']) or psutil.Process(children['viewer']).status() == 'zombie'
+    assert 'Traceback' not in live_run.process.output
+    if live_run.url in browser.current_url:        # the page says it lost its server
+        assert wait_until(lambda: 'Connecting' in page_text(browser), 30.0), page_text(browser)
+
+
+@pytest.fixture(scope='module')
+def recorded_bag(live_run):
+    """The run's bag, once the run has stopped."""
+    if live_run.process.running:
+        live_run.process.stop(timeout=60.0)
+    assert (live_run.bag / 'metadata.yaml').exists(), live_run.process.tail()
+    return live_run
+
+
+def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag):
+    from iguana_ros.bag.trajectory import read_topics
+    if recorded_bag.goal is None:
+        pytest.skip('the click test did not run')
+    recorded = read_topics(recorded_bag.bag, ['accepted_goals', 'push', 'goal_pose'])
+    poses = [(p.pose.position.x, p.pose.position.y) for p in recorded.messages['accepted_goals'][-1].poses]
+    assert len(poses) == 2 and poses[0] == (2.0, 0.0)                       # the scene's, then the click's
+    assert np.allclose(poses[1], recorded_bag.goal, atol=0.006)
+    if recorded_bag.sent:
+        (push,) = recorded.messages['push']
+        force = push.wrench.force
+        assert push.header.frame_id == 'trunk_left' and math.isclose(math.hypot(force.x, force.y), 40.0)
+
+
+def test_bag_mode_plays_the_run_on_a_timeline(browser, recorded_bag, tmp_path):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    command = [*IGUANA, 'view', str(recorded_bag.bag), '--port', '0', '--speed', '0.2']
+    with NodeProcess(command, 'iguana_view', tmp_path).start(ready='iguana view: http', timeout=120.0) as viewer:
+        browser.get(_url(viewer.output))
+        assert wait_until(lambda: 'time (s)' in page_text(browser) and figure(browser, 'simulated time') is not None,
+                          60.0), page_text(browser)
+        dismiss_notifications(browser)
+        first = figure(browser, 'simulated time')
+        assert wait_until(lambda: figure(browser, 'simulated time') > first + 0.02, 60.0), 'time did not advance'
+        assert wait_until(lambda: _green(browser, tmp_path / 'bag.png'), 60.0), f'no green pixels in {tmp_path}'
+        click_button(browser, 'pause')
+        assert wait_until(lambda: 'play' in page_text(browser).split(), 30.0)
+        paused = figure(browser, 'simulated time')
+        time.sleep(1.0)
+        assert figure(browser, 'simulated time') == paused
+        field_ = browser.find_element(By.CSS_SELECTOR, 'input.mantine-NumberInput-input')
+        field_.send_keys(Keys.CONTROL, 'a')
+        field_.send_keys('1.5', Keys.ENTER)                                  # scrub to 1.5 s
+        assert wait_until(lambda: figure(browser, 'simulated time') == 1.5, 30.0), page_text(browser)
+        assert viewer.running
+    assert viewer.proc.returncode == 0, viewer.tail()

@@ -1,0 +1,113 @@
+"""Helpers of the viewer tests: headless Chromium through Selenium, the page's text and pixels."""
+from __future__ import annotations
+
+import io
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+
+import numpy as np
+
+CHROMIUM_FLAGS = ('--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+                  '--disable-background-networking', '--disable-component-update', '--disable-sync',
+                  '--window-size=900,600')
+"""Flags that run Debian's Chromium here (a closed network: no background connections)."""
+
+APT_INSTALL_S = 600
+"""Wall seconds an `apt-get install chromium chromium-driver` may take when a test has to install them."""
+
+
+def find_browser() -> tuple[str, str] | str:
+    """(chromium, chromedriver) paths, installing Debian's packages if missing and possible; else the reason."""
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return 'selenium is not installed (pip install -e .[test])'
+    found = shutil.which('chromium'), shutil.which('chromedriver')
+    if all(found):
+        return found
+    if not shutil.which('apt-get'):
+        return 'chromium / chromedriver are missing and there is no apt-get to install them'
+    try:
+        for command in (['apt-get', 'update', '-q'], ['apt-get', 'install', '-y', '-q', 'chromium', 'chromium-driver']):
+            subprocess.run(command, check=True, capture_output=True, timeout=APT_INSTALL_S,
+                           env={'DEBIAN_FRONTEND': 'noninteractive', 'PATH': '/usr/sbin:/usr/bin:/sbin:/bin'})
+    except (subprocess.SubprocessError, OSError) as exc:
+        return f'chromium / chromedriver are missing and apt-get could not install them: {exc}'
+    found = shutil.which('chromium'), shutil.which('chromedriver')
+    return found if all(found) else 'apt-get ran but chromium / chromedriver are still missing'
+
+
+def start_browser(chromium: str, chromedriver: str):
+    """A headless Chromium WebDriver with a fresh profile."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    options = Options()
+    for flag in CHROMIUM_FLAGS:
+        options.add_argument(flag)
+    options.add_argument('--user-data-dir=' + tempfile.mkdtemp(prefix='iguana_view_chromium_'))
+    options.binary_location = chromium
+    driver = webdriver.Chrome(service=Service(chromedriver), options=options)
+    driver.set_page_load_timeout(60)
+    return driver
+
+
+def wait_until(predicate, timeout: float, period: float = 0.25):
+    """The first truthy `predicate()` within `timeout` s, else None."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value or time.monotonic() > deadline:
+            return value or None
+        time.sleep(period)
+
+
+def page_text(driver) -> str:
+    """The visible text of the page."""
+    return driver.execute_script('return document.body.innerText') or ''
+
+
+def figure(driver, name: str) -> float | None:
+    """The number after `name` in the panel (e.g. 'simulated time'), None if it is not shown."""
+    match = re.search(re.escape(name) + r' (-?[\d.]+)', page_text(driver))
+    return float(match.group(1)) if match else None
+
+
+def dismiss_notifications(driver) -> None:
+    """Close viser's notifications (e.g. 'Software WebGL rendering detected'), which cover the scene."""
+    driver.execute_script(
+        "document.querySelectorAll('.mantine-Notification-closeButton').forEach(b => b.click());")
+
+
+def screenshot(driver) -> tuple[bytes, np.ndarray]:
+    """(PNG bytes, RGB pixels `(h, w, 3)` uint8) of the window."""
+    import imageio.v3 as iio
+    png = driver.get_screenshot_as_png()
+    return png, iio.imread(io.BytesIO(png))[..., :3]
+
+
+def colored_pixels(pixels: np.ndarray, channel: int, margin: int = 40) -> int:
+    """How many pixels have colour channel `channel` (0 red, 1 green) at least `margin` above both others."""
+    p = pixels.astype(int)
+    others = [c for c in range(3) if c != channel]
+    return int(np.sum((p[..., channel] >= p[..., others[0]] + margin) & (p[..., channel] >= p[..., others[1]] + margin)))
+
+
+def click_canvas(driver, fx: float, fy: float) -> None:
+    """Click the 3D view at fractions (`fx`, `fy`) of its width and height from its top-left corner."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    canvas = driver.find_element(By.TAG_NAME, 'canvas')
+    width, height = canvas.size['width'], canvas.size['height']
+    ActionChains(driver).move_to_element_with_offset(
+        canvas, int((fx - 0.5) * width), int((fy - 0.5) * height)).click().perform()
+
+
+def click_button(driver, label: str) -> None:
+    """Click the panel button labelled `label`."""
+    from selenium.webdriver.common.by import By
+    driver.find_element(By.XPATH, f"//button[normalize-space(.)='{label}']").click()
