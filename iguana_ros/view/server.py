@@ -20,7 +20,7 @@ from iguana_ros.view.scene import PUSH_SIDES, RunView, ViewFrame, flank_push, pa
 DRAW_HZ = 20.0
 """How often the page is redrawn, per wall second."""
 
-CAMERA_OFFSET = np.array([-0.8, -0.9, 0.55])
+CAMERA_OFFSET = np.array([-0.5, -0.65, 0.4])
 """Where the camera starts, relative to the root, m (behind-left and above, looking at the root)."""
 
 FOLLOW_STEP_M = 0.01
@@ -148,7 +148,8 @@ class ViewerPage:
             self._play = gui.add_button('pause' if pb.playing else 'play')
             self._time = gui.add_slider('time (s)', min=round(pb.start, 3), max=round(max(pb.end, pb.start + 1e-3), 3),
                                         step=0.01, initial_value=round(pb.time, 3))
-            self._speed = gui.add_dropdown('speed', [f'{s:g}x' for s in SPEEDS], initial_value=f'{pb.speed:g}x')
+            speeds = sorted(set(SPEEDS) | {pb.speed})                      # --speed may ask for another one
+            self._speed = gui.add_dropdown('speed', [f'{s:g}x' for s in speeds], initial_value=f'{pb.speed:g}x')
             self._loop = gui.add_checkbox('loop', initial_value=pb.loop)
         self._play.on_click(lambda _event: pb.toggle())
         self._time.on_update(lambda event: pb.seek(self._time.value) if event.client is not None else None)

@@ -108,6 +108,7 @@ def click_canvas(driver, fx: float, fy: float) -> None:
 
 
 def click_button(driver, label: str) -> None:
-    """Click the panel button labelled `label`."""
+    """Click the panel button labelled `label` (a DOM click: the panel's fade-in layers may cover it a moment)."""
     from selenium.webdriver.common.by import By
-    driver.find_element(By.XPATH, f"//button[normalize-space(.)='{label}']").click()
+    button = driver.find_element(By.XPATH, f"//button[normalize-space(.)='{label}']")
+    driver.execute_script('arguments[0].click();', button)
