@@ -92,44 +92,48 @@ def profile_step(sim, repeats: int = 100) -> dict:
     from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
     from iguana_ros.physics.solver import block_jacobi_pcg
 
-    (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
-     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass, contact_offset) = sim._model
-    state = tuple(a.copy() for a in sim._state)
-    x, v, dv, quats, anchors, contact, blocks = state[:7]
-    forces, work, diag_k, diag_c = state[9], state[11], state[12], state[13]
+    m = sim._model
+    state = sim._state._replace(**{name: a.copy() for name, a in sim._state._asdict().items()})
+    x, v, quats, blocks, forces = (state.positions, state.velocities, state.element_rotations, state.matrix_blocks,
+                                   state.forces)
     ld = sim.desired_lengths_rest
     fp, ip = sim._fp, sim._ip
     scale = fp[itg.FP_DT] ** 2
+    grid = m.terrain_grid
     parts = {
-        'elastic_forces': lambda: corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, ip[2], forces,
-                                                           blocks, tet_blocks, 0.0),
+        'elastic_forces': lambda: corotated_elastic_forces(x, m.tets, m.shape_gradients, m.volume, m.mu, m.lam, quats,
+                                                           ip[itg.IP_POLAR_ITERS], forces, blocks, m.tet_blocks, 0.0),
         'elastic_forces_and_stiffness': lambda: corotated_elastic_forces(
-            x, tets, grads, volume, mu, lam, quats, ip[2], forces, blocks, tet_blocks, scale),
-        'spring_forces': lambda: spring_forces(x, springs, spring_k, ld, forces, blocks, spring_blocks, 0.0),
-        'spring_forces_and_stiffness': lambda: spring_forces(x, springs, spring_k, ld, forces, blocks,
-                                                             spring_blocks, scale),
-        'contact_forces': lambda: contact_forces(x, v, contact_mass, contact_offset, friction, heights, terrain[0],
-                                                 terrain[1], terrain[2], fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT],
-                                                 anchors, contact, forces, diag_k, diag_c),
+            x, m.tets, m.shape_gradients, m.volume, m.mu, m.lam, quats, ip[itg.IP_POLAR_ITERS], forces, blocks,
+            m.tet_blocks, scale),
+        'spring_forces': lambda: spring_forces(x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks,
+                                               0.0),
+        'spring_forces_and_stiffness': lambda: spring_forces(x, m.springs, m.spring_stiffness, ld, forces, blocks,
+                                                             m.spring_blocks, scale),
+        'contact_forces': lambda: contact_forces(
+            x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0], grid[1], grid[2], fp[itg.FP_KN],
+            fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors, state.contact_state, forces,
+            state.contact_stiffness, state.contact_damping),
     }
     out = {name: _time_us(fn, repeats) for name, fn in parts.items()}
-    solution = np.zeros_like(dv)
-    pinv = state[8]
-    itg.invert_diagonal(diag, sim._state[6], pinv)
+    solution = np.zeros_like(state.delta_v)
+    pinv, live = state.diag_inv, sim._state
+    itg.invert_diagonal(m.diag, live.matrix_blocks, pinv)
 
     def ten_cg_iterations():
         solution[:] = 0.0
-        block_jacobi_pcg(row_ptr, cols, sim._state[6], pinv, sim._state[10], solution, 0.0, 0.0, 10, work)
+        block_jacobi_pcg(m.row_ptr, m.cols, live.matrix_blocks, pinv, live.rhs, solution, 0.0, 0.0, 10, state.cg_work)
 
     out['cg_iteration'] = _time_us(ten_cg_iterations, max(repeats // 10, 5)) / 10.0
     if sim.fidelity.preconditioner == 'cholesky':
         from iguana_ros.physics.cholesky import block_cholesky, cholesky_solve
 
-        chol = tuple(a.copy() for a in sim._chol[1:4])
-        out['cholesky_factor'] = _time_us(lambda: block_cholesky(sim._chol[0], sim._state[6], chol[0], chol[1]),
+        chol = sim._chol
+        values, diag_inv, work = chol.values.copy(), chol.diag_inv.copy(), chol.work.copy()
+        out['cholesky_factor'] = _time_us(lambda: block_cholesky(chol.pattern, live.matrix_blocks, values, diag_inv),
                                           repeats)
-        out['cholesky_solve'] = _time_us(lambda: cholesky_solve(sim._chol[0], chol[0], chol[1], sim._state[10],
-                                                                solution, chol[2]), repeats)
+        out['cholesky_solve'] = _time_us(lambda: cholesky_solve(chol.pattern, values, diag_inv, live.rhs, solution,
+                                                                work), repeats)
         out['cg_iteration'] += out['cholesky_solve']      # the preconditioner of each iteration
     out['cg_per_step'] = out['cg_iteration'] * sim.stats['cg_iterations_per_step']
     return out

@@ -10,12 +10,41 @@ breakdown test, so a stale or failed factor only costs iterations.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
 from iguana_ros.jit import FASTMATH
 from iguana_ros.physics.assembly import block_rows
+
+
+class CholeskyArrays(NamedTuple):
+    """The arrays of a `CholeskyPattern` as the compiled kernels take them (see its fields)."""
+
+    perm: np.ndarray
+    l_ptr: np.ndarray
+    l_rows: np.ndarray
+    a_ptr: np.ndarray
+    a_block: np.ndarray
+    a_dest: np.ndarray
+    a_transpose: np.ndarray
+    u_ptr: np.ndarray
+    u_col: np.ndarray
+    u_from: np.ndarray
+    u_start: np.ndarray
+    u_dest: np.ndarray
+
+
+class CholeskyFactor(NamedTuple):
+    """Storage of the block Cholesky preconditioner: the pattern, L, its inverted diagonal, work space and the
+    factor state `(3,)` int64 (`integrator.F_VALID`, `F_STEP`, `F_LAST_ITERS`)."""
+
+    pattern: CholeskyArrays
+    values: np.ndarray    # (n_factor_blocks, 3, 3), the blocks of L
+    diag_inv: np.ndarray  # (n_nodes, 3, 3), L_jj⁻¹
+    work: np.ndarray      # (n_nodes, 3)
+    state: np.ndarray     # (3,) int64
 
 
 @dataclass(frozen=True)
@@ -83,11 +112,16 @@ class CholeskyPattern:
         """Number of 3×3 blocks of L (diagonal included)."""
         return len(self.l_rows)
 
-    def arrays(self) -> tuple:
-        """The tuple the compiled kernels take: (perm, l_ptr, l_rows, a_ptr, a_block, a_dest, a_transpose, u_ptr,
-        u_col, u_from, u_start, u_dest)."""
-        return (self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest, self.a_transpose,
-                self.u_ptr, self.u_col, self.u_from, self.u_start, self.u_dest)
+    def arrays(self) -> CholeskyArrays:
+        """The arrays as the compiled kernels take them."""
+        return CholeskyArrays(self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest,
+                              self.a_transpose, self.u_ptr, self.u_col, self.u_from, self.u_start, self.u_dest)
+
+    def factor(self) -> CholeskyFactor:
+        """Zeroed factor storage over this pattern (no valid factor yet)."""
+        n = self.n_nodes
+        return CholeskyFactor(self.arrays(), np.zeros((self.n_factor_blocks, 3, 3)), np.zeros((n, 3, 3)),
+                              np.zeros((n, 3)), np.zeros(3, dtype=np.int64))
 
 
 def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
@@ -153,10 +187,11 @@ def _symbolic(n: int, row_ptr: np.ndarray, cols: np.ndarray, perm: np.ndarray, i
     return [np.array([j] + sorted(s), dtype=np.int64) for j, s in enumerate(struct)]
 
 
-def empty_factor(n_nodes: int) -> tuple:
-    """Placeholder `(values (0, 3, 3), diag_inv (n_nodes, 3, 3), y (n_nodes, 3), factor state (3,))` of no
-    factor."""
-    return np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64)
+def empty_factor(n_nodes: int) -> CholeskyFactor:
+    """The CholeskyFactor of no factor (empty pattern and blocks) for a preconditioner that uses none."""
+    e = np.zeros(0, dtype=np.int64)
+    return CholeskyFactor(CholeskyArrays(*(e,) * 12), np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)),
+                          np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64))
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
@@ -215,7 +250,9 @@ def block_cholesky(pattern, blocks, values, diag_inv):
     Left-looking; returns False (values unusable) if a pivot block is not positive definite. Blocks are indexed
     in place (numba array views cost more than the arithmetic here).
     """
-    perm, l_ptr, l_rows, a_ptr, a_block, a_dest, a_transpose, u_ptr, u_col, u_from, u_start, u_dest = pattern
+    perm, l_ptr, a_ptr, a_block, a_dest = pattern.perm, pattern.l_ptr, pattern.a_ptr, pattern.a_block, pattern.a_dest
+    a_transpose, u_ptr, u_from, u_start, u_dest = (pattern.a_transpose, pattern.u_ptr, pattern.u_from,
+                                                   pattern.u_start, pattern.u_dest)
     for j in range(perm.shape[0]):
         lo, hi = l_ptr[j], l_ptr[j + 1]
         values[lo:hi] = 0.0
@@ -247,7 +284,7 @@ def block_cholesky(pattern, blocks, values, diag_inv):
 @numba.njit(cache=True)
 def cholesky_solve(pattern, values, diag_inv, r, z, y):
     """z = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space."""
-    perm, l_ptr, l_rows = pattern[0], pattern[1], pattern[2]
+    perm, l_ptr, l_rows = pattern.perm, pattern.l_ptr, pattern.l_rows
     n = perm.shape[0]
     for j in range(n):
         y[j, 0] = r[perm[j], 0]

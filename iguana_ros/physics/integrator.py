@@ -9,7 +9,8 @@ with `f` every force except the Rayleigh terms; then v ← v + Δv, x ← x + h 
 is rebuilt every `jacobian_every` steps; the block Cholesky factor of A, when that is the preconditioner, every
 `factor_every` steps or sooner (see `run_steps_cg`); forces are always evaluated at the current state.
 `run_steps_cg` advances many steps in one compiled call; `prepare_step` / `finish_step` split a step around an
-external (direct) linear solve.
+external (direct) linear solve. The kernels take the body as named structs (`physics.kernel_data.KernelModel`,
+`KernelState`, `physics.cholesky.CholeskyFactor`).
 """
 from __future__ import annotations
 
@@ -42,10 +43,12 @@ STATUS_SOLVER = 4
 
 @numba.njit(cache=True)
 def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info):
-    """Forces, (maybe) the system matrix, and the right-hand side of one step; returns (status, refreshed)."""
-    (mass, tets, grads, volume, mu, lam, springs, spring_k, friction, heights, terrain,
-     row_ptr, cols, diag, tet_blocks, spring_blocks, contact_mass, contact_offset) = model
-    (x, v, dv, quats, anchors, contact, blocks, dextra, pinv, forces, rhs, work, diag_k, diag_c, in_a) = state
+    """Forces, (maybe) the system matrix, and the right-hand side of one step (`model` a KernelModel, `state` a
+    KernelState); returns (status, refreshed)."""
+    mass, terrain = model.mass, model.terrain_grid
+    x, v, forces, blocks = state.positions, state.velocities, state.forces, state.matrix_blocks
+    dextra, pinv = state.diag_mass_damping, state.diag_inv
+    diag_k, diag_c = state.contact_stiffness, state.contact_damping
     h = fp[FP_DT]
     alpha = fp[FP_ALPHA]
     refresh = counters[C_STEP] % ip[IP_JACOBIAN_EVERY] == 0
@@ -58,18 +61,21 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     scale = h * fp[FP_BETA] + h * h if refresh else 0.0
     if refresh:
         blocks[:] = 0.0
-    corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, ip[IP_POLAR_ITERS], forces, blocks,
-                             tet_blocks, scale)
-    spring_forces(x, springs, spring_k, desired_lengths, forces, blocks, spring_blocks, scale)
+    corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
+                             state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
+    spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
+                  scale)
     if ip[IP_HAS_GROUND]:
         n_contact, deepest, depth = contact_forces(
-            x, v, contact_mass, contact_offset, friction, heights, terrain[0], terrain[1], terrain[2], fp[FP_KN],
-            fp[FP_CN], fp[FP_KT], fp[FP_CT], anchors, contact, forces, diag_k, diag_c)
+            x, v, model.contact_mass, model.contact_offset, model.friction, model.heights, terrain[0], terrain[1],
+            terrain[2], fp[FP_KN], fp[FP_CN], fp[FP_KT], fp[FP_CT], state.friction_anchors, state.contact_state,
+            forces, diag_k, diag_c)
         counters[C_CONTACTS] = n_contact
         if depth > fp[FP_MAX_DEPTH]:
             info[0] = deepest
             info[1] = depth
             return STATUS_PENETRATION, refresh
+    diag, in_a, rhs = model.diag, state.contact_in_matrix, state.rhs
     if refresh:
         _finish_matrix(mass, diag, blocks, dextra, diag_k, diag_c, in_a, h, alpha, ip[IP_HAS_GROUND] != 0)
         if ip[IP_PRECONDITIONER] != 2:               # the Cholesky path inverts only if its factor fails
@@ -77,8 +83,8 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
         counters[C_REFRESHES] += 1
     elif ip[IP_HAS_GROUND]:
         _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha)
-    ap = work[3]
-    block_matvec(row_ptr, cols, blocks, v, ap)          # ap = A v; (A − dextra) v is the stiffness part
+    ap = state.cg_work[3]
+    block_matvec(model.row_ptr, model.cols, blocks, v, ap)   # ap = A v; (A − dextra) v is the stiffness part
     for i in range(n):
         for k in range(3):
             dv_k = dextra[i, k, 0] * v[i, 0] + dextra[i, k, 1] * v[i, 1] + dextra[i, k, 2] * v[i, 2]
@@ -138,7 +144,7 @@ def _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_
 @numba.njit(cache=True)
 def finish_step(state, fp, counters, info):
     """v ← v + Δv, x ← x + h v; checks for NaN/Inf and the speed bound. Returns a STATUS_* code."""
-    x, v, dv = state[0], state[1], state[2]
+    x, v, dv = state.positions, state.velocities, state.delta_v
     h = fp[FP_DT]
     max_speed2 = fp[FP_MAX_SPEED] * fp[FP_MAX_SPEED]
     status = STATUS_OK
@@ -161,7 +167,7 @@ def finish_step(state, fp, counters, info):
     return status
 
 
-# entries of the factor state `chol[4]` (3,) int64 of the block Cholesky preconditioner
+# entries of the factor state `chol.state` (3,) int64 of the block Cholesky preconditioner (a CholeskyFactor)
 F_VALID, F_STEP, F_LAST_ITERS = range(3)
 
 
@@ -176,8 +182,8 @@ def _factor_is_due(ip, counters, factor_state):
 @numba.njit(cache=True)
 def _refactor(blocks, counters, chol):
     """Factorise the current system matrix into `chol`; counts it (and a failure, which leaves no factor)."""
-    factor_state = chol[4]
-    factor_state[F_VALID] = block_cholesky(chol[0], blocks, chol[1], chol[2])
+    factor_state = chol.state
+    factor_state[F_VALID] = block_cholesky(chol.pattern, blocks, chol.values, chol.diag_inv)
     factor_state[F_STEP] = counters[C_STEP]
     counters[C_FACTORS] += 1
     if not factor_state[F_VALID]:
@@ -188,11 +194,11 @@ def _refactor(blocks, counters, chol):
 def _solve(model, state, fp, ip, chol, kind):
     """Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold)."""
     step_kind = kind
-    if kind == 2 and not chol[4][F_VALID]:          # no factor: block Jacobi
+    if kind == 2 and not chol.state[F_VALID]:       # no factor: block Jacobi
         step_kind = 0
-        invert_diagonal(model[13], state[6], state[8])
-    return preconditioned_cg(model[11], model[12], state[6], state[8], chol, state[10], state[2], fp[FP_CG_TOL],
-                             fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state[11], step_kind)
+        invert_diagonal(model.diag, state.matrix_blocks, state.diag_inv)
+    return preconditioned_cg(model.row_ptr, model.cols, state.matrix_blocks, state.diag_inv, chol, state.rhs,
+                             state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state.cg_work, step_kind)
 
 
 @numba.njit(cache=True)
@@ -211,14 +217,14 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
     fraction (ramp_offset + k + 1) / ramp_steps (capped at 1), written into `ld_work`; `ramp_steps` <= 0
     holds `ld_to` throughout.
 
-    `chol` = (pattern arrays, values, diag_inv, work (n, 3), factor state (3,)) of the block Cholesky
-    preconditioner. The system matrix is current every step; its factor is reused for up to `factor_every`
+    `chol` is the CholeskyFactor of the block Cholesky preconditioner (`model` a KernelModel, `state` a
+    KernelState). The system matrix is current every step; its factor is reused for up to `factor_every`
     steps (CG absorbs the difference in a few iterations) and refactorised early after a slow solve, or
     when a solve with a stale factor fails (then the solve is repeated). A failed factorisation falls back to
     block Jacobi for that step.
     """
     kind = ip[IP_PRECONDITIONER]
-    factor_state = chol[4]
+    factor_state = chol.state
     desired_lengths = ld_to
     for step in range(n_steps):
         if ramp_steps > 0:
@@ -228,13 +234,13 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
         if status != STATUS_OK:
             return status, step
         if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
-            _refactor(state[6], counters, chol)
+            _refactor(state.matrix_blocks, counters, chol)
         iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
         failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:
             counters[C_CG_ITERS] += abs(iters)
-            _refactor(state[6], counters, chol)              # a stale factor: refactorise and solve again
-            state[2][:] = 0.0
+            _refactor(state.matrix_blocks, counters, chol)   # a stale factor: refactorise and solve again
+            state.delta_v[:] = 0.0
             iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
             failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         counters[C_CG_ITERS] += abs(iters)

@@ -19,7 +19,8 @@ from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.fidelity import Fidelity, get_fidelity
 from iguana_ros.physics.forces import (CONTACT_NONE, contact_forces, corotated_elastic_forces, lame_parameters,
                                        shape_gradients)
-from iguana_ros.physics.cholesky import CholeskyPattern, empty_factor
+from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
+from iguana_ros.physics.kernel_data import KernelModel, empty_state
 from iguana_ros.physics.solver import PRECONDITIONER_CODES, DirectSolver
 
 LENGTH_HOLDS = ('linear', 'zero')
@@ -105,7 +106,7 @@ class SoftBodySimulator:
 
     # ------------------------------------------------------------------------------------------ building
     def _build_model_arrays(self, model, terrain, friction) -> None:
-        """Static arrays of the compiled kernels (the `model` tuple)."""
+        """Static arrays of the compiled kernels (`self._model`, a KernelModel)."""
         rest = np.ascontiguousarray(model.rest_positions, dtype=np.float64)
         tets = np.ascontiguousarray(model.tets, dtype=np.int64)
         springs = np.ascontiguousarray(model.springs, dtype=np.int64).reshape(-1, 2)
@@ -127,18 +128,21 @@ class SoftBodySimulator:
         heights, ox, oy, spacing = terrain.kernel_args() if terrain is not None else (np.zeros((2, 2)), 0., 0., 1.)
         self.friction = friction_per_node(model, friction)
         self.contact_offset = contact_offsets(model)
-        self._model = (mass, tets, grads, volume, np.ascontiguousarray(mu), np.ascontiguousarray(lam), springs,
-                       np.ascontiguousarray(np.broadcast_to(model.spring_stiffness, (len(springs),)),
-                                            dtype=np.float64),
-                       self.friction, heights, np.array([ox, oy, spacing]), self.pattern.row_ptr,
-                       self.pattern.cols, self.pattern.diag, self.pattern.tet_blocks, self.pattern.spring_blocks,
-                       np.maximum(mass, mass.mean()),      # contact mass: light (sliver) nodes get the mean
-                       self.contact_offset)
+        self._model = KernelModel(
+            mass=mass, tets=tets, shape_gradients=grads, volume=volume, mu=np.ascontiguousarray(mu),
+            lam=np.ascontiguousarray(lam), springs=springs,
+            spring_stiffness=np.ascontiguousarray(np.broadcast_to(model.spring_stiffness, (len(springs),)),
+                                                  dtype=np.float64),
+            friction=self.friction, heights=heights, terrain_grid=np.array([ox, oy, spacing]),
+            row_ptr=self.pattern.row_ptr, cols=self.pattern.cols, diag=self.pattern.diag,
+            tet_blocks=self.pattern.tet_blocks, spring_blocks=self.pattern.spring_blocks,
+            contact_mass=np.maximum(mass, mass.mean()),      # light (sliver) nodes get the mean
+            contact_offset=self.contact_offset)
 
     def _build_params(self, gravity, alpha, beta, kn, zeta, kt, max_speed, max_depth) -> None:
         """Float/int parameter vectors of the compiled kernels."""
         fid = self.fidelity
-        mass = self._model[0]
+        mass = self._model.mass
         fp = np.zeros(itg.N_FP)
         fp[itg.FP_DT] = fid.dt
         fp[itg.FP_ALPHA] = alpha
@@ -164,12 +168,9 @@ class SoftBodySimulator:
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
-        """Preallocated state and work arrays (the `state` tuple)."""
-        n, n_tets, nb = len(self.rest_positions), len(self._model[1]), self.pattern.n_blocks
-        self._state = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n_tets, 4)),
-                       np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.zeros((nb, 3, 3)), np.zeros((n, 3, 3)),
-                       np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((4, n, 3)),
-                       np.zeros((n, 3, 3)), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
+        """Preallocated state and work arrays (`self._state`, a KernelState)."""
+        n = len(self.rest_positions)
+        self._state = empty_state(n, len(self._model.tets), self.pattern.n_blocks)
         self._chol = self._build_factor()
         self._counters = np.zeros(itg.N_COUNTERS, dtype=np.int64)
         self._info = np.zeros(2)
@@ -177,37 +178,33 @@ class SoftBodySimulator:
         self._lengths_work = np.zeros(len(self.desired_lengths_rest))
         self._held_lengths: np.ndarray | None = None
 
-    def _build_factor(self) -> tuple:
-        """The `chol` tuple of the compiled step loop: the block Cholesky pattern and factor storage when the
-        preconditioner is 'cholesky', else empty arrays of the same types."""
-        n = len(self.rest_positions)
+    def _build_factor(self) -> CholeskyFactor:
+        """The CholeskyFactor of the compiled step loop: pattern and factor storage when the preconditioner is
+        'cholesky', else empty arrays of the same types."""
         if self.fidelity.preconditioner == 'cholesky':
-            pattern = CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols)
-            values, diag_inv, work, factor_state = np.zeros((pattern.n_factor_blocks, 3, 3)), \
-                np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros(3, dtype=np.int64)
-            return pattern.arrays(), values, diag_inv, work, factor_state
-        empty = np.zeros(0, dtype=np.int64)
-        return ((empty,) * 12,) + empty_factor(n)
+            return CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols).factor()
+        return empty_factor(len(self.rest_positions))
 
     # ---------------------------------------------------------------------------------------------- state
     def reset(self, positions=None, velocities=None) -> None:
         """Set positions/velocities `(n_nodes, 3)` (default: rest pose at rest); clears contacts and time."""
-        x, v, dv, quats, anchors, contact = self._state[:6]
-        x[:] = self.rest_positions if positions is None else self._checked(positions, 'positions')
-        v[:] = 0.0 if velocities is None else self._checked(velocities, 'velocities')
-        dv[:] = 0.0
-        anchors[:] = 0.0
-        contact[:] = CONTACT_NONE
-        quats[:] = (0.0, 0.0, 0.0, 1.0)
+        s = self._state
+        s.positions[:] = self.rest_positions if positions is None else self._checked(positions, 'positions')
+        s.velocities[:] = 0.0 if velocities is None else self._checked(velocities, 'velocities')
+        s.delta_v[:] = 0.0
+        s.friction_anchors[:] = 0.0
+        s.contact_state[:] = CONTACT_NONE
+        s.element_rotations[:] = (0.0, 0.0, 0.0, 1.0)
         self._counters[:] = 0
-        self._chol[4][:] = 0
+        self._chol.state[:] = 0
         self._fallback_steps = 0
         self._held_lengths = None
         self.time = 0.0
         self._diverged = None
         m = self._model
-        corotated_elastic_forces(x, m[1], m[2], m[3], m[4], m[5], quats, 200, np.zeros_like(x),
-                                 self._state[6], m[14], 0.0)          # converge the element rotations
+        corotated_elastic_forces(s.positions, m.tets, m.shape_gradients, m.volume, m.mu, m.lam, s.element_rotations,
+                                 200, np.zeros_like(s.positions), s.matrix_blocks, m.tet_blocks,
+                                 0.0)                                  # converge the element rotations
 
     def _checked(self, array, name: str) -> np.ndarray:
         """`array` as finite `(n_nodes, 3)` floats, or InputError."""
@@ -219,29 +216,32 @@ class SoftBodySimulator:
     @property
     def positions(self) -> np.ndarray:
         """Node positions `(n_nodes, 3)` m (a copy)."""
-        return self._state[0].copy()
+        return self._state.positions.copy()
 
     @property
     def velocities(self) -> np.ndarray:
         """Node velocities `(n_nodes, 3)` m/s (a copy)."""
-        return self._state[1].copy()
+        return self._state.velocities.copy()
 
     @property
     def in_contact(self) -> np.ndarray:
         """Per-node ground-contact flags `(n_nodes,)` bool, as of the last step."""
-        return self._state[5] != CONTACT_NONE
+        return self._state.contact_state != CONTACT_NONE
 
     def ground_forces(self) -> np.ndarray:
         """Ground reaction (normal + friction) on each node `(n_nodes, 3)` N at the current state (zero without
         terrain); evaluates the contact kernel on copies, so the simulation is not changed."""
-        forces = np.zeros_like(self._state[0])
+        s = self._state
+        forces = np.zeros_like(s.positions)
         if self.terrain is None:
             return forces
         m, fp = self._model, self._fp
         n = len(forces)
-        contact_forces(self._state[0], self._state[1], m[16], m[17], m[8], m[9], m[10][0], m[10][1], m[10][2],
-                       fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], self._state[4].copy(),
-                       self._state[5].copy(), forces, np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))
+        grid = m.terrain_grid
+        contact_forces(s.positions, s.velocities, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0],
+                       grid[1], grid[2], fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT],
+                       s.friction_anchors.copy(), s.contact_state.copy(), forces, np.zeros((n, 3, 3)),
+                       np.zeros((n, 3, 3)))
         return forces
 
     @property
@@ -301,10 +301,10 @@ class SoftBodySimulator:
             if status != itg.STATUS_SOLVER or self._fallback is None:
                 return status, done_total
             try:                                     # the failed step is prepared: matrix and rhs are current
-                self._fallback.factorize(self._state[6])
+                self._fallback.factorize(self._state.matrix_blocks)
             except RuntimeError:
                 return itg.STATUS_SOLVER, done_total
-            self._fallback.solve(self._state[10], self._state[2])
+            self._fallback.solve(self._state.rhs, self._state.delta_v)
             self._fallback_steps += 1
             status = itg.finish_step(self._state, self._fp, self._counters, self._info)
             done_total += 1
@@ -325,11 +325,11 @@ class SoftBodySimulator:
                 return status, step
             if refreshed:
                 try:
-                    self._direct.factorize(state[6])
+                    self._direct.factorize(state.matrix_blocks)
                 except RuntimeError:
                     self._info[:] = (-1, np.inf)
                     return itg.STATUS_SOLVER, step
-            self._direct.solve(state[10], state[2])
+            self._direct.solve(state.rhs, state.delta_v)
             status = itg.finish_step(state, self._fp, self._counters, self._info)
             if status != itg.STATUS_OK:
                 return status, step + 1
@@ -355,12 +355,12 @@ class SoftBodySimulator:
     # ------------------------------------------------------------------------------------------- summaries
     def center_of_mass(self) -> np.ndarray:
         """Mass-weighted mean node position `(3,)` m."""
-        mass = self._model[0]
-        return mass @ self._state[0] / mass.sum()
+        mass = self._model.mass
+        return mass @ self._state.positions / mass.sum()
 
     def root_pose(self) -> tuple:
         """Best rigid fit of the rest shape to the current nodes: (COM position (3,), quaternion xyzw (4,))."""
-        mass = self._model[0]
-        x = self._state[0]
+        mass = self._model.mass
+        x = self._state.positions
         rot, _ = rigid_fit(self.rest_positions, x, mass)
         return mass @ x / mass.sum(), matrix_to_quat(rot)

@@ -6,7 +6,7 @@ import numba
 import numpy as np
 
 from iguana_ros.physics.assembly import BlockPattern, block_matvec
-from iguana_ros.physics.cholesky import cholesky_solve
+from iguana_ros.physics.cholesky import CholeskyArrays, CholeskyFactor, cholesky_solve
 
 PRECONDITIONER_CODES = {'jacobi': 0, 'ssor': 1, 'cholesky': 2}
 """Integer codes of the CG preconditioners in the compiled kernels."""
@@ -66,7 +66,7 @@ def _ssor(row_ptr, cols, blocks, pinv, r, z):
 def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
     """z = P⁻¹ r: block Jacobi (kind 0), symmetric block Gauss–Seidel (1) or the block Cholesky factor (2)."""
     if kind == 2:
-        cholesky_solve(chol[0], chol[1], chol[2], r, z, chol[3])
+        cholesky_solve(chol.pattern, chol.values, chol.diag_inv, r, z, chol.work)
     elif kind == 1:
         _ssor(row_ptr, cols, blocks, pinv, r, z)
     else:
@@ -77,7 +77,8 @@ def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
 def _no_factor(n):
     """A `chol` argument for the preconditioners that use no factor."""
     e = np.zeros(0, dtype=np.int64)
-    return ((e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)), np.zeros((0, 3, 3)), np.zeros((n, 3)))
+    return CholeskyFactor(CholeskyArrays(e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)),
+                          np.zeros((0, 3, 3)), np.zeros((n, 3)), e)
 
 
 @numba.njit(cache=True)
@@ -94,7 +95,7 @@ def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_it
     A is stored as its upper block triangle (`iguana_ros.physics.assembly`). Preconditioner `kind`
     (PRECONDITIONER_CODES): inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi), symmetric block
     Gauss–Seidel (the diagonal block first in each row, columns ascending), or the block
-    Cholesky factor `chol` = (pattern arrays, values, diag_inv, work (n, 3)) of `iguana_ros.physics.cholesky`.
+    Cholesky factor `chol` (a `CholeskyFactor` of `iguana_ros.physics.cholesky`).
     With the factor at least one iteration is done (the warm start is not accepted as it is).
     Returns `(iterations, residual_norm, threshold)`; iterations = −k signals a breakdown (pᵀAp ≤ 0) at step k.
     """
