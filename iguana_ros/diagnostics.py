@@ -31,9 +31,10 @@ from iguana_ros.constants import FRAME_RATE, GRAVITY
 from iguana_ros.errors import InputError
 from iguana_ros.motion.clips import Clip, load_clip_library
 from iguana_ros.physics.simulator import SoftBodySimulator
-from iguana_ros.pipeline import Pipeline, SimulatorStage, build_pipeline
+from iguana_ros.pipeline import Pipeline, build_pipeline
 from iguana_ros.run_metrics import FEET, TRUNK, bone_node_groups
 from iguana_ros.scene import ModelSpec, Scene, load_scene
+from iguana_ros.stages import simulator_stage, spring_stage
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
 
@@ -314,10 +315,8 @@ def statics_pipeline(scene: Scene | str, model: IguanaModel | None = None) -> Pi
         scene = dataclasses.replace(scene, model=ModelSpec(model.resolution, model.stiffness))
     pipe = build_pipeline(scene)
     if model is not None and model is not pipe.simulator.model:
-        stage = pipe.simulator
-        pipe.springs = SpringLengthComputer(model)
-        pipe.simulator = SimulatorStage(model, stage.sim.terrain, scene.fidelity, stage.pushes,
-                                        (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg))
+        pipe.springs = spring_stage(scene, model)
+        pipe.simulator = simulator_stage(scene, model=model, terrain=pipe.simulator.terrain)
     return pipe
 
 

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from iguana_ros import pipeline
+from iguana_ros import pipeline, stages
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.geometry import quat_from_yaw, quat_identity
 from iguana_ros.scene import PushSpec, parse_scene
@@ -51,11 +51,11 @@ def test_push_forces_sum_to_the_push_on_its_region():
     from iguana_ros.body.model import build_model
     model = build_model('coarse')
     push = PushSpec(at=1.0, force=(0.0, -40.0, 0.0), duration=0.1, region='trunk_left')
-    assert pipeline.push_forces(model, (push,), 0.5) is None
-    forces = pipeline.push_forces(model, (push,), 1.05)
+    assert stages.push_forces(model, (push,), 0.5) is None
+    forces = stages.push_forces(model, (push,), 1.05)
     assert np.allclose(forces.sum(axis=0), [0.0, -40.0, 0.0])
     assert np.all(forces[~model.node_tags['trunk_left']] == 0.0)
-    assert pipeline.push_forces(model, (push,), 1.1) is None
+    assert stages.push_forces(model, (push,), 1.1) is None
 
 
 def test_scene_goal_schedule(coarse_scene):

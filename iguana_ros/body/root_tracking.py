@@ -14,6 +14,19 @@ ROOT_REGION_BONES = ('pelvis', 'spine_1', 'spine_2', 'hip_hl', 'hip_hr', 'tail_1
 """Bones whose dominantly-skinned nodes define the root region."""
 
 
+def rigid_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarray) -> tuple:
+    """Linear `(3,)` and angular `(3,)` velocity of a node group `(n, 3)` with masses `(n,)`: the mass-weighted mean
+    velocity and the ω whose rigid rotation about the group's centre has the group's angular momentum."""
+    m = mass / mass.sum()
+    com, vcom = m @ positions, m @ velocities
+    r, v = positions - com, velocities - vcom
+    momentum = (mass[:, None] * np.cross(r, v)).sum(axis=0)
+    inertia = np.einsum('i,ij,ik->jk', mass, r, r)
+    inertia = np.trace(inertia) * np.eye(3) - inertia
+    omega = np.linalg.lstsq(inertia, momentum, rcond=None)[0]
+    return vcom, omega
+
+
 class RootTracker:
     """Estimates the root pose of a soft-body iguana from its node positions `(n_nodes, 3)`."""
 
@@ -33,6 +46,12 @@ class RootTracker:
         """(root position (3,), root orientation xyzw (4,)) for node positions `(n_nodes, 3)`."""
         rot, trans = rigid_fit(self.rest, np.asarray(positions, float)[self.nodes], self.weights)
         return rot @ self.rest_root + trans, matrix_to_quat(rot)
+
+    def root_twist(self, positions: np.ndarray, velocities: np.ndarray) -> tuple:
+        """(linear `(3,)` m/s, angular `(3,)` rad/s) velocity of the root region for node positions and velocities
+        `(n_nodes, 3)`: its centre of mass's, and the angular velocity of its momentum about that centre."""
+        return rigid_velocity(np.asarray(positions, float)[self.nodes], np.asarray(velocities, float)[self.nodes],
+                              self.weights)
 
     def heading(self, positions: np.ndarray) -> float:
         """Yaw (rad) of the root for node positions `(n_nodes, 3)`."""

@@ -43,8 +43,9 @@ class AlignedClip:
 class MotionGraph:
     """Complete graph over a clip library (every clip may follow every clip, Figure 4)."""
 
-    def __init__(self, library: dict, blend_frames: int = 4) -> None:
-        """Build the graph over `library` (name -> clip); `blend_frames` frames smooth each transition."""
+    def __init__(self, library: dict, blend_frames: int) -> None:
+        """Build the graph over `library` (name -> clip); `blend_frames` frames smooth each transition (the planner's
+        parameter: `stages.motion_graph` gives its declared default)."""
         if not library:
             raise ValueError('the motion graph needs at least one clip')
         self.clips = dict(library)

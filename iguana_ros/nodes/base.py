@@ -16,6 +16,7 @@ from iguana_ros.nodes.conversions import time_from_msg, time_to_msg
 from iguana_ros.nodes.ros_topics import resolve
 from iguana_ros.parameters import ParamSpec, node_parameters
 from iguana_ros.scene import Scene, load_scene
+from iguana_ros.validation import FRAME_NEW, FRAME_REPEAT, FRAME_STALE, check_frame
 
 _PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterType.PARAMETER_DOUBLE,
                 'integer': ParameterType.PARAMETER_INTEGER, 'bool': ParameterType.PARAMETER_BOOL}
@@ -105,6 +106,36 @@ class IguanaNode(Node):
             except IguanaError as exc:
                 self.get_logger().error(f'rejected {what}: {exc}')
         return wrapper
+
+
+class FrameGate:
+    """Frame gating of one input topic: the newest frame a node has handled from it, and its reply to that frame.
+
+    `admit(frame)` is True for a new frame. A repeated frame (a peer re-sends its input after a lockstep timeout)
+    gets the kept reply again, a stale one is logged and dropped, one too far ahead is an InputError (`check_frame`).
+    """
+
+    def __init__(self, node: Node, what: str, publisher=None) -> None:
+        """Gate topic `what` of `node`; replies (if any) go out on `publisher`."""
+        self.node, self.what, self.publisher = node, what, publisher
+        self.last_frame = -1
+        self.reply = None
+
+    def admit(self, frame: int) -> bool:
+        """Whether a message of `frame` is new (to be handled); re-sends the reply to a repeated frame."""
+        order = check_frame(self.what, frame, self.last_frame)
+        if order == FRAME_STALE:
+            self.node.get_logger().warning(f'ignored stale {self.what} for frame {frame} (at {self.last_frame})')
+        elif order == FRAME_REPEAT and self.reply is not None:
+            self.publisher.publish(self.reply)
+        return order == FRAME_NEW
+
+    def handled(self, frame: int, reply=None) -> None:
+        """Mark `frame` handled; publish `reply` (kept for a repeat of the frame) when given."""
+        self.last_frame = frame
+        if reply is not None:
+            self.reply = reply
+            self.publisher.publish(reply)
 
 
 def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None) -> int:

@@ -20,9 +20,9 @@ from iguana_ros.nodes.messages import (foot_positions_to_msg, foot_state_to_msg,
                                        push_from_msg, state_to_msg)
 from iguana_ros.nodes.ros_topics import resolve
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.pipeline import SimulatorStage, push_forces
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
+from iguana_ros.stages import push_forces, simulator_stage
 from iguana_ros.validation import FRAME_STALE, check_frame
 from iguana_ros.visuals import body_colors, terrain_mesh
 
@@ -41,18 +41,6 @@ RECORDED_FROM_START = ('iguana_state', 'mesh_marker', 'clock', 'foot_state', 'fo
 the gait figures from them."""
 
 
-def root_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarray) -> tuple:
-    """Linear `(3,)` and angular `(3,)` velocity of a node group (mass-weighted, about its centre)."""
-    m = mass / mass.sum()
-    com, vcom = m @ positions, m @ velocities
-    r, v = positions - com, velocities - vcom
-    momentum = (mass[:, None] * np.cross(r, v)).sum(axis=0)
-    inertia = np.einsum('i,ij,ik->jk', mass, r, r)
-    inertia = np.trace(inertia) * np.eye(3) - inertia
-    omega = np.linalg.lstsq(inertia, momentum, rcond=None)[0]
-    return vcom, omega
-
-
 class SimulatorNode(IguanaNode):
     """Runs the soft body and publishes what it does."""
 
@@ -61,16 +49,10 @@ class SimulatorNode(IguanaNode):
     def __init__(self, **kwargs) -> None:
         """Build the model, terrain and simulator the scene names; wait for peers in lockstep mode."""
         super().__init__(**kwargs)
-        from iguana_ros.body.model import build_model
-        from iguana_ros.terrain.from_scene import terrain_from_spec
-
         scene = self.scene
         fidelity = scene.fidelity if self.param('fidelity') == 'scene' else self.param('fidelity')
-        self.model = build_model(scene.model.resolution, scene.model.stiffness)
-        self.terrain = terrain_from_spec(scene.terrain)
-        self.stage = SimulatorStage(self.model, self.terrain, fidelity,
-                                    scene.pushes if scene.needs_pushes else (),
-                                    (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg))
+        self.stage = simulator_stage(scene, fidelity)
+        self.model, self.terrain = self.stage.model, self.stage.terrain
         self.mode = self.param('mode')
         duration = self.param('duration') or scene.duration
         self.end_frame = int(round(duration * FRAME_RATE))
@@ -240,9 +222,7 @@ class SimulatorNode(IguanaNode):
         """iguana_state, /clock, the foot probe and (every n frames) the mesh marker of the current frame."""
         frame = self.stage.frame
         root, orientation = self.stage.root_pose()
-        nodes = self.stage.tracker.nodes
-        linear, angular = root_velocity(self.stage.sim.positions[nodes], self.stage.sim.velocities[nodes],
-                                        self.model.node_mass[nodes])
+        linear, angular = self.stage.root_twist()
         self.clock_pub.publish(ClockMsg(clock=frame_stamp(frame)))
         self.state_pub.publish(state_to_msg(root, orientation, linear, angular, frame))
         heights, contact, soles = self.probe.body(self.stage.sim.positions, self.stage.sim.in_contact)

@@ -1,9 +1,10 @@
 """Spring-length node (Section VII): reference_pose in, desired spring lengths (JointState) out."""
 from __future__ import annotations
 
-from iguana_ros.nodes.base import IguanaNode, node_main
+from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.nodes.messages import lengths_to_msg, reference_pose_from_msg
-from iguana_ros.validation import FRAME_STALE, check_desired_lengths, check_frame, world_bound
+from iguana_ros.stages import scene_model, spring_stage
+from iguana_ros.validation import check_desired_lengths, world_bound
 
 
 class SpringLengthNode(IguanaNode):
@@ -12,20 +13,16 @@ class SpringLengthNode(IguanaNode):
     KIND = 'spring_length_node'
 
     def __init__(self, **kwargs) -> None:
-        """Build the scene's soft-body model (resolution and stiffness) for its mesh and springs."""
+        """Build the scene's spring-length stage (`stages.spring_stage`) on its soft-body model."""
         super().__init__(**kwargs)
-        from iguana_ros.body.model import build_model
-        from iguana_ros.body.spring_lengths import SpringLengthComputer
-
-        model = build_model(self.scene.model.resolution, self.scene.model.stiffness)
-        self.computer = SpringLengthComputer(model)
+        model = scene_model(self.scene)
+        self.computer = spring_stage(self.scene, model)
         self.skeleton = model.skeleton
         self.n_bones = model.skeleton.n_bones
         self.rest_lengths = model.spring_rest_lengths
         self.bound = world_bound(self.scene.terrain.extent)
-        self.last_frame = -1
-        self.last_msg = None
         self.lengths_pub = self.publisher('spring_rest_lengths')
+        self.pose_gate = FrameGate(self, 'reference_pose', self.lengths_pub)
         self.subscription('reference_pose', self.guarded('reference_pose', self.on_pose))
         self.get_logger().info(f'spring lengths ready: {self.computer.n_springs} springs, '
                                f'{model.n_nodes} nodes')
@@ -34,17 +31,10 @@ class SpringLengthNode(IguanaNode):
         """Publish the desired lengths of the pose's frame (re-send them for a repeated frame); lengths the
         simulator would reject (`check_desired_lengths`) are not published."""
         frame, positions, rotations = reference_pose_from_msg(msg, self.n_bones, self.skeleton, self.bound)
-        order = check_frame('reference_pose', frame, self.last_frame)
-        if frame == self.last_frame and self.last_msg is not None:
-            self.lengths_pub.publish(self.last_msg)
-            return
-        if order == FRAME_STALE:
-            self.get_logger().warning(f'ignored stale reference_pose for frame {frame} (at {self.last_frame})')
+        if not self.pose_gate.admit(frame):
             return
         lengths = check_desired_lengths(self.computer.lengths_from_bones(rotations, positions), self.rest_lengths)
-        self.last_msg = lengths_to_msg(lengths, frame)
-        self.last_frame = frame
-        self.lengths_pub.publish(self.last_msg)
+        self.pose_gate.handled(frame, lengths_to_msg(lengths, frame))
 
 
 main = node_main(SpringLengthNode)

@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 from iguana_ros.errors import InputError
-from iguana_ros.nodes.base import IguanaNode, node_main
+from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.nodes.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
-from iguana_ros.pipeline import AdaptationStage, clip_pose
-from iguana_ros.validation import FRAME_NEW, FRAME_STALE, check_frame, world_bound
+from iguana_ros.stages import adaptation_stage, clip_pose, stride_ended
+from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
 
 MAX_CLIPS = 4
 """Placed clips kept (by start frame) for frames that arrive late."""
@@ -21,35 +21,27 @@ class TerrainAdaptationNode(IguanaNode):
     KIND = 'terrain_adaptation_node'
 
     def __init__(self, **kwargs) -> None:
-        """Build the terrain only when the scene (or the parameter) asks for adaptation."""
+        """Build the scene's adaptation stage (`stages.adaptation_stage`; the parameter may turn it on or off)."""
         super().__init__(**kwargs)
-        from iguana_ros.body.skeleton import iguana_skeleton
-        from iguana_ros.terrain.from_scene import terrain_from_spec
-        from iguana_ros.terrain.heightfield import HeightField
-
         choice = self.param('adaptation')
-        enabled = self.scene.adaptation if choice == 'scene' else choice == 'on'
-        needed = enabled and self.scene.terrain.kind != 'flat'
-        terrain = terrain_from_spec(self.scene.terrain) if needed else HeightField.flat()
-        self.skeleton = iguana_skeleton()
-        self.stage = AdaptationStage(self.skeleton, terrain, enabled=needed)
+        self.stage = adaptation_stage(self.scene, None if choice == 'scene' else choice == 'on')
+        self.skeleton = self.stage.skeleton
         self.bound = world_bound(self.scene.terrain.extent)
         self.clips: dict[int, object] = {}
         self.pending: int | None = None
-        self.last_frame = -1
-        self.last_msg = None
         self.pose_pub = self.publisher('reference_pose')
+        self.state_gate = FrameGate(self, 'iguana_state', self.pose_pub)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
-        self.get_logger().info(f'terrain adaptation ready ({"on" if needed else "off"})')
+        self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
 
     def on_clip(self, msg) -> None:
         """Keep a placed clip by its start frame, then serve a frame that was waiting for it."""
         start, clip = clip_from_msg(msg, self.skeleton, self.bound)
-        newest = max(self.clips, default=-1)
-        if check_frame('motion_clip', start, max(newest, self.last_frame)) != FRAME_NEW:
+        newest, served = max(self.clips, default=-1), self.state_gate.last_frame
+        if check_frame('motion_clip', start, max(newest, served)) != FRAME_NEW:
             raise InputError(f'motion_clip starts at frame {start}, not after the newest clip (frame {newest}) '
-                             f'and the last frame served ({self.last_frame}): stale')
+                             f'and the last frame served ({served}): stale')
         self.clips[start] = clip
         for old in sorted(self.clips)[:-MAX_CLIPS]:
             del self.clips[old]
@@ -58,12 +50,7 @@ class TerrainAdaptationNode(IguanaNode):
     def on_state(self, msg) -> None:
         """Publish the reference pose of the state's frame (re-send it for a repeated frame)."""
         frame, _root, _orientation = state_from_msg(msg, self.bound)
-        order = check_frame('iguana_state', frame, self.last_frame)
-        if frame == self.last_frame and self.last_msg is not None:
-            self.pose_pub.publish(self.last_msg)
-            return
-        if order == FRAME_STALE:
-            self.get_logger().warning(f'ignored stale iguana_state for frame {frame} (at {self.last_frame})')
+        if not self.state_gate.admit(frame):
             return
         self.pending = frame
         self._serve_pending()
@@ -75,7 +62,7 @@ class TerrainAdaptationNode(IguanaNode):
             return None
         start = max(starts)
         clip = self.clips[start]
-        return (clip, start) if frame < start + len(clip.root_positions) - 1 or start == frame else None
+        return None if stride_ended(start, len(clip.root_positions), frame) else (clip, start)
 
     def _serve_pending(self) -> None:
         """Adapt and publish the waiting frame once its clip is known."""
@@ -88,9 +75,7 @@ class TerrainAdaptationNode(IguanaNode):
         frame, self.pending = self.pending, None
         root, local = clip_pose(clip, frame - start)
         joints, rotations = self.stage.reference_pose(root, local)
-        self.last_msg = reference_pose_to_msg(joints, rotations, frame)
-        self.last_frame = frame
-        self.pose_pub.publish(self.last_msg)
+        self.state_gate.handled(frame, reference_pose_to_msg(joints, rotations, frame))
 
 
 main = node_main(TerrainAdaptationNode)

@@ -55,11 +55,10 @@ class FuzzContext:
     def for_scene(cls, scene) -> 'FuzzContext':
         """Contents for a run of `scene` (its model's rest lengths, the forward clip at the scene's start)."""
         from iguana_ros.body.model import build_model
-        from iguana_ros.motion.clips import load_clip_library
-        from iguana_ros.motion.motion_graph import MotionGraph
+        from iguana_ros.stages import motion_graph
         from iguana_ros.terrain.adaptation import pose_kinematics
         model = build_model(scene.model.resolution, scene.model.stiffness)
-        clip = MotionGraph(load_clip_library()).align('forward', np.array([scene.start.x, scene.start.y]),
+        clip = motion_graph().align('forward', np.array([scene.start.x, scene.start.y]),
                                                       math.radians(scene.start.yaw_deg))
         joints, rotations = pose_kinematics(model.skeleton, clip.root_positions[0], clip.local_rotations[0])
         return cls(np.asarray(model.spring_rest_lengths, float), model.skeleton, clip, joints, rotations,

@@ -20,7 +20,7 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
 
     from iguana_ros.nodes.goal_sender import goal_message
     from iguana_ros.nodes.messages import lengths_to_msg, state_from_msg
-    from iguana_ros.pipeline import SimulatorStage
+    from iguana_ros.stages import SimulatorStage
     from iguana_ros.terrain.heightfield import HeightField
     model = build_model('coarse')
     rest = np.array(model.spring_rest_lengths)
@@ -68,11 +68,10 @@ def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make
     from rclpy.serialization import serialize_message
 
     from iguana_ros.body.skeleton import iguana_skeleton
-    from iguana_ros.motion.clips import load_clip_library
-    from iguana_ros.motion.motion_graph import MotionGraph
+    from iguana_ros.stages import motion_graph
     from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg
     skeleton = iguana_skeleton()
-    graph = MotionGraph(load_clip_library())
+    graph = motion_graph()
     first = graph.align('forward', np.array([0.0, 0.0]), 0.0)
     second = graph.align('forward', first.root_positions[-1, :2], 0.0, previous=first)
     bad = clip_to_msg(second, skeleton, 20)

@@ -13,7 +13,7 @@ from iguana_ros.body.model import build_model
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.geometry import quat_from_yaw, yaw_of
 from iguana_ros.motion.clips import load_clip_library
-from iguana_ros.motion.motion_graph import MotionGraph
+from iguana_ros.stages import motion_graph
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
 
@@ -116,7 +116,7 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
     from iguana_ros.scene import load_scene
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 12.0, 'direction_deg': 30.0})
     skeleton = iguana_skeleton()
-    graph = MotionGraph(load_clip_library())
+    graph = motion_graph()
     clip = graph.align('forward', np.array([0.0, 0.0]), 0.0)
     probe = Probe(make_node('probe'), executor)
     probe.listen('reference_pose')
@@ -154,7 +154,7 @@ def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.terrain.adaptation import pose_kinematics
     model = build_model('coarse')
     skeleton = model.skeleton
-    clip = MotionGraph(load_clip_library()).align('turn_left', np.array([0.4, -0.2]), 0.3)
+    clip = motion_graph().align('turn_left', np.array([0.4, -0.2]), 0.3)
     joints, rotations = pose_kinematics(skeleton, clip.root_positions[5], clip.local_rotations[5])
     expected = SpringLengthComputer(model).lengths_from_bones(rotations, joints)
     probe = Probe(make_node('probe'), executor)
@@ -166,7 +166,13 @@ def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
         pose_pub.publish(wrong)
         pose_pub.publish(reference_pose_to_msg(joints, rotations, 4))
         msg = probe.wait('spring_rest_lengths')[0]
+        pose_pub.publish(reference_pose_to_msg(joints, rotations, 4))   # a repeat: the same lengths again
+        again = probe.wait('spring_rest_lengths', 2)[1]
+        pose_pub.publish(reference_pose_to_msg(joints, rotations, 3))   # stale: logged, nothing published
+        assert node.wait_for_output('ignored stale reference_pose for frame 3 (at 4)', 30), node.output
+        assert len(probe.got['spring_rest_lengths']) == 2
         assert node.running
+    assert np.array_equal(lengths_from_msg(again, len(expected))[1], lengths_from_msg(msg, len(expected))[1])
     frame, lengths = lengths_from_msg(msg, len(expected))
     assert frame == 4
     assert np.array_equal(lengths, expected)

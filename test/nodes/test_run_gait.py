@@ -18,8 +18,7 @@ from iguana_ros.bag.trajectory import read_topics  # noqa: E402
 from iguana_ros.body.model import build_model  # noqa: E402
 from iguana_ros.body.root_tracking import RootTracker  # noqa: E402
 from iguana_ros.geometry import yaw_of  # noqa: E402
-from iguana_ros.motion.clips import load_clip_library  # noqa: E402
-from iguana_ros.motion.motion_graph import MotionGraph  # noqa: E402
+from iguana_ros.stages import motion_graph  # noqa: E402
 from iguana_ros.nodes import messages as m  # noqa: E402
 from iguana_ros.nodes.launch import RunSummary  # noqa: E402
 from iguana_ros.nodes.ros_topics import resolve  # noqa: E402
@@ -70,7 +69,7 @@ def _messages(scene, result) -> dict[str, list]:
 
 def _placed_clips(scene, result) -> list:
     """(start frame, placed clip) of each stride of `result`, placed as the planner placed them."""
-    graph = MotionGraph(load_clip_library())
+    graph = motion_graph()
     model = build_model(scene.model.resolution, scene.model.stiffness)
     start_nodes = place_on_terrain(model.rest_positions, terrain_from_spec(scene.terrain),
                                    xy=(scene.start.x, scene.start.y), yaw=np.radians(scene.start.yaw_deg),

@@ -11,10 +11,9 @@ from iguana_ros.constants import DESIRED_LENGTH_FACTOR, MAX_FRAME_GAP, MAX_PUSH_
 from iguana_ros.scene import MAX_PUSH_FORCE
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_yaw
-from iguana_ros.motion.clips import load_clip_library
-from iguana_ros.motion.motion_graph import MotionGraph
 from iguana_ros.nodes import messages as m
 from iguana_ros.nodes.goal_sender import goal_message
+from iguana_ros.stages import motion_graph
 from iguana_ros.terrain.adaptation import pose_kinematics
 from iguana_ros import validation as v
 
@@ -82,7 +81,7 @@ def test_push_force_impulse_torque_and_region_are_bounded(model):
 
 def test_poses_and_clips_must_fit_the_skeleton_and_the_world():
     skeleton = iguana_skeleton()
-    clip = MotionGraph(load_clip_library()).align('forward', np.array([0.5, 0.2]), 0.4)
+    clip = motion_graph().align('forward', np.array([0.5, 0.2]), 0.4)
     joints, rotations = pose_kinematics(skeleton, clip.root_positions[3], clip.local_rotations[3])
     msg = m.reference_pose_to_msg(joints, rotations, 3)
     assert m.reference_pose_from_msg(msg, skeleton.n_bones, skeleton, 15.0)[0] == 3

@@ -93,9 +93,9 @@ def test_goals_and_unknown_figures_before_anything_arrived():
 
 def test_a_placed_clip_is_named_after_its_library_clip():
     from iguana_ros.motion.clips import load_clip_library
-    from iguana_ros.motion.motion_graph import MotionGraph
+    from iguana_ros.stages import motion_graph
     library = load_clip_library()
-    graph = MotionGraph(library)
+    graph = motion_graph(library)
     previous = graph.align('forward', np.array([0.4, -0.2]), 0.3)
     for name in ('turn_left', 'forward', 'idle', 'turn_right'):
         placed = graph.align(name, np.array([1.0, 2.0]), 1.2, previous=previous)   # turned, moved, blended

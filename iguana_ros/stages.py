@@ -1,0 +1,255 @@
+"""The four stages of the frame loop, each built from a scene by one factory (ROS-free).
+
+goal -> `PlannerStage` (Section IV: a clip per stride) -> `AdaptationStage` (Section VI: the clip pose on the
+terrain) -> spring lengths (Section VII: `SpringLengthComputer`) -> `SimulatorStage` (Section V: the soft body,
+one frame of steps per call). `planner_stage`, `adaptation_stage`, `spring_stage` and `simulator_stage` build them
+from a `Scene` (and the options a node's parameters may set); `pipeline.build_pipeline` and the four nodes call
+the same factories, so a lockstep node run and `pipeline.run(scene)` compute the same numbers in the same order.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from iguana_ros.body.model import build_model
+from iguana_ros.body.root_tracking import RootTracker
+from iguana_ros.body.skeleton import iguana_skeleton
+from iguana_ros.body.spring_lengths import SpringLengthComputer
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.geometry import yaw_of
+from iguana_ros.motion.motion_graph import AlignedClip, MotionGraph, PolicyParams
+from iguana_ros.parameters import node_parameters
+from iguana_ros.physics.pushes import region_force
+from iguana_ros.physics.simulator import SoftBodySimulator
+from iguana_ros.scene import PushSpec, Scene
+from iguana_ros.terrain.adaptation import AdaptationState, adapt_pose, pose_kinematics, residual_heights_of
+from iguana_ros.terrain.from_scene import terrain_from_spec
+from iguana_ros.terrain.heightfield import HeightField
+from iguana_ros.terrain.placement import place_on_terrain
+
+STANCE_HEIGHT = 0.006
+"""A clip foot lower than this above the capture floor counts as in stance for residual fitting, m."""
+
+MAX_SCHEDULE_AHEAD = 3600.0
+"""A goal stamped further ahead of simulated time than this (s) is taken as a wall-clock stamp: adopted now."""
+
+
+def scene_model(scene: Scene):
+    """The scene's soft-body model (resolution and stiffness preset; cached by `build_model`)."""
+    return build_model(scene.model.resolution, scene.model.stiffness)
+
+
+def scene_terrain(scene: Scene) -> HeightField:
+    """The scene's terrain as a height field."""
+    return terrain_from_spec(scene.terrain)
+
+
+# ----------------------------------------------------------------------------------------------- planner
+
+def stride_ended(clip_start: int, clip_points: int, frame: int) -> bool:
+    """Whether a clip of `clip_points` poses started at frame `clip_start` is used up at `frame` (its last pose is the
+    next clip's first: a new clip is chosen there)."""
+    return frame >= clip_start + clip_points - 1
+
+
+class PlannerStage:
+    """Section IV: at each stride end, picks the next clip toward the goal and aligns it to the body."""
+
+    def __init__(self, graph: MotionGraph, params: PolicyParams = PolicyParams()) -> None:
+        """Plan over `graph` with policy `params`."""
+        self.graph = graph
+        self.params = params
+        self.goal: np.ndarray | None = None
+        self.clip: AlignedClip | None = None
+        self.clip_start = 0
+        self.frame = -1
+        self.history: list[tuple[int, str]] = []
+        self._scheduled: list[tuple[float, int, np.ndarray]] = []
+
+    def set_goal(self, goal_xy: np.ndarray | None) -> None:
+        """Set the goal `(2,)` (world x, y) used from the next stride on; None = stop."""
+        self.goal = None if goal_xy is None else np.asarray(goal_xy, float)[:2].copy()
+
+    def schedule_goal(self, goal_xy: np.ndarray, at: float = 0.0) -> None:
+        """Make `goal_xy (2,)` the goal once simulated time reaches `at` s (0 = at the next frame)."""
+        entry = (float(at), len(self._scheduled), np.asarray(goal_xy, float)[:2].copy())
+        self._scheduled = sorted(self._scheduled + [entry], key=lambda e: (e[0], e[1]))
+
+    def accept_goal(self, goal_xy: np.ndarray, at: float) -> float:
+        """Schedule a received goal `(2,)` stamped `at` s; a stamp more than MAX_SCHEDULE_AHEAD past the frame planned
+        last is a wall-clock stamp and adopted now (0). Returns the adoption time used, s."""
+        if at > max(self.frame, 0) / FRAME_RATE + MAX_SCHEDULE_AHEAD:
+            at = 0.0
+        self.schedule_goal(goal_xy, at)
+        return at
+
+    def activate_due_goals(self, time: float) -> None:
+        """Apply, in time order, every scheduled goal due at simulated `time` s."""
+        while self._scheduled and self._scheduled[0][0] <= time + 1e-9:
+            self.set_goal(self._scheduled.pop(0)[2])
+
+    def stride_ends_at(self, frame: int) -> bool:
+        """Whether a new clip must be chosen at `frame` (no clip yet, or the current one is used up)."""
+        return self.clip is None or stride_ended(self.clip_start, len(self.clip.root_positions), frame)
+
+    def reference_contacts(self, frame: int) -> np.ndarray:
+        """The current clip's stance flags `(4,)` (fl, fr, hl, hr) at `frame` (all True before any clip)."""
+        if self.clip is None:
+            return np.ones(4, bool)
+        index = frame - self.clip_start
+        return np.asarray(self.clip.contacts[int(np.clip(index, 0, len(self.clip.contacts) - 1))], bool)
+
+    def update(self, frame: int, root_position: np.ndarray, root_orientation: np.ndarray) -> AlignedClip | None:
+        """At a stride end, choose and align the next clip from the body's root pose; else None."""
+        self.frame = frame
+        self.activate_due_goals(frame / FRAME_RATE)
+        if not self.stride_ends_at(frame):
+            return None
+        heading = float(yaw_of(root_orientation))
+        current = self.clip.name if self.clip is not None else None
+        name = self.graph.choose_next(root_position[:2], heading, self.goal, current, self.params)
+        self.clip = self.graph.align(name, root_position[:2], heading, previous=self.clip)
+        self.clip_start = frame
+        self.history.append((frame, name))
+        return self.clip
+
+
+def motion_graph(library: dict | None = None, blend_frames: int | None = None) -> MotionGraph:
+    """The motion graph over `library` (default: the shipped clip library), blending `blend_frames` frames at each
+    transition (default: the planner's declared `blend_frames` parameter)."""
+    if library is None:
+        from iguana_ros.motion.clips import load_clip_library
+        library = load_clip_library()
+    if blend_frames is None:
+        blend_frames = node_parameters('planner_node')['blend_frames'].default
+    return MotionGraph(library, blend_frames=blend_frames)
+
+
+def planner_stage(scene: Scene, library: dict | None = None, blend_frames: int | None = None,
+                  goal_radius: float = 0.0) -> PlannerStage:
+    """The planner of `scene`: its motion graph (`motion_graph`) and the scene's goal radius unless `goal_radius`
+    (m) > 0. The scene's goals are not scheduled here: the library loop schedules them, a node receives them."""
+    return PlannerStage(motion_graph(library, blend_frames), PolicyParams(goal_radius=goal_radius or scene.goal_radius))
+
+
+# -------------------------------------------------------------------------------------------- adaptation
+
+def clip_pose(clip: AlignedClip, index: int) -> tuple:
+    """(root (3,), local rotations (n_bones, 4)) of frame `index` of a placed clip (clamped to its length)."""
+    i = int(np.clip(index, 0, len(clip.root_positions) - 1))
+    return clip.root_positions[i], clip.local_rotations[i]
+
+
+class AdaptationStage:
+    """Section VI: the clip pose of a frame, adapted to the terrain (plane + residual fitting) if enabled."""
+
+    def __init__(self, skeleton, terrain: HeightField, enabled: bool = True) -> None:
+        """Adapt poses of `skeleton` to `terrain`; `enabled=False` (or flat ground) runs no IK at all."""
+        self.skeleton = skeleton
+        self.terrain = terrain
+        self.enabled = bool(enabled) and not terrain.is_flat
+        self.state = AdaptationState()
+
+    def reference_pose(self, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
+        """World bone positions `(n_bones, 3)` and rotations `(n_bones, 4)` of the adapted pose."""
+        if not self.enabled:
+            return pose_kinematics(self.skeleton, np.asarray(root_position, float),
+                                   np.asarray(local_rotations, float))
+        feet_h, tail_h = residual_heights_of(self.skeleton, root_position, local_rotations)
+        adapted = adapt_pose(self.skeleton, self.terrain, root_position, local_rotations, feet_h, tail_h,
+                             stance=feet_h < STANCE_HEIGHT, state=self.state)
+        return adapted.joint_positions, adapted.joint_rotations
+
+
+def adaptation_stage(scene: Scene, enabled: bool | None = None, skeleton=None,
+                     terrain: HeightField | None = None) -> AdaptationStage:
+    """The terrain adaptation of `scene` (on as the scene says unless `enabled` is given; never on flat ground),
+    for `skeleton` (default the iguana's); the terrain is built only when adaptation runs (or taken from
+    `terrain`)."""
+    needed = (scene if enabled is None else dataclasses.replace(scene, adaptation=bool(enabled))).needs_adaptation
+    if not needed:
+        terrain = HeightField.flat()
+    elif terrain is None:
+        terrain = scene_terrain(scene)
+    return AdaptationStage(iguana_skeleton() if skeleton is None else skeleton, terrain, enabled=needed)
+
+
+# ----------------------------------------------------------------------------------------- spring lengths
+
+def spring_stage(scene: Scene, model=None) -> SpringLengthComputer:
+    """Desired spring lengths of reference poses on `scene`'s model (or `model`): Section VII's skinning."""
+    return SpringLengthComputer(scene_model(scene) if model is None else model)
+
+
+# ----------------------------------------------------------------------------------------------- pushes
+
+def push_forces(model, pushes: tuple, time: float) -> np.ndarray | None:
+    """External forces `(n_nodes, 3)` N of the pushes active at `time` (None when none is active).
+
+    Each push's force is spread over its region's nodes in proportion to their mass (total = the force).
+    """
+    active = [p for p in pushes if p.at <= time + 1e-9 < p.at + p.duration]
+    if not active:
+        return None
+    forces = np.zeros((model.n_nodes, 3))
+    for push in active:  # a handful of pushes per scene, not a loop over nodes
+        forces += _push_on_region(model, push)
+    return forces
+
+
+def _push_on_region(model, push: PushSpec) -> np.ndarray:
+    """Force field `(n_nodes, 3)` of one push on its tagged region."""
+    mask = np.ones(model.n_nodes, bool) if push.region == 'all' else model.node_tags[push.region]
+    return region_force(model.node_mass, mask, push.force)
+
+
+# -------------------------------------------------------------------------------------------- simulator
+
+class SimulatorStage:
+    """Section V: the soft body, placed at the scene's start pose on the terrain, advanced frame by frame."""
+
+    def __init__(self, model, terrain: HeightField, fidelity: str, pushes: tuple = (),
+                 start_xy: tuple = (0.0, 0.0), start_yaw: float = 0.0) -> None:
+        """Build the simulator for `model` on `terrain`; pushes are applied by simulated time."""
+        self.model = model
+        self.terrain = terrain
+        self.pushes = tuple(pushes)
+        self.sim = SoftBodySimulator(model, terrain, fidelity)
+        self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
+                                                  lift_only=True))
+        self.tracker = RootTracker(model)
+        self.frame = 0
+
+    @property
+    def time(self) -> float:
+        """Simulated time at the current frame, s."""
+        return self.frame / FRAME_RATE
+
+    def root_pose(self) -> tuple:
+        """(root position (3,), orientation xyzw (4,)) of the body now."""
+        return self.tracker.root_pose(self.sim.positions)
+
+    def root_twist(self) -> tuple:
+        """(linear (3,) m/s, angular (3,) rad/s) velocity of the body's root region now."""
+        return self.tracker.root_twist(self.sim.positions, self.sim.velocities)
+
+    def advance(self, desired_lengths: np.ndarray | None, extra_forces: np.ndarray | None = None) -> None:
+        """Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` (None = rest lengths), the
+        scene's active pushes and optional extra forces `(n_nodes, 3)` N."""
+        forces = push_forces(self.model, self.pushes, self.time) if self.pushes else None
+        if extra_forces is not None:
+            forces = extra_forces if forces is None else forces + extra_forces
+        self.sim.advance_frame(desired_lengths, forces)
+        self.frame += 1
+
+
+def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,
+                    terrain: HeightField | None = None) -> SimulatorStage:
+    """The simulator of `scene`: its model (or `model`) on its terrain (or `terrain`) at its fidelity (unless
+    `fidelity` names a preset), placed at its start pose, with its pushes."""
+    return SimulatorStage(scene_model(scene) if model is None else model,
+                          scene_terrain(scene) if terrain is None else terrain,
+                          scene.fidelity if fidelity is None else fidelity,
+                          scene.pushes if scene.needs_pushes else (),
+                          (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg))

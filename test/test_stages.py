@@ -1,0 +1,87 @@
+"""The stage factories: what each builds from a scene and the options a node's parameters set; the rules the
+library loop and the nodes share (stride end, goal adoption, root twist)."""
+import numpy as np
+import pytest
+
+from iguana_ros import stages
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.parameters import node_parameters
+from iguana_ros.pipeline import build_pipeline
+from iguana_ros.scene import parse_scene
+
+
+def _scene(**fields):
+    raw = {'terrain': {'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0}, 'model': {'resolution': 'coarse'},
+           'goals': [{'x': 1.0, 'y': 0.0}], 'goal_radius': 0.3, 'duration': 0.5, **fields}
+    return parse_scene(raw, 'test')
+
+
+def test_blend_frames_default_is_the_declared_parameter_and_build_pipeline_honours_it():
+    declared = node_parameters('planner_node')['blend_frames'].default
+    assert stages.motion_graph().blend_frames == declared
+    assert build_pipeline(_scene()).planner.graph.blend_frames == declared
+    assert build_pipeline(_scene(), blend_frames=0).planner.graph.blend_frames == 0
+    assert stages.planner_stage(_scene(), blend_frames=7).graph.blend_frames == 7
+
+
+def test_goal_radius_zero_means_the_scenes():
+    assert stages.planner_stage(_scene()).params.goal_radius == 0.3
+    assert stages.planner_stage(_scene(), goal_radius=0.5).params.goal_radius == 0.5
+
+
+def test_a_goal_stamped_by_a_wall_clock_is_adopted_now():
+    planner = stages.planner_stage(_scene())
+    assert planner.accept_goal(np.array([1.0, 2.0]), 4.0) == 4.0            # simulated time: kept
+    planner.frame = 90                                                        # 3 s simulated
+    wall = 1.7e9                                                              # seconds since 1970
+    assert planner.accept_goal(np.array([0.5, 0.5]), wall) == 0.0
+    assert planner.accept_goal(np.array([0.5, 0.5]), 3.0 + stages.MAX_SCHEDULE_AHEAD) > 0.0   # just inside
+    planner.activate_due_goals(0.0)
+    np.testing.assert_array_equal(planner.goal, [0.5, 0.5])
+
+
+def test_stride_end_rule():
+    """A clip of 5 poses started at frame 10 covers frames 10..13; frame 14 (its last pose) starts the next."""
+    assert [stages.stride_ended(10, 5, f) for f in (10, 13, 14, 15)] == [False, False, True, True]
+
+
+def test_adaptation_stage_follows_scene_parameter_and_ground():
+    assert stages.adaptation_stage(_scene()).enabled
+    assert not stages.adaptation_stage(_scene(), enabled=False).enabled
+    assert not stages.adaptation_stage(_scene(adaptation=False)).enabled
+    assert stages.adaptation_stage(_scene(adaptation=False), enabled=True).enabled
+    flat = stages.adaptation_stage(_scene(terrain={'kind': 'flat'}), enabled=True)
+    assert not flat.enabled and flat.terrain.is_flat
+
+
+def test_simulator_stage_fidelity_and_start_pose():
+    scene = _scene(start={'x': 0.5, 'y': -0.2, 'yaw_deg': 90.0})
+    sim = stages.simulator_stage(scene)
+    from iguana_ros.physics.fidelity import get_fidelity
+    assert sim.sim.fidelity == get_fidelity(scene.fidelity)
+    assert stages.simulator_stage(scene, 'fast').sim.fidelity == get_fidelity('fast') != get_fidelity(scene.fidelity)
+    root, quat = sim.root_pose()
+    assert np.hypot(root[0] - 0.5, root[1] + 0.2) < 0.2
+    from iguana_ros.geometry import yaw_of
+    assert float(yaw_of(quat)) == pytest.approx(np.pi / 2, abs=1e-6)
+
+
+def test_root_twist_of_a_rigid_motion():
+    """Nodes moving rigidly (v = v_c + ω × (x − c) about the root region's centre c): the twist is (v_c, ω)."""
+    sim = stages.simulator_stage(_scene(terrain={'kind': 'flat'}))
+    tracker, x = sim.tracker, sim.sim.positions
+    w = tracker.weights / tracker.weights.sum()
+    centre = w @ x[tracker.nodes]
+    v_c, omega = np.array([0.3, -0.1, 0.05]), np.array([0.2, -0.4, 1.5])
+    linear, angular = tracker.root_twist(x, v_c + np.cross(omega, x - centre))
+    np.testing.assert_allclose(linear, v_c, atol=1e-12)
+    np.testing.assert_allclose(angular, omega, atol=1e-9)
+
+
+def test_build_pipeline_shares_one_model_and_terrain():
+    pipe = build_pipeline(_scene())
+    assert pipe.adaptation.terrain is pipe.simulator.terrain
+    assert pipe.simulator.model is stages.scene_model(pipe.scene)
+    assert pipe.planner.frame == -1 and pipe.simulator.time == 0.0
+    pipe.step()
+    assert pipe.planner.frame == 0 and pipe.simulator.time == pytest.approx(1 / FRAME_RATE)
