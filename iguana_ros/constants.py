@@ -108,7 +108,7 @@ one frame on the coarse mesh, x1.5 (0.41) does not; random factors within 1/5.5 
 
 MAX_PUSH_IMPULSE = 100.0
 """Largest push impulse accepted on the push topic (force x the push_duration parameter), N s: the stability
-sweep's 'push 1000 N' for 0.1 s (iguana_ros/physics/stability.py: stable on both meshes, peak node speed 37-39
+sweep's 'push 1000 N' for 0.1 s (iguana_ros/bench/stability.py: stable on both meshes, peak node speed 37-39
 m/s, bound 100 m/s). Measured on the coarse mesh, flat ground, until 1 s after the push: 1000 N x 0.2 s peaks at
 50 m/s, 100 N x 1 s at 10 m/s, 10 kN x 0.01 s at 27 m/s, all stable; 10 kN x 0.1 s (1000 N s) diverges (speed).
 The force itself is bounded by iguana_ros.scene.MAX_PUSH_FORCE (1 kN), alone or summed over the pushes acting."""

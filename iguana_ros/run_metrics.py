@@ -12,7 +12,7 @@ from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
 from iguana_ros.metrics import (N_FEET, GaitMetrics, LocomotionMetrics, gait_metrics, goal_arrival,
                                 locomotion_metrics, rigid_fit_errors)
 from iguana_ros.physics.simulator import contact_offsets
-from iguana_ros.terrain.from_scene import terrain_from_spec
+from iguana_ros.scene import terrain_from_spec
 
 FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 TRUNK = ('pelvis', 'spine_3', 'spine_5')

@@ -1,7 +1,7 @@
 """Scene files (YAML under msg_configs/scenes/): schema, defaults and validation with clear errors.
 
 A scene says what a run contains — terrain, model, start, goals, pushes, duration, fidelity, what to
-record — and only what it names is built (DESIGN.md, "model only what a scene requires").
+record — and only what it names is built ("model only what a scene requires"; docs/ARCHITECTURE.md).
 """
 from __future__ import annotations
 
@@ -20,6 +20,9 @@ import yaml
 from iguana_ros.config import config_path
 from iguana_ros.constants import FRAME_RATE, MAX_PUSH_IMPULSE, PUSH_DURATION
 from iguana_ros.errors import InputError
+
+if typing.TYPE_CHECKING:
+    from iguana_ros.terrain.heightfield import HeightField
 
 TERRAIN_KINDS = ('flat', 'tilted', 'hills', 'heightmap', 'steps', 'noise')
 RESOLUTIONS = ('coarse', 'medium', 'fine')
@@ -437,6 +440,28 @@ def with_duration(scene: Scene, seconds: float, option: str = '--duration') -> S
     if problem:
         raise InputError(f'{option}: {problem}')
     return dataclasses.replace(scene, duration=float(seconds))
+
+
+def terrain_from_spec(spec: TerrainSpec) -> HeightField:
+    """The HeightField of a scene's terrain; `spec.extent` is the side of the square (m), centred on 0."""
+    import numpy as np
+
+    from iguana_ros.terrain.heightfield import HeightField   # the terrain floor, imported when needed (numba)
+
+    half = spec.extent / 2.0
+    if spec.kind == 'flat':
+        return HeightField.flat(extent=half)
+    if spec.kind == 'tilted':
+        d = np.radians(spec.direction_deg)
+        return HeightField.tilted_plane(spec.slope_deg, (np.cos(d), np.sin(d)), extent=half)
+    if spec.kind == 'hills':
+        return HeightField.hills(spec.amplitude, spec.wavelength, spec.seed, extent=half)
+    if spec.kind == 'steps':
+        return HeightField.steps(spec.block_size, spec.step_min, spec.step_max, spec.seed, extent=half,
+                                 spacing=spec.spacing)
+    if spec.kind == 'noise':
+        return HeightField.noise(spec.amplitude, spec.wavelength, spec.seed, extent=half, spacing=spec.spacing)
+    return HeightField.from_file(spec.file, scale=spec.scale, spacing=spec.spacing)
 
 
 def load_scene(name_or_path: str) -> Scene:

@@ -24,7 +24,7 @@ from iguana_ros.physics.pushes import region_force
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import PushSpec, Scene
 from iguana_ros.terrain.adaptation import AdaptationState, adapt_pose, pose_kinematics, residual_heights_of
-from iguana_ros.terrain.from_scene import terrain_from_spec
+from iguana_ros.scene import terrain_from_spec
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
 

@@ -1,6 +1,6 @@
 """What a node accepts from a topic: one check per topic payload, bounded by the model and the scene (ROS-free).
 
-`iguana_ros.nodes.messages` decodes each subscribed topic's message into numpy values and calls the check of that
+`iguana_ros.ros.messages` decodes each subscribed topic's message into numpy values and calls the check of that
 topic here, so every node that reads a topic applies the same rules (the planner and the simulator both read
 `goal_pose`). Each check raises InputError with one line naming the topic, the value and what was expected; the
 nodes log it as `rejected <topic>: …` and keep running. Finite but absurd values are rejected too, against bounds

@@ -8,8 +8,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from iguana_ros.nodes.process import NodeProcess as _PackageNodeProcess
-from iguana_ros.nodes.process import wait_for  # noqa: F401 (re-exported for tests)
+from iguana_ros.supervisor.process import NodeProcess as _PackageNodeProcess
+from iguana_ros.supervisor.process import wait_for  # noqa: F401 (re-exported for tests)
 
 REPO = Path(__file__).resolve().parent.parent
 HELPERS = Path(__file__).resolve().parent / 'helpers'

@@ -73,7 +73,7 @@ def test_rviz_config_parses_and_names_declared_topics_types_and_qos():
 
 def message_class(type_name: str) -> type:
     """Message class of 'pkg/msg/Type' (or 'pkg/Type' as get_fields_and_field_types names them)."""
-    from iguana_ros.nodes.ros_topics import message_class as resolve_class
+    from iguana_ros.ros.endpoints import message_class as resolve_class
     package, *_, name = type_name.split('/')
     return resolve_class(f'{package}/msg/{name}')
 
@@ -146,7 +146,7 @@ def fill(msg, values: dict):
 
 
 def test_foxglove_goal_is_one_the_planner_accepts():
-    from iguana_ros.nodes.messages import goal_from_msg
+    from iguana_ros.ros.messages import goal_from_msg
     from iguana_ros.scene import load_scene
     goal = json.loads(FOXGLOVE.read_text())['configById']['Publish!goal']
     msg = fill(message_class(goal['datatype'])(), json.loads(goal['value']))

@@ -78,8 +78,8 @@ def test_launch_file_starts_the_installed_node_executables_with_the_run_params_f
 
 
 def test_iguana_run_gives_each_node_the_params_file_then_its_own_values():
-    from iguana_ros.nodes.launch import RunOptions, node_commands
     from iguana_ros.scene import load_scene, scene_path
+    from iguana_ros.supervisor.run import RunOptions, node_commands
     for single in (False, True):
         commands = node_commands(RunOptions(scene='goal_sequence', single_process=single),
                                  load_scene('goal_sequence'), scene_path('goal_sequence'))

@@ -52,9 +52,9 @@ def test_bad_table_names_file_and_field(tmp_path, body, field):
 
 
 def test_ros_profiles_resolve():
-    ros_topics = pytest.importorskip('iguana_ros.nodes.ros_topics')
+    endpoints = pytest.importorskip('iguana_ros.ros.endpoints')
     from rclpy.qos import DurabilityPolicy
     for key in DESIGN_KEYS | PROBE_KEYS:
-        name, cls, qos = ros_topics.resolve(key)
+        name, cls, qos = endpoints.resolve(key)
         assert name and cls.__name__ == topic(key).type.split('/')[-1]
-    assert ros_topics.resolve('scene_markers')[2].durability == DurabilityPolicy.TRANSIENT_LOCAL
+    assert endpoints.resolve('scene_markers')[2].durability == DurabilityPolicy.TRANSIENT_LOCAL

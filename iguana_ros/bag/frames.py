@@ -124,7 +124,7 @@ class _Collector:
 
     def _accept(self, time_ns: int, log_ns: int, data: bytes) -> None:
         """Record the centroid of a mesh frame and keep its arrays if the selection wants it."""
-        from iguana_ros.nodes.conversions import triangle_list_from_cdr
+        from iguana_ros.ros.conversions import triangle_list_from_cdr
 
         t = (time_ns - self.t0_ns) / NS
         self.last_t = max(self.last_t, t)
@@ -248,8 +248,8 @@ def _odometry(c: _Collector) -> tuple:
         return None, None, None, None
     from rclpy.serialization import deserialize_message
 
-    from iguana_ros.nodes.conversions import odometry_to_numpy
-    from iguana_ros.nodes.ros_topics import message_class
+    from iguana_ros.ros.conversions import odometry_to_numpy
+    from iguana_ros.ros.endpoints import message_class
     cls = message_class(topic('iguana_state').type)
     rows = []
     for stamp, log_ns, data in c.odometry:

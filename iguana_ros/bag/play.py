@@ -18,7 +18,7 @@ from iguana_ros.bag.qos import offer_profile
 from iguana_ros.bag.record import absolute_name
 from iguana_ros.bag.storage import BagReader, BagSummary, accept, parse_qos_profiles, summarize
 from iguana_ros.errors import InputError
-from iguana_ros.nodes.ros_topics import message_class, resolve
+from iguana_ros.ros.endpoints import message_class, resolve
 from iguana_ros.topics import default_topics
 
 CLOCK_PERIOD_S = 0.025

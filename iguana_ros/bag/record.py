@@ -16,15 +16,11 @@ from iguana_ros.bag.qos import profile_to_dict, request_profile
 from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import CHUNK_AGE_S, BagWriter, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.ros_topics import message_class
+from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, message_class
 from iguana_ros.topics import default_topics
 
 DISCOVERY_PERIOD_S = 0.5
 """How often the graph is polled for publishers of wanted topics that are not recorded yet."""
-
-
-RECORDER_NODE_NAME = 'iguana_bag_recorder'
-"""ROS node name of the recorder (the simulator can wait for it to subscribe)."""
 
 
 def absolute_name(name: str) -> str:

@@ -8,8 +8,8 @@ import numpy as np
 from rclpy.serialization import deserialize_message
 
 from iguana_ros.bag.storage import BagReader
-from iguana_ros.nodes.conversions import odometry_to_numpy, time_from_msg
-from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.ros.conversions import odometry_to_numpy, time_from_msg
+from iguana_ros.ros.endpoints import resolve
 
 
 @dataclass

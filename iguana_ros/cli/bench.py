@@ -67,7 +67,7 @@ def register(subparsers) -> None:
 
 def run_pipeline_bench(args) -> int:
     """`iguana bench pipeline`."""
-    from iguana_ros.nodes.bench_pipeline import bench_pipeline
+    from iguana_ros.bench.pipeline_speed import bench_pipeline
 
     result = bench_pipeline(args.scene, args.seconds, args.single_process)
     if args.json:
@@ -83,7 +83,7 @@ def run_pipeline_bench(args) -> int:
 
 def run_sim(args) -> int:
     """`iguana bench sim`."""
-    from iguana_ros.physics.benchmarks import bench_sim
+    from iguana_ros.bench.sim import bench_sim
 
     result = bench_sim(args.mesh, seconds=args.seconds, preset=args.preset, profile=args.profile, dt=args.dt,
                        solver=args.solver, preconditioner=args.preconditioner, cg_tol=args.cg_tol,
@@ -109,7 +109,7 @@ def run_tradeoff(args) -> int:
     """`iguana bench tradeoff`."""
     import sys
 
-    from iguana_ros.physics.benchmarks import plot_tradeoff, tradeoff
+    from iguana_ros.bench.sim import plot_tradeoff, tradeoff
 
     out = sys.stderr if args.json else sys.stdout      # with --json the progress table goes to stderr
 
@@ -141,8 +141,8 @@ def _format_row(row: dict) -> str:
 
 def run_stability(args) -> int:
     """`iguana bench stability`."""
-    from iguana_ros.physics.scenes import bench_model
-    from iguana_ros.physics.stability import stability_table
+    from iguana_ros.bench.stability import stability_table
+    from iguana_ros.bench.workload import bench_model
 
     model, name = bench_model(args.mesh)
 

@@ -1,5 +1,5 @@
 """`iguana bench faults bags`: seeded random truncations and byte corruptions of a recorded bag's MCAP and damaged
-metadata.yaml variants, each checked against mcap's own reader of the undamaged bag (iguana_ros.bag.faults)."""
+metadata.yaml variants, each checked against mcap's own reader of the undamaged bag (iguana_ros.faults.bag_files)."""
 from __future__ import annotations
 
 import argparse
@@ -53,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the suite; print its figures and every failed trial; exit 1 if any trial failed."""
     import tempfile
 
-    from iguana_ros.bag.faults import run_suite
+    from iguana_ros.cli import main
+    from iguana_ros.faults.bag_files import run_suite
 
     def progress(row: dict, done: int, total: int) -> None:
         if row['problems'] or done % 25 == 0 or done == total:
@@ -62,7 +63,8 @@ def run(args: argparse.Namespace) -> int:
 
     with tempfile.TemporaryDirectory(prefix='iguana_faults_bag_') as tmp:
         bag = args.bag if args.bag is not None else _record(Path(tmp))
-        figures = run_suite(bag, args.truncations, args.corruptions, args.seed, args.timeout, progress=progress)
+        figures = run_suite(bag, args.truncations, args.corruptions, args.seed, args.timeout, progress=progress,
+                            iguana=main)
     if args.bag is None:
         figures['bag'] = f'iguana run {RECORD_SCENE} --duration {RECORD_SECONDS:g} (temporary)'
     if args.json:

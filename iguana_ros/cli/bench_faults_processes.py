@@ -1,6 +1,6 @@
 """`iguana bench faults processes`: kill `iguana run` or one of its children (SIGKILL, SIGTERM, SIGINT) at seeded
 random moments; every trial must leave no process behind, a readable bag with every message recorded before the
-fault, and one clear line (iguana_ros/process_faults.py)."""
+fault, and one clear line (iguana_ros/faults/processes.py)."""
 from __future__ import annotations
 
 import argparse
@@ -22,7 +22,7 @@ def register(suites: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the trials (one line each as they end), then the figures; exit status 1 if any trial failed."""
-    from iguana_ros.process_faults import Trial, fault_suite, suite_line, to_json
+    from iguana_ros.faults.processes import Trial, fault_suite, suite_line, to_json
 
     domain = suite_domain(args)
 

@@ -28,7 +28,7 @@ def register(suites: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the suite, print its figures (and every failure); exit status 1 if any trial failed."""
-    from iguana_ros.scene_faults import run_suite
+    from iguana_ros.faults.scene_files import run_suite
 
     result = run_suite(args.trials, args.seed, -1 if args.cli_all else args.cli_sample, args.workers, args.keep)
     if args.json:

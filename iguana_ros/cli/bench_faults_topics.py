@@ -1,6 +1,6 @@
 """`iguana bench faults topics`: seeded bad messages (NaN, Inf, huge, negative, wrong length, wrong frame_id, stale,
 future) on every topic a node subscribes to while real lockstep runs go on; every run must complete with no node
-dead, nothing non-finite published and the library run's trajectory (iguana_ros/nodes/topic_fuzz.py)."""
+dead, nothing non-finite published and the library run's trajectory (iguana_ros/faults/topic_fuzz.py)."""
 from __future__ import annotations
 
 import argparse
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the trials (one line each as they end), then the figures; exit status 1 if any run failed."""
     import shutil
 
-    from iguana_ros.nodes.topic_fuzz import suite_line, topic_fault_suite, trial_line
+    from iguana_ros.faults.topic_fuzz import suite_line, topic_fault_suite, trial_line
 
     os.environ['ROS_DOMAIN_ID'] = suite_domain(args)
     workdir = args.keep or Path(tempfile.mkdtemp(prefix='iguana_topic_faults_'))

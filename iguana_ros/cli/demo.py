@@ -20,7 +20,7 @@ def run(args: argparse.Namespace) -> int:
     """iguana run SCENE, then iguana render BAG -o BAG.gif; prints the outputs."""
     from iguana_ros.cli.run import run_and_report
     from iguana_ros.errors import IguanaError
-    from iguana_ros.nodes.launch import RunOptions
+    from iguana_ros.supervisor.run import RunOptions
 
     extra = {} if args.duration is None else {'duration': float(args.duration)}
     print(f'iguana demo: running scene {args.scene!r} with four node processes (lockstep) ...', flush=True)

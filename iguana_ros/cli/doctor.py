@@ -35,7 +35,7 @@ def all_checks(args: argparse.Namespace) -> list:
     if checks[-1].ok:
         from iguana_ros.bag.record import RECORDER_NODE_NAME
         from iguana_ros.nodes.doctor_dds import LOOPBACK_TIMEOUT_S, dds_checks
-        from iguana_ros.nodes.launch import NODE_KINDS
+        from iguana_ros.supervisor.run import NODE_KINDS
         checks += dds_checks((*NODE_KINDS, RECORDER_NODE_NAME), args.timeout or LOOPBACK_TIMEOUT_S)
     else:
         checks += [doctor.Check(name, False, 'not tried: rclpy does not work', 'fix rclpy and RMW first')

@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     from iguana_ros.body.model import build_model, cache_path
 
     if args.action == 'render':
-        from iguana_ros.body.render import render_model
+        from iguana_ros.body.figure import render_model
         model = build_model(args.resolution, args.stiffness)
         print(render_model(model, args.output))
         return 0

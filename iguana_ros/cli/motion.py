@@ -73,7 +73,7 @@ def run_export(args: argparse.Namespace) -> int:
 
 def run_build(args: argparse.Namespace) -> int:
     """Regenerate the capture, IK and clip library."""
-    from iguana_ros.motion.library import DEFAULT_SEED, build_library
+    from iguana_ros.motion.build_library import DEFAULT_SEED, build_library
 
     clips, _ = build_library(seed=DEFAULT_SEED if args.seed is None else args.seed,
                              capture_dir=args.capture_dir, library_path=args.library)

@@ -37,7 +37,7 @@ def run_and_report(options, prog: str) -> tuple:
     import sys
 
     from iguana_ros.doctor import quick_checks, require
-    from iguana_ros.nodes.launch import RunInterrupted, run_scene
+    from iguana_ros.supervisor.run import RunInterrupted, run_scene
 
     require(quick_checks(options.record.parent if options.record is not None else options.bags_dir))
     try:
@@ -56,7 +56,7 @@ def run_and_report(options, prog: str) -> tuple:
 def run(args: argparse.Namespace) -> int:
     """Run the scene and print the summary; one line on stderr and a non-zero status unless it completed."""
     from iguana_ros.errors import InputError
-    from iguana_ros.nodes.launch import RunOptions
+    from iguana_ros.supervisor.run import RunOptions
 
     if args.duration is not None and not args.duration > 0:
         raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')

@@ -62,7 +62,7 @@ def _serve_bag(args: argparse.Namespace) -> int:
 
 def _serve_live(args: argparse.Namespace) -> int:
     """Live mode: the running system's topics, goals and pushes sent from the page."""
-    from iguana_ros.nodes.domain_check import current_domain_id
+    from iguana_ros.supervisor.domain_check import current_domain_id
     from iguana_ros.view.live import LiveSource
     from iguana_ros.view.scene import RunView
     from iguana_ros.view.server import ViewerPage

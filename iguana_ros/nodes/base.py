@@ -10,11 +10,9 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
-from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.conversions import time_from_msg, time_to_msg
-from iguana_ros.nodes.ros_topics import resolve
 from iguana_ros.parameters import ParamSpec, node_parameters
+from iguana_ros.ros.endpoints import resolve
 from iguana_ros.scene import Scene, load_scene
 from iguana_ros.validation import FRAME_NEW, FRAME_REPEAT, FRAME_STALE, check_frame
 
@@ -34,16 +32,6 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     if spec.range is not None and spec.type == 'integer':
         desc.integer_range = [IntegerRange(from_value=int(spec.range[0]), to_value=int(spec.range[1]), step=0)]
     return desc
-
-
-def frame_stamp(frame: int):
-    """builtin_interfaces/Time of the start of frame `frame` (1/30 s frames of simulated time)."""
-    return time_to_msg(frame / FRAME_RATE)
-
-
-def stamp_frame(stamp) -> int:
-    """Frame index of a stamp produced by `frame_stamp`."""
-    return int(round(time_from_msg(stamp) * FRAME_RATE))
 
 
 class IguanaNode(Node):

@@ -27,9 +27,9 @@ from rclpy.signals import SignalHandlerOptions
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import yaw_of
-from iguana_ros.nodes.conversions import odometry_to_numpy, push_msg, time_from_msg
 from iguana_ros.nodes.goal_sender import goal_message, publish_goals, wait_spinning
-from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_msg
+from iguana_ros.ros.endpoints import resolve
 from iguana_ros.scene import Scene
 
 SIMULATOR_NODE = 'simulator_node'

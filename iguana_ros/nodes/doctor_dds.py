@@ -15,8 +15,8 @@ import uuid
 from dataclasses import dataclass
 
 from iguana_ros.doctor import Check
-from iguana_ros.nodes.domain_check import DomainReport, DomainWatch, current_domain_id, other_runs
-from iguana_ros.nodes.process import NodeProcess, stop_all
+from iguana_ros.supervisor.domain_check import DomainReport, DomainWatch, current_domain_id, other_runs
+from iguana_ros.supervisor.process import NodeProcess, stop_all
 
 DOCTOR_NODE_NAME = 'iguana_doctor'
 """ROS node name of the doctor's own participant."""
@@ -54,7 +54,7 @@ def echo_main(lifetime_s: float = ECHO_LIFETIME_S) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros.endpoints import resolve
 
     rclpy.init()
     node = rclpy.create_node(ECHO_NODE_NAME)
@@ -78,7 +78,7 @@ def loopback(watch: DomainWatch, timeout: float = LOOPBACK_TIMEOUT_S) -> Loopbac
     """Start the echo process and ping it from `watch`'s node until the token comes back or `timeout` s pass."""
     from rclpy.executors import SingleThreadedExecutor
 
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros.endpoints import resolve
 
     token = f'{os.getpid()}-{uuid.uuid4().hex}'
     echoed: list[str] = []

@@ -20,8 +20,8 @@ from rclpy.signals import SignalHandlerOptions
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import quat_from_yaw
-from iguana_ros.nodes.conversions import pose_stamped_msg
-from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.ros.conversions import pose_stamped_msg
+from iguana_ros.ros.endpoints import resolve
 
 POLL_S = 0.02
 """Wall seconds between checks while waiting."""

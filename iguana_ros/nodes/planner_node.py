@@ -7,7 +7,7 @@ from nav_msgs.msg import Path
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
-from iguana_ros.nodes.messages import clip_to_msg, goal_from_msg, reference_stance_to_msg, state_from_msg
+from iguana_ros.ros.messages import clip_to_msg, goal_from_msg, reference_stance_to_msg, state_from_msg
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
 

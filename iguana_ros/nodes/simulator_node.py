@@ -11,15 +11,15 @@ from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from visualization_msgs.msg import Marker
 
-from iguana_ros.bag.record import RECORDER_NODE_NAME
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.base import IguanaNode, frame_stamp, node_main, stamp_frame
-from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker, triangle_list_marker_cdr
-from iguana_ros.nodes.messages import (foot_positions_to_msg, foot_state_to_msg, goal_from_msg, lengths_from_msg,
-                                       push_from_msg, state_to_msg)
-from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.ros.conversions import (frame_stamp, marker_array_msg, stamp_frame, triangle_list_marker,
+                                        triangle_list_marker_cdr)
+from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
+from iguana_ros.ros.messages import (foot_positions_to_msg, foot_state_to_msg, goal_from_msg, lengths_from_msg,
+                                     push_from_msg, state_to_msg)
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
 from iguana_ros.stages import push_forces, simulator_stage

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
-from iguana_ros.nodes.messages import lengths_to_msg, reference_pose_from_msg
+from iguana_ros.ros.messages import lengths_to_msg, reference_pose_from_msg
 from iguana_ros.stages import scene_model, spring_stage
 from iguana_ros.validation import check_desired_lengths, world_bound
 

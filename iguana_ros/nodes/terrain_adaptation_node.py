@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from iguana_ros.errors import InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
-from iguana_ros.nodes.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
+from iguana_ros.ros.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
 from iguana_ros.stages import adaptation_stage, clip_pose, stride_ended
 from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
 

@@ -12,7 +12,7 @@ from rclpy.serialization import deserialize_message
 from iguana_ros.bag.frames import NS, match_topic
 from iguana_ros.bag.storage import BagReader, accept, summarize
 from iguana_ros.errors import IguanaError, InputError
-from iguana_ros.nodes.ros_topics import message_class
+from iguana_ros.ros.endpoints import message_class
 from iguana_ros.topics import topic
 from iguana_ros.view import decode
 from iguana_ros.view.scene import RunView

@@ -8,9 +8,9 @@ import numpy as np
 from iguana_ros.bag.frames import DEFAULT_MESH_RGBA, NS, marker_array_from_cdr, scene_update, stamp_ns
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
-from iguana_ros.nodes.conversions import (multi_dof_trajectory_to_numpy, odometry_to_numpy, time_from_msg,
+from iguana_ros.ros.conversions import (multi_dof_trajectory_to_numpy, odometry_to_numpy, time_from_msg,
                                           triangle_list_from_cdr)
-from iguana_ros.nodes.messages import foot_positions_from_msg, foot_state_from_msg
+from iguana_ros.ros.messages import foot_positions_from_msg, foot_state_from_msg
 from iguana_ros.view.scene import ClipEvent, MeshFrame, PushEvent, RunView, identify_clip
 
 DEFAULT_PUSH_REGION = 'trunk_left'

@@ -15,9 +15,9 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.conversions import time_to_msg
 from iguana_ros.nodes.goal_sender import goal_message, same_goal
-from iguana_ros.nodes.ros_topics import resolve
+from iguana_ros.ros.conversions import time_to_msg
+from iguana_ros.ros.endpoints import resolve
 from iguana_ros.view import decode
 from iguana_ros.view.scene import RunView
 

@@ -40,7 +40,7 @@ def _planner(tmp_path) -> NodeProcess:
 
 def _listener(make_node, executor):
     """A second subscriber on goal_pose (a recorder, a viewer): it must not stand in for the planner."""
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros.endpoints import resolve
     name, cls, qos = resolve('goal_pose')
     node = make_node('goal_listener')
     executor.add_node(node)
@@ -68,7 +68,7 @@ def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path,
     """The defect: with a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner
     (not yet listening) never got the goal. Now it waits until the planner lists the goal as accepted; a goal the
     planner rejects is reported (exit 1)."""
-    from iguana_ros.nodes.conversions import pose_stamped_to_numpy
+    from iguana_ros.ros.conversions import pose_stamped_to_numpy
     received = _listener(make_node, executor)
     goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--yaw', '90', '--timeout', '90'], 'goal', tmp_path).start()
     with goal, _planner(tmp_path).start() as planner:

@@ -1,14 +1,15 @@
 """Bag fault-injection suite, short version: a bag recorded by `iguana bag record` from a real publisher process,
 seeded random truncations and byte corruptions of its MCAP and damaged metadata.yaml variants. The long version
-is `iguana bench faults bags` (iguana_ros/bag/faults.py)."""
+is `iguana bench faults bags` (iguana_ros/faults/bag_files.py)."""
 import subprocess
 
 import pytest
 from mcap.reader import make_reader
 from ros_harness import IGUANA, NodeProcess, helper, read_dump
 
-from iguana_ros.bag.faults import reference, run_suite
 from iguana_ros.bag.storage import BagReader
+from iguana_ros.cli import main
+from iguana_ros.faults.bag_files import reference, run_suite
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -45,7 +46,7 @@ def test_recorded_bag_is_sound_and_the_reference_agrees(recorded):
 @pytest.mark.timeout(120)
 def test_bag_fault_suite_short(recorded):
     bag, _ = recorded
-    figures = run_suite(bag, truncations=TRIALS, corruptions=TRIALS, seed=12, timeout_s=20.0)
+    figures = run_suite(bag, truncations=TRIALS, corruptions=TRIALS, seed=12, timeout_s=20.0, iguana=main)
     assert figures['trials']['truncate'] == TRIALS and figures['trials']['metadata'] >= 10
     assert figures['failures'] == [] and figures['survived_total'] == figures['trials_total']
     assert figures['exit_0_on_damage'] == 0 and figures['tracebacks'] == 0 and figures['hangs'] == 0
@@ -93,8 +94,6 @@ def test_play_with_allow_damaged_publishes_every_intact_chunk(recorded, tmp_path
 
 
 def test_bench_faults_bags_prints_the_figures(recorded, capsys):
-    from iguana_ros.cli import main
-
     bag, _ = recorded
     rc = main(['bench', 'faults', 'bags', str(bag), '--truncations', '3', '--corruptions', '3', '--seed', '5'])
     out, err = capsys.readouterr()

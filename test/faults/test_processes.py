@@ -15,7 +15,7 @@ import pytest
 import yaml
 from ros_harness import IGUANA, REPO, wait_for
 
-from iguana_ros.process_faults import TRIAL_SCENE, run_trial
+from iguana_ros.faults.processes import TRIAL_SCENE, run_trial
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(240)]
 
@@ -85,8 +85,8 @@ def test_summary_is_read_from_the_bag_not_from_a_log(tmp_path):
     """A run whose simulator printed nothing still reports how far it got and how long its loop took."""
     from iguana_ros.bag.schema import message_definition
     from iguana_ros.bag.storage import BagWriter
-    from iguana_ros.nodes.conversions import odometry_msg
-    from iguana_ros.nodes.launch import RunOptions, SceneRun
+    from iguana_ros.ros.conversions import odometry_msg
+    from iguana_ros.supervisor.run import RunOptions, SceneRun
     from iguana_ros.topics import topic
     from rclpy.serialization import serialize_message
 
@@ -110,9 +110,9 @@ def test_summary_is_read_from_the_bag_not_from_a_log(tmp_path):
 
 
 def test_a_foreign_publisher_of_a_run_topic_is_refused(tmp_path, make_node):
-    from iguana_ros.nodes.domain_check import DomainInUse
-    from iguana_ros.nodes.launch import RunOptions, run_scene
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros.endpoints import resolve
+    from iguana_ros.supervisor.domain_check import DomainInUse
+    from iguana_ros.supervisor.run import RunOptions, run_scene
 
     name, cls, qos = resolve('iguana_state')
     make_node('stray_simulator').create_publisher(cls, name, qos)
@@ -126,10 +126,10 @@ def test_a_foreign_publisher_of_a_run_topic_is_refused(tmp_path, make_node):
 
 def test_a_child_gets_sigterm_when_its_parent_is_killed(tmp_path):
     """NodeProcess children get the parent-death signal, however the parent dies."""
-    from iguana_ros.nodes.process import processes_with_env
+    from iguana_ros.supervisor.process import processes_with_env
     sleeper = '[sys.executable, "-c", "import time; time.sleep(60)"]'
     script = ('import sys, time\n'
-              'from iguana_ros.nodes.process import NodeProcess\n'
+              'from iguana_ros.supervisor.process import NodeProcess\n'
               f'child = NodeProcess({sleeper}, "child", {str(tmp_path)!r})\n'
               'child.start()\n'
               'print(child.pid, flush=True)\n'

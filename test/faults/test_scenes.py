@@ -5,7 +5,7 @@ subprocesses under an address-space limit: exit 1 with one line for an invalid s
 import json
 
 from iguana_ros.cli import main
-from iguana_ros.scene_faults import CLI_RSS_LIMIT, MUTATORS, mutations, run_suite
+from iguana_ros.faults.scene_files import CLI_RSS_LIMIT, MUTATORS, mutations, run_suite
 
 
 def test_300_scene_mutations_load_or_fail_with_one_line():

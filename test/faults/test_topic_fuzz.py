@@ -9,8 +9,8 @@ import yaml
 
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
-from iguana_ros.nodes import messages as m
-from iguana_ros.nodes.topic_fuzz import FUZZ_KINDS, FuzzContext, fault_plan, fuzz_message, trial_scene
+from iguana_ros.faults.topic_fuzz import FUZZ_KINDS, FuzzContext, fault_plan, fuzz_message, trial_scene
+from iguana_ros.ros import messages as m
 from iguana_ros.scene import load_scene
 from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
 
@@ -70,7 +70,7 @@ def test_every_fault_of_every_topic_is_refused_by_its_decoder(scene_file):
 @pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_a_lockstep_run_under_topic_faults_completes_unchanged(tmp_path, scene_file):
-    from iguana_ros.nodes.topic_fuzz import fuzz_run
+    from iguana_ros.faults.topic_fuzz import fuzz_run
     row = fuzz_run(scene_file, tmp_path / 'bag', seed=0, n_messages=200, timeout=200)
     assert row['nodes_survived'] and row['exit_code'] == 0, row
     assert row['faults_sent'] == 200 and row['faults_during_run'] >= 150, row

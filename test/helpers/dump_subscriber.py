@@ -22,7 +22,7 @@ def main() -> int:
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros.endpoints import resolve
     from ros_harness import write_dump
 
     stop = [False]

@@ -20,7 +20,7 @@ def build_messages(i: int, t: float) -> dict:
     import numpy as np
 
     from iguana_ros.geometry import quat_from_yaw
-    from iguana_ros.nodes import conversions as cv
+    from iguana_ros.ros import conversions as cv
     rng = np.random.default_rng(i)
     verts = rng.random((30, 3))
     tris = rng.integers(0, 30, (40, 3))
@@ -47,8 +47,8 @@ def main() -> int:
     from rclpy.duration import Duration
     from rclpy.serialization import serialize_message
 
-    from iguana_ros.nodes import conversions as cv
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros import conversions as cv
+    from iguana_ros.ros.endpoints import resolve
     from ros_harness import wait_for, write_dump
 
     rclpy.init()

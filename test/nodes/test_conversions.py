@@ -8,7 +8,7 @@ from visualization_msgs.msg import Marker  # noqa: E402
 
 from iguana_ros.errors import InputError  # noqa: E402
 from iguana_ros.geometry import quat_from_yaw  # noqa: E402
-from iguana_ros.nodes import conversions as cv  # noqa: E402
+from iguana_ros.ros import conversions as cv  # noqa: E402
 
 
 @pytest.fixture
@@ -148,7 +148,7 @@ def test_bad_arrays_raise_input_error(call, message):
 
 
 def test_foot_probe_messages_round_trip_exactly(rng):
-    from iguana_ros.nodes import messages as m
+    from iguana_ros.ros import messages as m
     heights, contact, soles = rng.normal(size=4) * 0.01, np.array([True, False, False, True]), rng.normal(size=(4, 3))
     state = deserialize_message(serialize_message(m.foot_state_to_msg(heights, contact, 17)), type(
         m.foot_state_to_msg(heights, contact, 17)))
@@ -164,7 +164,7 @@ def test_foot_probe_messages_round_trip_exactly(rng):
 
 
 def test_bad_foot_probe_messages_raise_input_error():
-    from iguana_ros.nodes import messages as m
+    from iguana_ros.ros import messages as m
     msg = m.foot_state_to_msg(np.zeros(4), np.ones(4, bool), 1)
     msg.name = ['a', 'b', 'c', 'd']
     with pytest.raises(InputError, match='foot_state names'):

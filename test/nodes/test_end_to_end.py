@@ -10,10 +10,10 @@ from ros_harness import IGUANA, NodeProcess, spin_until
 
 from iguana_ros.bag.trajectory import read_root_trajectory
 from iguana_ros.constants import FRAME_RATE
-from iguana_ros.nodes.launch import RunOptions, run_scene
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.run_metrics import metrics_of_run
 from iguana_ros.scene import load_scene, scene_path
+from iguana_ros.supervisor.run import RunOptions, run_scene
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -76,7 +76,7 @@ def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(tmp_path, 
 
 
 def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
-    from iguana_ros.nodes.ros_topics import resolve
+    from iguana_ros.ros.endpoints import resolve
     bag = tmp_path / 'run'
     assert run_scene(RunOptions(scene=str(scene_file), record=bag, timeout=240)).exit_code == 0
     node = make_node('replay_listener')
@@ -92,7 +92,7 @@ def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
         assert spin_until(executor, lambda: len(got['iguana_state']) >= FRAMES + 1, 60), play.output
         assert spin_until(executor, lambda: len(got['scene_markers']) >= 1, 10), play.output
         assert play.wait(60) == 0, play.output
-    from iguana_ros.nodes.conversions import odometry_to_numpy
+    from iguana_ros.ros.conversions import odometry_to_numpy
     replayed = np.array([odometry_to_numpy(m)[0] for m in got['iguana_state']])
     assert np.array_equal(replayed, read_root_trajectory(bag)[1])
 
@@ -100,7 +100,7 @@ def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
 def test_node_killed_mid_run_stops_the_run_and_keeps_the_bag(tmp_path, scene_file):
     from iguana_ros.bag.storage import summarize
     from iguana_ros.errors import IguanaError
-    from iguana_ros.nodes.launch import SceneRun
+    from iguana_ros.supervisor.run import SceneRun
     long_scene = tmp_path / 'long.yaml'
     raw = yaml.safe_load(scene_file.read_text())
     long_scene.write_text(yaml.safe_dump({**raw, 'duration': 30.0}))
@@ -123,7 +123,7 @@ def test_node_killed_mid_run_stops_the_run_and_keeps_the_bag(tmp_path, scene_fil
 
 
 def spin_wait(predicate, timeout):
-    from iguana_ros.nodes.process import wait_for
+    from iguana_ros.supervisor.process import wait_for
     return wait_for(predicate, timeout, period=0.1)
 
 

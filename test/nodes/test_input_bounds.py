@@ -19,7 +19,7 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
     from geometry_msgs.msg import WrenchStamped
 
     from iguana_ros.nodes.goal_sender import goal_message
-    from iguana_ros.nodes.messages import lengths_to_msg, state_from_msg
+    from iguana_ros.ros.messages import lengths_to_msg, state_from_msg
     from iguana_ros.stages import SimulatorStage
     from iguana_ros.terrain.heightfield import HeightField
     model = build_model('coarse')
@@ -68,8 +68,8 @@ def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make
     from rclpy.serialization import serialize_message
 
     from iguana_ros.body.skeleton import iguana_skeleton
+    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
     from iguana_ros.stages import motion_graph
-    from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg
     skeleton = iguana_skeleton()
     graph = motion_graph()
     first = graph.align('forward', np.array([0.0, 0.0]), 0.0)

@@ -40,7 +40,7 @@ class Probe:
     """Publishers and collecting subscriptions on topic-table keys, on one test node."""
 
     def __init__(self, node, executor):
-        from iguana_ros.nodes.ros_topics import resolve
+        from iguana_ros.ros.endpoints import resolve
         self.node, self.executor, self.resolve = node, executor, resolve
         self.got: dict[str, list] = {}
         self.pubs = {}
@@ -69,15 +69,15 @@ class Probe:
 
 
 def _state(frame, xy=(0.0, 0.0), yaw=0.0):
-    from iguana_ros.nodes.messages import state_to_msg
+    from iguana_ros.ros.messages import state_to_msg
     root = np.array([xy[0], xy[1], 0.075])
     return state_to_msg(root, quat_from_yaw(yaw), np.zeros(3), np.zeros(3), frame)
 
 
 def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
     from iguana_ros.nodes.goal_sender import goal_message
-    from iguana_ros.nodes.messages import clip_from_msg
-    from iguana_ros.nodes.messages import reference_stance_from_msg
+    from iguana_ros.ros.messages import clip_from_msg
+    from iguana_ros.ros.messages import reference_stance_from_msg
     probe = Probe(make_node('probe'), executor)
     probe.listen('motion_clip')
     probe.listen('reference_stance')
@@ -109,11 +109,10 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
 
 
 def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, executor):
-    from iguana_ros.nodes.messages import clip_to_msg, reference_pose_from_msg
     from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics
+    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.scene import load_scene, terrain_from_spec
     from iguana_ros.terrain.adaptation import FOOT_BONES, AdaptationSettings, residual_heights_of
-    from iguana_ros.terrain.from_scene import terrain_from_spec
-    from iguana_ros.scene import load_scene
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 12.0, 'direction_deg': 30.0})
     skeleton = iguana_skeleton()
     graph = motion_graph()
@@ -150,7 +149,7 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
 
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
-    from iguana_ros.nodes.messages import lengths_from_msg, reference_pose_to_msg
+    from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
     from iguana_ros.terrain.adaptation import pose_kinematics
     model = build_model('coarse')
     skeleton = model.skeleton
@@ -180,8 +179,8 @@ def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
 
 
 def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make_node, executor):
-    from iguana_ros.nodes.conversions import triangle_list_from_marker
-    from iguana_ros.nodes.messages import lengths_to_msg
+    from iguana_ros.ros.conversions import triangle_list_from_marker
+    from iguana_ros.ros.messages import lengths_to_msg
     from visualization_msgs.msg import Marker
     model = build_model('coarse')
     probe = Probe(make_node('probe'), executor)
@@ -209,7 +208,7 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
         markers = probe.wait('mesh_marker', 2)
         scene = probe.wait('scene_markers')[0]
-        from iguana_ros.nodes.messages import foot_positions_from_msg, foot_state_from_msg
+        from iguana_ros.ros.messages import foot_positions_from_msg, foot_state_from_msg
         after_one = {}  # the foot probe of the state after frame 0 (stamped 1)
         for key, decode in (('foot_state', foot_state_from_msg), ('foot_positions', foot_positions_from_msg)):
             assert spin_until(executor, lambda: any(decode(x)[0] == 1 for x in probe.got[key]), 30), key
@@ -220,8 +219,7 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     points, colors = triangle_list_from_marker(marker)
     assert len(points) == 3 * len(model.surface_triangles) == len(colors)
     assert np.all(np.isfinite(points)) and np.all(colors[:, 3] == 1.0)
-    from iguana_ros.scene import load_scene
-    from iguana_ros.terrain.from_scene import terrain_from_spec
+    from iguana_ros.scene import load_scene, terrain_from_spec
     terrain = terrain_from_spec(load_scene(str(scene_file)).terrain)
     assert np.all(points[:, 2] - terrain.height(points[:, :2]) > -0.01)
     assert [m.ns for m in scene.markers] == ['terrain']

@@ -18,16 +18,15 @@ from iguana_ros.bag.trajectory import read_topics  # noqa: E402
 from iguana_ros.body.model import build_model  # noqa: E402
 from iguana_ros.body.root_tracking import RootTracker  # noqa: E402
 from iguana_ros.geometry import yaw_of  # noqa: E402
-from iguana_ros.stages import motion_graph  # noqa: E402
-from iguana_ros.nodes import messages as m  # noqa: E402
-from iguana_ros.nodes.launch import RunSummary  # noqa: E402
-from iguana_ros.nodes.ros_topics import resolve  # noqa: E402
-from iguana_ros.nodes.run_gait import GAIT_TOPICS, run_gait  # noqa: E402
-from iguana_ros.terrain.placement import place_on_terrain  # noqa: E402
 from iguana_ros.pipeline import run as run_pipeline  # noqa: E402
+from iguana_ros.ros import messages as m  # noqa: E402
+from iguana_ros.ros.endpoints import resolve  # noqa: E402
 from iguana_ros.run_metrics import FootProbe, metrics_of_run  # noqa: E402
-from iguana_ros.scene import load_scene  # noqa: E402
-from iguana_ros.terrain.from_scene import terrain_from_spec  # noqa: E402
+from iguana_ros.scene import load_scene, terrain_from_spec  # noqa: E402
+from iguana_ros.stages import motion_graph  # noqa: E402
+from iguana_ros.supervisor.run import RunSummary  # noqa: E402
+from iguana_ros.supervisor.run_gait import GAIT_TOPICS, run_gait  # noqa: E402
+from iguana_ros.terrain.placement import place_on_terrain  # noqa: E402
 from iguana_ros.topics import topic  # noqa: E402
 
 NODE_RUN_FIGURES = ('stance_fraction', 'reference_stance_fraction', 'swing_clearance', 'swings_clear_fraction',

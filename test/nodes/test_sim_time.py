@@ -10,7 +10,7 @@ import pytest
 from ros_harness import NodeProcess, spin_until
 
 from iguana_ros.config import params_file
-from iguana_ros.nodes.conversions import time_from_msg, time_to_msg
+from iguana_ros.ros.conversions import time_from_msg, time_to_msg
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
 
@@ -28,7 +28,7 @@ class ClockAndGoals:
     """A test node publishing /clock and goal_pose and collecting accepted_goals."""
 
     def __init__(self, node, executor) -> None:
-        from iguana_ros.nodes.ros_topics import resolve
+        from iguana_ros.ros.endpoints import resolve
         self.executor, self.accepted = executor, []
         executor.add_node(node)
         self.pubs = {}

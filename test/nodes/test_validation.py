@@ -1,21 +1,20 @@
 """The shared checks of what a node accepts from a topic (iguana_ros.validation) and the per-topic decoders of
-iguana_ros.nodes.messages that call them: bounds derived from the model and the scene, one line per rejection."""
+iguana_ros.ros.messages that call them: bounds derived from the model and the scene, one line per rejection."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from iguana_ros import validation as v
 from iguana_ros.body.model import build_model
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import DESIRED_LENGTH_FACTOR, MAX_FRAME_GAP, MAX_PUSH_IMPULSE
-from iguana_ros.scene import MAX_PUSH_FORCE
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_yaw
-from iguana_ros.nodes import messages as m
 from iguana_ros.nodes.goal_sender import goal_message
+from iguana_ros.ros import messages as m
 from iguana_ros.stages import motion_graph
 from iguana_ros.terrain.adaptation import pose_kinematics
-from iguana_ros import validation as v
 
 
 @pytest.fixture(scope='module')

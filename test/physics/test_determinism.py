@@ -6,8 +6,8 @@ import sys
 
 SCRIPT = '''
 import hashlib
-from iguana_ros.physics.benchmarks import make_scene
-from iguana_ros.physics.scenes import run_gait
+from iguana_ros.bench.sim import make_scene
+from iguana_ros.bench.workload import run_gait
 sim, gait, _, _ = make_scene('coarse')
 run_gait(sim, gait, 0.2)
 print(hashlib.sha256(sim.positions.tobytes() + sim.velocities.tobytes()).hexdigest())

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
+from iguana_ros.bench.stability import REST_DEPTH_LIMIT, SCENARIOS, inverted_start, run_scenario
 from iguana_ros.constants import MAX_NODE_SPEED
 from iguana_ros.physics.meshes import box_mesh
-from iguana_ros.physics.stability import REST_DEPTH_LIMIT, SCENARIOS, inverted_start, run_scenario
 
 CAUSES = {'nan', 'speed', 'penetration', 'solver'}
 

@@ -53,7 +53,7 @@ def _scene_bytes(*goals):
     from rclpy.serialization import serialize_message
     from visualization_msgs.msg import Marker
 
-    from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker
+    from iguana_ros.ros.conversions import marker_array_msg, triangle_list_marker
     tv, tt, tc = terrain_mesh()
     markers = [triangle_list_marker(tv, tt, tc, ns='terrain')]
     for i, position in enumerate(goals):
@@ -75,7 +75,7 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
     from iguana_ros.bag.schema import message_definition
     from iguana_ros.bag.storage import BagWriter
     from iguana_ros.geometry import quat_from_yaw
-    from iguana_ros.nodes.conversions import odometry_msg, triangle_list_marker_cdr
+    from iguana_ros.ros.conversions import odometry_msg, triangle_list_marker_cdr
     from iguana_ros.topics import topic
 
     writer = BagWriter(directory, chunk_bytes=chunk_bytes)

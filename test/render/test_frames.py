@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 from render_synthetic import (GOAL, GOAL_DIAMETER, GOAL_RGBA, RATE, TERRAIN_RGBA, box_mesh, root_pose,
-                      write_synthetic_bag)
+                              write_synthetic_bag)
 
 from iguana_ros.bag.frames import marker_array_from_cdr, match_topic, read_run
 from iguana_ros.errors import InputError
@@ -69,7 +69,7 @@ def test_truncated_bag_and_non_finite_frames_are_reported(tmp_path):
     import struct
 
     from iguana_ros.bag.storage import BagWriter
-    from iguana_ros.nodes.conversions import triangle_list_marker_cdr
+    from iguana_ros.ros.conversions import triangle_list_marker_cdr
     from iguana_ros.topics import topic
     bag = write_synthetic_bag(tmp_path / 'full', duration=2.0, scene=False, chunk_bytes=4096)
     data = (bag / 'full.mcap').read_bytes()
@@ -111,7 +111,7 @@ def test_marker_array_reader_matches_rclpy():
     from rclpy.serialization import serialize_message
     from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate
 
-    from iguana_ros.nodes.conversions import triangle_list_marker
+    from iguana_ros.ros.conversions import triangle_list_marker
     tri = triangle_list_marker(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.5]]), np.array([[0, 1, 2]]),
                                np.array([[1, 0, 0, 1], [0, 1, 0, 1], [0, 0, 1, 1.0]]), ns='terrain')
     tri.texture_resource = 'file://x.png'
@@ -138,7 +138,7 @@ def test_terrain_marker_pose_and_scale_are_applied(tmp_path):
     from rclpy.serialization import serialize_message
 
     from iguana_ros.bag.frames import marker_triangles
-    from iguana_ros.nodes.conversions import marker_array_msg, triangle_list_marker
+    from iguana_ros.ros.conversions import marker_array_msg, triangle_list_marker
     m = triangle_list_marker(np.array([[1.0, 0, 0], [0, 1, 0], [0, 0, 1]]), np.array([[0, 1, 2]]),
                              np.ones((3, 4)), ns='terrain')
     m.scale.x = m.scale.y = m.scale.z = 2.0

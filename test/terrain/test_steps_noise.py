@@ -3,8 +3,7 @@ import numpy as np
 import pytest
 
 from iguana_ros.errors import InputError
-from iguana_ros.scene import SceneError, TerrainSpec, parse_scene
-from iguana_ros.terrain.from_scene import terrain_from_spec
+from iguana_ros.scene import SceneError, TerrainSpec, parse_scene, terrain_from_spec
 from iguana_ros.terrain.heightfield import STEPS_PAD_RADIUS, HeightField
 
 

@@ -32,7 +32,7 @@ def _bag_without_mesh(directory):
 
     from iguana_ros.bag.schema import message_definition
     from iguana_ros.bag.storage import BagWriter
-    from iguana_ros.nodes.conversions import odometry_msg
+    from iguana_ros.ros.conversions import odometry_msg
     from iguana_ros.topics import topic
 
     spec = topic('iguana_state')

@@ -101,7 +101,7 @@ def _percent(fraction: float) -> str:
 def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
     """RunGait of a run of `scene` from its RecordedTopics (`bag.trajectory.read_topics(bag, GAIT_TOPICS)`);
     `model` and `terrain` default to the scene's."""
-    from iguana_ros.nodes import messages as m
+    from iguana_ros.ros import messages as m
 
     notes: list[str] = []
     if recorded.truncated:
@@ -135,7 +135,7 @@ def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
     poses = _table(_frames(recorded, 'reference_pose', lambda msg: m.reference_pose_from_msg(
         msg, model.skeleton.n_bones), notes), of_frame, 'reference_pose', notes)
     if terrain is None:
-        from iguana_ros.terrain.from_scene import terrain_from_spec
+        from iguana_ros.scene import terrain_from_spec
         terrain = terrain_from_spec(scene.terrain)
     if poses is not None:
         tracks.reference_heights = FootProbe(model, terrain).reference_heights(

@@ -25,11 +25,11 @@ from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
 from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
-from iguana_ros.nodes.domain_check import GRAPH_LISTEN_S
-from iguana_ros.nodes.process import RUN_ID_ENV, NodeProcess, describe_exit, run_processes, stop_all
-from iguana_ros.nodes.run_gait import RunGait
-from iguana_ros.nodes.run_summary import RunSummary, bag_progress
 from iguana_ros.scene import Scene, load_scene, scene_path
+from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
+from iguana_ros.supervisor.process import RUN_ID_ENV, NodeProcess, describe_exit, run_processes, stop_all
+from iguana_ros.supervisor.run_gait import RunGait
+from iguana_ros.supervisor.run_summary import RunSummary, bag_progress
 
 __all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
            'goal_outcome_of', 'node_commands', 'node_params', 'ros_args', 'stop_signals']
@@ -200,15 +200,15 @@ class SceneRun:
     def check_domain(self) -> None:
         """DomainInUse (one line) if another run, its leftovers or publishers of our topics are on the domain;
         the DDS watch stays open for `watch_domain` while the run starts."""
-        from iguana_ros.bag.record import RECORDER_NODE_NAME
-        from iguana_ros.nodes.domain_check import check_before_start
+        from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
+        from iguana_ros.supervisor.domain_check import check_before_start
         self.watch = check_before_start((*NODE_KINDS, RECORDER_NODE_NAME), self.options.domain_check_s)
         self.watch_until = time.monotonic() + DOMAIN_WATCH_S
 
     def watch_domain(self, may_close: bool = False, force: bool = False) -> None:
         """While the run starts (at most every WATCH_PERIOD_S unless `force`): DomainInUse if a foreign node or
         publisher has been discovered late. With `may_close`, leave the graph once DOMAIN_WATCH_S have passed."""
-        from iguana_ros.nodes.domain_check import check_while_starting
+        from iguana_ros.supervisor.domain_check import check_while_starting
         if self.watch is None:
             return
         now = time.monotonic()
@@ -347,7 +347,7 @@ class SceneRun:
         stamp; receive times of the first and last), the total from the supervisor's clock, goal and gait
         figures from the recorded messages (what a bag lacks is named in the gait lines, never raised)."""
         from iguana_ros.bag.trajectory import read_topics, root_trajectory
-        from iguana_ros.nodes.run_gait import GAIT_TOPICS, run_gait
+        from iguana_ros.supervisor.run_gait import GAIT_TOPICS, run_gait
 
         if code is not None and self.sim_code is None:
             self.sim_code = code

@@ -127,7 +127,7 @@ def _push(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _clip(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.nodes.messages import clip_to_msg
+    from iguana_ros.ros.messages import clip_to_msg
     msg = clip_to_msg(ctx.clip, ctx.skeleton, 0)
     _set_stamp(msg.header, _stamp_frame(kind, ctx, rng))
     point = msg.points[int(rng.integers(len(msg.points)))]
@@ -154,7 +154,7 @@ def _clip(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _reference_pose(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.nodes.messages import reference_pose_to_msg
+    from iguana_ros.ros.messages import reference_pose_to_msg
     joints, rotations = ctx.joints.copy(), ctx.rotations.copy()
     bone = int(rng.integers(len(joints)))
     if kind == 'wrong_length':
@@ -176,7 +176,7 @@ def _reference_pose(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _lengths(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.nodes.messages import lengths_to_msg
+    from iguana_ros.ros.messages import lengths_to_msg
     lengths = ctx.rest_lengths.copy()
     some = rng.random(len(lengths)) < rng.uniform(0.001, 1.0)
     some[int(rng.integers(len(lengths)))] = True
@@ -197,7 +197,7 @@ def _lengths(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _state(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.nodes.messages import state_to_msg
+    from iguana_ros.ros.messages import state_to_msg
     msg = state_to_msg(ctx.clip.root_positions[0], np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 0)
     _set_stamp(msg.header, _stamp_frame(kind, ctx, rng))
     if kind in ('nan', 'inf'):
@@ -259,7 +259,7 @@ def restamped(data: bytes, frame: int) -> bytes:
 def fuzzed_readers() -> dict[str, int]:
     """Subscriptions each fuzzed topic has in a run: the nodes the topic table names as its subscribers, and the
     bag recorder."""
-    from iguana_ros.nodes.launch import NODE_KINDS
+    from iguana_ros.supervisor.run import NODE_KINDS
     from iguana_ros.topics import topic
     return {key: 1 + sum(1 for who in topic(key).subscribers if who.split()[0] in NODE_KINDS) for key in FUZZ_KINDS}
 
@@ -299,8 +299,8 @@ class TopicFuzzer:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
-        from iguana_ros.nodes.conversions import time_from_msg
-        from iguana_ros.nodes.ros_topics import resolve
+        from iguana_ros.ros.conversions import time_from_msg
+        from iguana_ros.ros.endpoints import resolve
 
         node = rclpy.create_node('iguana_topic_fuzzer')
         pubs, names = {}, {}
@@ -339,7 +339,7 @@ class TopicFuzzer:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m iguana_ros.nodes.topic_fuzz SCENE DUMP --seed S --messages N --per-frame K --before B`: fuzz a
+    """`python -m iguana_ros.faults.topic_fuzz SCENE DUMP --seed S --messages N --per-frame K --before B`: fuzz a
     run of SCENE; prints 'fuzzer matched' when every reader is matched and writes what it sent to DUMP (JSON) when
     the plan is done or on SIGINT / SIGTERM."""
     import argparse
@@ -424,7 +424,7 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
     from rclpy.serialization import deserialize_message
 
     from iguana_ros.bag.storage import BagReader
-    from iguana_ros.nodes.ros_topics import message_class
+    from iguana_ros.ros.endpoints import message_class
 
     fuzz = Counter(sent)
     scan = BagScan()
@@ -471,9 +471,9 @@ def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int
     for bit (nothing bad was simulated)."""
     from iguana_ros.bag.trajectory import root_trajectory
     from iguana_ros.errors import IguanaError
-    from iguana_ros.nodes.launch import RunOptions, SceneRun
-    from iguana_ros.nodes.process import NodeProcess, wait_for
     from iguana_ros.scene import load_scene
+    from iguana_ros.supervisor.process import NodeProcess, wait_for
+    from iguana_ros.supervisor.run import RunOptions, SceneRun
 
     scene = load_scene(str(scene_path))
     frames = int(round(scene.duration * FRAME_RATE))
@@ -482,7 +482,7 @@ def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int
     run = SceneRun(RunOptions(scene=str(scene_path), record=Path(bag), timeout=timeout))
     fuzz_dir = Path(bag).with_name(Path(bag).name + '_fuzzer')
     fuzz_dir.mkdir(parents=True, exist_ok=True)
-    fuzzer = NodeProcess([sys.executable, '-m', 'iguana_ros.nodes.topic_fuzz', str(scene_path),
+    fuzzer = NodeProcess([sys.executable, '-m', 'iguana_ros.faults.topic_fuzz', str(scene_path),
                           str(fuzz_dir / 'sent.json'), '--seed', str(seed), '--messages', str(n_messages),
                           '--per-frame', str(per_frame), '--before', str(before)], 'topic_fuzzer', fuzz_dir)
     started = time.monotonic()

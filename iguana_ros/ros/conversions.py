@@ -21,7 +21,7 @@ from std_msgs.msg import ColorRGBA, Header
 from trajectory_msgs.msg import MultiDOFJointTrajectory, MultiDOFJointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
-from iguana_ros.constants import BASE_FRAME, WORLD_FRAME
+from iguana_ros.constants import BASE_FRAME, FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.validation import validate_array  # noqa: F401 (the one definition, re-exported here)
 
@@ -42,6 +42,16 @@ def time_to_msg(seconds: float) -> Time:
 def time_from_msg(stamp: Time | Duration) -> float:
     """Seconds of a builtin_interfaces/Time or Duration."""
     return stamp.sec + stamp.nanosec * 1e-9
+
+
+def frame_stamp(frame: int) -> Time:
+    """builtin_interfaces/Time of the start of frame `frame` (1/30 s frames of simulated time)."""
+    return time_to_msg(frame / FRAME_RATE)
+
+
+def stamp_frame(stamp) -> int:
+    """Frame index of a stamp produced by `frame_stamp`."""
+    return int(round(time_from_msg(stamp) * FRAME_RATE))
 
 
 def _header(stamp: float | Time, frame_id: str) -> Header:

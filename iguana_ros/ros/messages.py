@@ -10,11 +10,10 @@ from iguana_ros.constants import FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
-from iguana_ros.nodes.base import frame_stamp, stamp_frame
-from iguana_ros.nodes.conversions import (joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
-                                          multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy,
-                                          pose_array_msg, pose_array_to_numpy, pose_stamped_to_numpy, time_from_msg,
-                                          validate_array)
+from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
+                                        multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
+                                        pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
+                                        validate_array)
 from iguana_ros.run_metrics import FEET, Stride
 from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_push,
                                    check_root_pose)

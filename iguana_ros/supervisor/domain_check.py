@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass, field
 
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.process import ProcessInfo, run_processes
+from iguana_ros.supervisor.process import ProcessInfo, run_processes
 from iguana_ros.topics import default_topics
 
 GRAPH_LISTEN_S = 0.5

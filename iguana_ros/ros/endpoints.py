@@ -12,6 +12,10 @@ _DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
                'transient_local': DurabilityPolicy.TRANSIENT_LOCAL}
 _HISTORY = {'keep_last': HistoryPolicy.KEEP_LAST, 'keep_all': HistoryPolicy.KEEP_ALL}
 
+RECORDER_NODE_NAME = 'iguana_bag_recorder'
+"""ROS node name of the bag recorder (`iguana bag record`): the simulator waits for its subscriptions, the
+supervisor's domain check looks for it."""
+
 
 def qos_profile(spec: QosSpec) -> QoSProfile:
     """rclpy QoSProfile for a QosSpec."""

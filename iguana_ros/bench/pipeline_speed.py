@@ -6,9 +6,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from iguana_ros.nodes.launch import RunOptions, run_scene
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.scene import load_scene
+from iguana_ros.supervisor.run import RunOptions, run_scene
 
 
 def bench_pipeline(scene_name: str = 'hills', duration: float = 5.0, single_process: bool = False) -> dict:

@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from iguana_ros.nodes.run_gait import RunGait
+from iguana_ros.supervisor.run_gait import RunGait
 
 STATE_TOPIC = '/iguana_state'
 """Recorded topic whose stamps say how far the simulation got."""

@@ -11,7 +11,8 @@ a truncation: when it ends before the cut). A trial survives when
   exits 0 unless the file is not readable as MCAP at all;
 - `BagReader` recovers every message of every intact chunk, and nothing that is not in the original.
 
-The commands run in this process (`iguana_ros.cli.main`), so a trial costs a few scans of the file.
+The commands run in this process (the caller passes the `iguana` entry point, `iguana_ros.cli.main`, which sits
+on the floor above), so a trial costs a few scans of the file.
 """
 from __future__ import annotations
 
@@ -253,10 +254,12 @@ class _Run:
     crash: str = ''
 
 
-def _cli(argv: list[str]) -> _Run:
-    """Run `iguana ARGV` in this process, capturing its output; an escaping exception is a crash."""
-    from iguana_ros.cli import main
+Iguana = Callable[[list[str]], 'int | None']
+"""The `iguana` command's entry point (`iguana_ros.cli.main`): argv -> exit status."""
 
+
+def _cli(main: Iguana, argv: list[str]) -> _Run:
+    """Run `iguana ARGV` in this process, capturing its output; an escaping exception is a crash."""
     out, err = io.StringIO(), io.StringIO()
     try:
         with redirect_stdout(out), redirect_stderr(err):
@@ -285,8 +288,9 @@ def _refusal_problems(name: str, run: _Run) -> list[str]:
     return problems
 
 
-def run_trial(bag: Path, fault: Fault, ref: Reference, workdir: Path, timeout_s: float = TRIAL_TIMEOUT_S) -> dict:
-    """Copy the bag into `workdir`, apply `fault`, run the commands and the reader; one result row."""
+def run_trial(bag: Path, fault: Fault, ref: Reference, workdir: Path, timeout_s: float = TRIAL_TIMEOUT_S, *,
+              iguana: Iguana) -> dict:
+    """Copy the bag into `workdir`, apply `fault`, run the commands (through `iguana`) and the reader; one row."""
     trial = workdir / bag.name
     shutil.rmtree(trial, ignore_errors=True)
     trial.mkdir(parents=True)
@@ -301,10 +305,11 @@ def run_trial(bag: Path, fault: Fault, ref: Reference, workdir: Path, timeout_s:
     started = time.perf_counter()
     try:
         with time_limit(timeout_s):
-            runs = {'bag info': _cli(['bag', 'info', str(trial)]),
-                    'bag play': _cli(['bag', 'play', str(trial), '--rate', '1000', '--wait-for-subscribers', '0']),
-                    'render': _cli(['render', str(trial), '-o', str(workdir / 'frame.png'), '-q'])}
-            allowed = _cli(['bag', 'info', str(trial), '--allow-damaged'])
+            runs = {'bag info': _cli(iguana, ['bag', 'info', str(trial)]),
+                    'bag play': _cli(iguana, ['bag', 'play', str(trial), '--rate', '1000',
+                                              '--wait-for-subscribers', '0']),
+                    'render': _cli(iguana, ['render', str(trial), '-o', str(workdir / 'frame.png'), '-q'])}
+            allowed = _cli(iguana, ['bag', 'info', str(trial), '--allow-damaged'])
             recovered: Counter = Counter()
             try:
                 reader = BagReader(trial)
@@ -340,8 +345,9 @@ def run_trial(bag: Path, fault: Fault, ref: Reference, workdir: Path, timeout_s:
 
 def run_suite(bag: str | Path, truncations: int = 100, corruptions: int = 100, seed: int = 0,
               timeout_s: float = TRIAL_TIMEOUT_S, metadata: bool = True,
-              progress: Callable[[dict, int, int], None] | None = None) -> dict:
-    """Every fault on the bag directory `bag`, one after the other; the figures and the failed trials."""
+              progress: Callable[[dict, int, int], None] | None = None, *, iguana: Iguana) -> dict:
+    """Every fault on the bag directory `bag`, one after the other, its commands run through `iguana` (the CLI's
+    main); the figures and the failed trials."""
     bag = Path(bag)
     if not bag.is_dir():
         raise IguanaError(f'{bag}: the fault suite needs a bag directory (its .mcap and metadata.yaml)')
@@ -354,7 +360,7 @@ def run_suite(bag: str | Path, truncations: int = 100, corruptions: int = 100, s
     rows = []
     with tempfile.TemporaryDirectory(prefix='iguana_faults_') as tmp:
         for k, fault in enumerate(faults):
-            rows.append(run_trial(bag, fault, ref, Path(tmp), timeout_s))
+            rows.append(run_trial(bag, fault, ref, Path(tmp), timeout_s, iguana=iguana))
             if progress is not None:
                 progress(rows[-1], k + 1, len(faults))
     return summarize_trials(bag, ref, rows, seed, time.perf_counter() - started)

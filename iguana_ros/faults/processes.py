@@ -23,7 +23,7 @@ from pathlib import Path
 
 import yaml
 
-from iguana_ros.nodes.process import NodeProcess, ProcessInfo, processes_with_env, wait_for
+from iguana_ros.supervisor.process import NodeProcess, ProcessInfo, processes_with_env, wait_for
 
 TARGETS = ('iguana run', 'recorder', 'planner_node', 'terrain_adaptation_node', 'spring_length_node',
            'simulator_node')

@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 
+from iguana_ros.bench.workload import bench_model, gait_for, run_gait
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.scenes import bench_model, gait_for, run_gait
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
