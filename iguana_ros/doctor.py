@@ -1,7 +1,7 @@
 """`iguana doctor`'s checks that need no ROS graph: Python, rclpy and its RMW (probed in a child process), the
 compiled-kernel cache, the model cache, the bag folder, ffmpeg. Each gives a `Check`: a pass/fail line and, when
 it fails, the fix. The DDS checks (a loopback between two processes, other participants on the domain) are in
-`iguana_ros.nodes.doctor_dds`; `iguana run` runs `quick_checks` before it starts anything.
+`iguana_ros.supervisor.doctor_dds`; `iguana run` runs `quick_checks` before it starts anything.
 
 rclpy is never imported here: with RMW_IMPLEMENTATION naming an RMW that is not installed, `import rclpy` ends
 the process (rcl exits with status 102), so it is tried in a child process first.

@@ -33,8 +33,8 @@ def all_checks(args: argparse.Namespace) -> list:
         raise InputError(f'--timeout is {args.timeout}; expected a positive number of seconds')
     checks = [doctor.check_python(), doctor.check_rmw()]
     if checks[-1].ok:
-        from iguana_ros.bag.record import RECORDER_NODE_NAME
-        from iguana_ros.nodes.doctor_dds import LOOPBACK_TIMEOUT_S, dds_checks
+        from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
+        from iguana_ros.supervisor.doctor_dds import LOOPBACK_TIMEOUT_S, dds_checks
         from iguana_ros.supervisor.run import NODE_KINDS
         checks += dds_checks((*NODE_KINDS, RECORDER_NODE_NAME), args.timeout or LOOPBACK_TIMEOUT_S)
     else:

@@ -3,7 +3,7 @@ the other participants already on that domain (the rclpy graph after a discovery
 /proc, as `iguana run`'s own domain check finds them).
 
 The loopback is real DDS between two processes: this process publishes a token on doctor_ping every
-PING_PERIOD_S, the echo process (`python -m iguana_ros.nodes.doctor_dds`, started as a NodeProcess so it dies
+PING_PERIOD_S, the echo process (`python -m iguana_ros.supervisor.doctor_dds`, started as a NodeProcess so it dies
 with its parent) sends it back on doctor_pong.
 """
 from __future__ import annotations
@@ -88,7 +88,7 @@ def loopback(watch: DomainWatch, timeout: float = LOOPBACK_TIMEOUT_S) -> Loopbac
     watch.node.create_subscription(cls, name, lambda msg: echoed.append(msg.data), qos)
     executor = SingleThreadedExecutor(context=watch.context)
     executor.add_node(watch.node)
-    echo = NodeProcess([sys.executable, '-m', 'iguana_ros.nodes.doctor_dds'], 'doctor_echo')
+    echo = NodeProcess([sys.executable, '-m', 'iguana_ros.supervisor.doctor_dds'], 'doctor_echo')
     start = time.monotonic()
     try:
         echo.start()
