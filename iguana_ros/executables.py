@@ -17,3 +17,7 @@ CLI_EXECUTABLE = 'iguana'
 
 CLI_ENTRY_POINT = 'iguana_ros.cli:main'
 """Entry point of the command-line tool."""
+
+VIEW_URL_PREFIX = 'iguana view: http'
+"""How the line of `iguana view` naming its page's address starts (`iguana run --view` starts the viewer as a
+child and waits for that line; cli/view.py prints it)."""

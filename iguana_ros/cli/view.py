@@ -4,9 +4,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-URL_PREFIX = 'iguana view: http'
-"""How the line naming the page's address starts (`iguana run --view` looks for it)."""
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `view` sub-command."""

@@ -257,7 +257,7 @@ class SceneRun:
 
     def start_viewer(self) -> None:
         """`iguana view` (live) as a child of the run, like the nodes; prints the page's address once it serves."""
-        from iguana_ros.cli.view import URL_PREFIX
+        from iguana_ros.executables import VIEW_URL_PREFIX as URL_PREFIX
         child = self._child('viewer', [sys.executable, '-m', 'iguana_ros.cli', 'view', *self.options.view])
         child.start()
         if not child.wait_for_output(URL_PREFIX, VIEWER_START_S):
