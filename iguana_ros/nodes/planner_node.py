@@ -62,6 +62,8 @@ class PlannerNode(IguanaNode):
             return
         if self.goals_received < self.param('wait_for_goals'):
             self.held_state = msg  # decided once the scene's goals are in (see wait_for_goals)
+            self.get_logger().info(f'holding iguana_state of frame {frame} until {self.param("wait_for_goals")} '
+                                   f'goals have arrived ({self.goals_received} so far)')
             return
         self.state_gate.handled(frame)
         clip = self.stage.update(frame, root, orientation)

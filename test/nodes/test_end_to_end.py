@@ -1,6 +1,7 @@
-"""End to end: a short lockstep run of the four node processes equals `pipeline.run` of the same scene
-bit for bit, its summary's gait figures (read from the bag) equal the library run's, and its bag replays to a
-real subscriber."""
+"""End to end: a lockstep run of the four node processes equals `pipeline.run` of the same scene bit for bit,
+its summary's gait figures (read from the bag) equal the library run's, and its bag replays to a real
+subscriber -- three tests reading one shared run (`shared_run`); the one-process, killed and realtime runs
+start their own."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,7 +13,7 @@ from iguana_ros.bag.trajectory import read_root_trajectory
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.run_metrics import metrics_of_run
-from iguana_ros.scene import load_scene, scene_path
+from iguana_ros.scene import load_scene
 from iguana_ros.supervisor.run import RunOptions, run_scene
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
@@ -20,13 +21,18 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 FRAMES = 12
 
 
+def scene_file_text() -> str:
+    """The e2e scene: coarse body, gentle seeded hills (adaptation on), a goal ahead on the left."""
+    return yaml.safe_dump({
+        'name': 'e2e', 'model': {'resolution': 'coarse'},
+        'terrain': {'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0, 'seed': 3},
+        'goals': [{'x': 0.3, 'y': 1.0, 'at': 0.0}], 'duration': FRAMES / FRAME_RATE})
+
+
 @pytest.fixture(scope='module')
 def scene_file(tmp_path_factory):
     path = tmp_path_factory.mktemp('scene') / 'e2e.yaml'
-    path.write_text(yaml.safe_dump({
-        'name': 'e2e', 'model': {'resolution': 'coarse'},
-        'terrain': {'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0, 'seed': 3},
-        'goals': [{'x': 0.3, 'y': 1.0, 'at': 0.0}], 'duration': FRAMES / FRAME_RATE}))
+    path.write_text(scene_file_text())
     return path
 
 
@@ -35,34 +41,58 @@ def library_run(scene_file):
     return run_pipeline(load_scene(str(scene_file)))
 
 
-@pytest.mark.parametrize('single_process', [False, True], ids=['four-processes', 'one-process'])
-def test_lockstep_nodes_equal_library_run(tmp_path, scene_file, library_run, single_process):
-    bag = tmp_path / 'run'
-    summary = run_scene(RunOptions(scene=str(scene_file), record=bag, single_process=single_process,
-                                   timeout=240))
-    assert summary.exit_code == 0, summary.message
-    assert summary.simulated_s == pytest.approx(FRAMES / FRAME_RATE)
-    times, roots = read_root_trajectory(bag)
-    assert np.allclose(times, np.arange(FRAMES + 1) / FRAME_RATE)
-    # iguana_state of frame k is the root after k frames; the library stores it after each frame
-    assert np.array_equal(roots[1:], library_run.root_positions)
+WALK_FRAMES = 60
+"""The shared run: 2 s over the same hills, three strides (the planner turns toward the goal each time)."""
 
 
 @pytest.fixture(scope='module')
 def walk_file(tmp_path_factory):
-    """flat_walk on the coarse mesh, 2 s."""
-    raw = yaml.safe_load(scene_path('flat_walk').read_text())
+    """The e2e hills and goal, 2 s: long enough for the gait figures (>= 2 strides) of the summary."""
+    raw = yaml.safe_load(scene_file_text())
     path = tmp_path_factory.mktemp('scene') / 'walk.yaml'
-    path.write_text(yaml.safe_dump({**raw, 'name': 'walk', 'model': {**raw.get('model', {}), 'resolution': 'coarse'},
-                                    'duration': 2.0}))
+    path.write_text(yaml.safe_dump({**raw, 'name': 'walk', 'duration': WALK_FRAMES / FRAME_RATE}))
     return path
 
 
-def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(tmp_path, walk_file):
-    summary = run_scene(RunOptions(scene=str(walk_file), record=tmp_path / 'run', timeout=240))
+@pytest.fixture(scope='module')
+def shared_run(walk_file, tmp_path_factory):
+    """One recorded lockstep run of the four node processes (`iguana run`), shared by the tests that only read
+    its summary and its bag: (summary, bag path)."""
+    bag = tmp_path_factory.mktemp('run') / 'run'
+    return run_scene(RunOptions(scene=str(walk_file), record=bag, timeout=240)), bag
+
+
+@pytest.fixture(scope='module')
+def walk_library_run(walk_file):
+    return run_pipeline(load_scene(str(walk_file)))
+
+
+def _assert_roots_equal_library(bag, frames, library_run):
+    """The bag's iguana_state roots are the library run's, bit for bit (state k = the root after k frames)."""
+    times, roots = read_root_trajectory(bag)
+    assert np.allclose(times, np.arange(frames + 1) / FRAME_RATE)
+    assert np.array_equal(roots[1:], library_run.root_positions)
+
+
+def test_lockstep_nodes_equal_library_run(shared_run, walk_library_run):
+    summary, bag = shared_run
     assert summary.exit_code == 0, summary.message
-    scene = load_scene(str(walk_file))
-    expected = metrics_of_run(run_pipeline(scene), scene)
+    assert summary.simulated_s == pytest.approx(WALK_FRAMES / FRAME_RATE)
+    _assert_roots_equal_library(bag, WALK_FRAMES, walk_library_run)
+
+
+def test_one_process_lockstep_equals_library_run(tmp_path, scene_file, library_run):
+    bag = tmp_path / 'run'
+    summary = run_scene(RunOptions(scene=str(scene_file), record=bag, single_process=True, timeout=240))
+    assert summary.exit_code == 0, summary.message
+    assert summary.simulated_s == pytest.approx(FRAMES / FRAME_RATE)
+    _assert_roots_equal_library(bag, FRAMES, library_run)
+
+
+def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(shared_run, walk_file, walk_library_run):
+    summary, _ = shared_run
+    assert summary.exit_code == 0, summary.message
+    expected = metrics_of_run(walk_library_run, load_scene(str(walk_file)))
     gait = summary.gait
     assert gait.missing_topics == [] and gait.notes == [], gait.lines()
     assert gait.strides == expected.strides >= 2 and gait.metrics.swings > 0
@@ -75,10 +105,10 @@ def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(tmp_path, 
     assert any(line.startswith("  speed: ") and "% of the clips'" in line for line in lines), lines
 
 
-def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
+def test_recorded_run_replays(shared_run, make_node, executor):
     from iguana_ros.ros.endpoints import resolve
-    bag = tmp_path / 'run'
-    assert run_scene(RunOptions(scene=str(scene_file), record=bag, timeout=240)).exit_code == 0
+    summary, bag = shared_run
+    assert summary.exit_code == 0, summary.message
     node = make_node('replay_listener')
     executor.add_node(node)
     got = {'iguana_state': [], 'scene_markers': []}
@@ -87,9 +117,9 @@ def test_recorded_run_replays(tmp_path, scene_file, make_node, executor):
         qos.depth = 100  # the listener keeps every replayed message even if it is briefly slow
         node.create_subscription(cls, name, got[key].append, qos)
     play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--wait-for-subscribers', '5'],
-                       'play', tmp_path).start()
+                       'play', bag.parent).start()
     with play:
-        assert spin_until(executor, lambda: len(got['iguana_state']) >= FRAMES + 1, 60), play.output
+        assert spin_until(executor, lambda: len(got['iguana_state']) >= WALK_FRAMES + 1, 60), play.output
         assert spin_until(executor, lambda: len(got['scene_markers']) >= 1, 10), play.output
         assert play.wait(60) == 0, play.output
     from iguana_ros.ros.conversions import odometry_to_numpy

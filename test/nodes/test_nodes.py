@@ -64,9 +64,6 @@ class Probe:
         assert spin_until(self.executor, lambda: len(self.got[key]) >= n, timeout), f'no {key} message'
         return self.got[key]
 
-    def spin(self, seconds):
-        spin_until(self.executor, lambda: False, seconds)
-
 
 def _state(frame, xy=(0.0, 0.0), yaw=0.0):
     from iguana_ros.ros.messages import state_to_msg
@@ -81,6 +78,7 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
     probe = Probe(make_node('probe'), executor)
     probe.listen('motion_clip')
     probe.listen('reference_stance')
+    probe.listen('accepted_goals')
     goal_pub, state_pub = probe.pub('goal_pose'), probe.pub('iguana_state')
     with _node('planner_node', _scene(tmp_path), tmp_path) as planner:
         probe.wait_matched('goal_pose')
@@ -91,7 +89,8 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
         wrong_frame = goal_message(1.0, 1.0, frame_id='map')
         goal_pub.publish(wrong_frame)
         goal_pub.publish(goal_message(0.3, 2.0))
-        probe.spin(0.5)
+        # the state goes out once the planner lists the goal (after the two bad ones, same publisher, in order)
+        assert spin_until(executor, lambda: any(len(m.poses) == 1 for m in probe.got['accepted_goals']), 30)
         state_pub.publish(_state(0))
         clip_msg = probe.wait('motion_clip')[0]
         stance_msg = probe.wait('reference_stance')[0]
@@ -204,7 +203,6 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
         push_pub.publish(push)
         lengths_pub.publish(lengths_to_msg(np.ones(7), 0))  # wrong length: rejected, still waiting
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 5))  # future frame
-        probe.spin(0.3)
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
         markers = probe.wait('mesh_marker', 2)
         scene = probe.wait('scene_markers')[0]
@@ -246,16 +244,18 @@ def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
 
 def test_planner_holds_the_first_stride_until_the_scene_goals_arrive(tmp_path, make_node, executor):
     from iguana_ros.nodes.goal_sender import goal_message
+    from iguana_ros.ros.messages import clip_from_msg
     probe = Probe(make_node('probe'), executor)
     probe.listen('motion_clip')
     goal_pub, state_pub = probe.pub('goal_pose'), probe.pub('iguana_state')
     with _node('planner_node', _scene(tmp_path), tmp_path, wait_for_goals=1) as planner:
         probe.wait_matched('goal_pose')
         probe.wait_matched('iguana_state')
-        state_pub.publish(_state(0))  # the state overtakes the goal
-        probe.spin(1.0)
-        assert probe.got['motion_clip'] == []
+        state_pub.publish(_state(0))  # the state overtakes the goal: held, not decided
+        assert planner.wait_for_output('holding iguana_state of frame 0 until 1 goals have arrived', 30), \
+            planner.output
         goal_pub.publish(goal_message(0.3, 2.0))
-        probe.wait('motion_clip')
+        clip = probe.wait('motion_clip')[0]
         assert planner.running
-    assert "frame 0: clip 'turn_left'" in planner.output
+    assert len(probe.got['motion_clip']) == 1 and clip_from_msg(clip, iguana_skeleton())[0] == 0
+    assert "frame 0: clip 'turn_left'" in planner.output      # the held stride was decided with the goal

@@ -1,33 +1,39 @@
 """Bitwise determinism across numba compilation: a freshly compiled run equals a cache-loaded run."""
-import hashlib
+import json
 import os
 import subprocess
 import sys
 
 SCRIPT = '''
-import hashlib
+import hashlib, json
+from iguana_ros.physics import integrator
 from iguana_ros.bench.sim import make_scene
 from iguana_ros.bench.workload import run_gait
 sim, gait, _, _ = make_scene('coarse')
+start = hashlib.sha256(sim.positions.tobytes() + sim.velocities.tobytes()).hexdigest()
 run_gait(sim, gait, 0.2)
-print(hashlib.sha256(sim.positions.tobytes() + sim.velocities.tobytes()).hexdigest())
+stats = integrator.run_steps_cg.stats
+print(json.dumps({'start': start, 'end': hashlib.sha256(sim.positions.tobytes() + sim.velocities.tobytes()).hexdigest(),
+                  'compiled': sum(stats.cache_misses.values()), 'loaded': sum(stats.cache_hits.values())}))
 '''
 
 
-def _state_digest(cache_dir) -> str:
-    """SHA-256 of the final state of a 0.2 s coarse gait run in a fresh interpreter using `cache_dir` for numba."""
+def _gait_run(cache_dir) -> dict:
+    """A 0.2 s coarse gait run in a fresh interpreter using `cache_dir` for numba: SHA-256 of its start and end
+    state, and how many signatures of the step loop (`run_steps_cg`) it compiled and loaded from the cache."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
     done = subprocess.run([sys.executable, '-c', SCRIPT], env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
-    return done.stdout.strip().splitlines()[-1]
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def test_fresh_compile_and_cached_kernels_give_the_same_state(tmp_path):
-    cold = _state_digest(tmp_path)                  # empty cache: every kernel JIT-compiled in this run
-    assert any(tmp_path.rglob('*.nbc')), 'the cold run should have filled the numba cache'
-    warm = _state_digest(tmp_path)                  # the same kernels loaded from the cache
-    assert cold == warm
-    assert len(cold) == len(hashlib.sha256().hexdigest())
+    cold = _gait_run(tmp_path)                      # empty cache: every kernel JIT-compiled in this run
+    warm = _gait_run(tmp_path)                      # the same kernels loaded from the cache
+    assert (cold['compiled'], cold['loaded']) == (1, 0), cold
+    assert (warm['compiled'], warm['loaded']) == (0, 1), warm   # really the cached code, not a second compile
+    assert cold['end'] != cold['start']                          # the gait moved the body
+    assert cold['end'] == warm['end']
 
 
 PIPELINE_SCRIPT = '''

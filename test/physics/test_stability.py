@@ -6,8 +6,6 @@ from iguana_ros.bench.stability import REST_DEPTH_LIMIT, SCENARIOS, inverted_sta
 from iguana_ros.constants import MAX_NODE_SPEED
 from iguana_ros.physics.meshes import box_mesh
 
-CAUSES = {'nan', 'speed', 'penetration', 'solver'}
-
 
 @pytest.fixture(scope='module')
 def body():
@@ -16,22 +14,16 @@ def body():
 
 
 @pytest.mark.parametrize('name', list(SCENARIOS))
-def test_scenario_is_stable_or_fails_clearly(body, name):
+def test_scenario_is_stable(body, name):
+    """Every scenario stays stable on the block (docs/RESULTS.md's table): finite, below the speed bound, no
+    inverted tet at the end, resting on the ground. A divergence fails the test, naming its cause; that a
+    divergence is reported clearly is test_simulator.py's."""
     result = run_scenario(body, name, seconds=1.0)
-    if result['outcome'] == 'diverged':
-        assert result['cause'] in CAUSES and 'simulation diverged at t=' in result['message']
-        return
+    assert result['outcome'] == 'stable', f"{name}: diverged ({result['cause']}): {result['message']}"
     assert result['finite'] and result['max_speed'] < MAX_NODE_SPEED
     assert result['inverted_tets_at_end'] == 0
     if 'push' not in name:                                   # the 1 kN push throws the block into the air
         assert result['final_max_depth'] < REST_DEPTH_LIMIT  # no node 1 cm inside the ground at the end
-
-
-def test_sweep_on_the_block_is_all_stable(body):
-    """The measured table for this block (docs/RESULTS.md, "Stability at the extremes"): every scenario stable, including the inverted start."""
-    outcomes = {name: run_scenario(body, name, seconds=0.5)['outcome'] for name in
-                ('E 1e8 Pa, dt 1/60', 'springs x100, dt 1/60', 'inverted start')}
-    assert set(outcomes.values()) == {'stable'}, outcomes
 
 
 def test_inverted_start_really_inverts(body):
