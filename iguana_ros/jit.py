@@ -9,9 +9,11 @@ hash differs from the one stored beside the cache, deletes the package's cached 
 """
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import functools
 import hashlib
+from collections.abc import Iterator
 from pathlib import Path
 
 FASTMATH = {'arcp', 'reassoc', 'nsz'}
@@ -23,6 +25,7 @@ Measured 4 % faster steps on `medium`; the matrix-vector and triangular-solve ke
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 STAMP_NAME = 'numba-sources.sha256'
+LOCK_NAME = 'numba-compile.lock'
 
 
 def kernel_sources_digest(package_dir: Path = PACKAGE_DIR) -> str:
@@ -85,3 +88,27 @@ def touch_kernel_sources(package_dir: Path = PACKAGE_DIR) -> None:
 def ensure_fresh_kernel_cache() -> int:
     """`invalidate_stale_kernels` for this package, once per process (call before the first kernel runs)."""
     return invalidate_stale_kernels()
+
+
+@contextlib.contextmanager
+def kernel_cache_lock(package_dir: Path = PACKAGE_DIR) -> Iterator[bool]:
+    """Hold an exclusive lock on `package_dir`'s kernel cache for the `with` body (waiting for it); yields
+    whether the lock is held (False where the cache is not writable: nothing to protect then).
+
+    numba writes each cache file atomically, but two processes compiling different signatures of one kernel at
+    once may both take the next free data-file number, and the index of one then names the other's code. The
+    processes of a sweep compile or load their kernels under this lock, one at a time (the later ones load).
+    """
+    try:
+        cache_dir = package_dir / '__pycache__'
+        cache_dir.mkdir(exist_ok=True)
+        fh = open(cache_dir / LOCK_NAME, 'a+', encoding='ascii')
+    except OSError:
+        yield False
+        return
+    with fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield True
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)

@@ -1,188 +1,66 @@
 """Randomized locomotion benchmark: many seeded terrains, one goal each, with and without terrain adaptation.
 
-`random_scenes` draws the scenes (hills, tilted planes, steps, smooth noise; a goal 3 m from the start in a
+`random_scenes` (iguana_ros.random_scenes) draws the scenes (hills, tilted planes, steps, smooth noise; a goal 3 m from the start in a
 random direction, also behind the iguana, which starts facing +x), `run_benchmark` runs every (scene,
-adaptation) pair in worker processes and returns one plain row per run, `summarize` reduces the rows per mode
-and terrain kind and compares the modes. ROS-free; `iguana bench locomotion` is the command over it.
+adaptation) pair on the sweep engine (iguana_ros.sweep, Dask) and returns one plain row per run, `summarize` reduces
+the rows per mode and terrain kind and compares the modes. ROS-free; `iguana bench locomotion` is the command over
+it, and `iguana sweep locomotion` (msg_configs/sweeps/locomotion.yaml) the same sweep from a spec file.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
-import os
 import statistics
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import Callable, Iterable
+from typing import Callable
 
 import numpy as np
 
-from iguana_ros.errors import InputError
-from iguana_ros.scene import RESOLUTIONS, GoalSpec, ModelSpec, Scene, TerrainSpec, parse_scene
+from iguana_ros.random_scenes import BENCH_KINDS, GOAL_DISTANCE, GOAL_RADIUS, TERRAIN_EXTENT, random_scenes  # noqa: F401
+from iguana_ros.scene import Scene
+from iguana_ros.sweep.engine import Task, error_row, run_local, task_key
+from iguana_ros.sweep.scene_task import MODE_NAMES, RunOptions, run_scene, scene_identity
 
-BENCH_KINDS = ('hills', 'tilted', 'steps', 'noise')
-"""Terrain kinds of the benchmark, in the order `random_scenes` cycles through them."""
-KIND_FIELDS = {'hills': ('amplitude', 'wavelength', 'seed'), 'tilted': ('slope_deg', 'direction_deg'),
-               'steps': ('block_size', 'step_min', 'step_max', 'seed'), 'noise': ('amplitude', 'wavelength', 'seed')}
-"""The TerrainSpec fields each benchmark kind reads (copied into every row as `terrain`)."""
-GOAL_DISTANCE = 3.0
-"""Distance (m) of each scene's goal from the start (0, 0)."""
-GOAL_RADIUS = 0.2
-TERRAIN_EXTENT = 10.0
-"""Side (m) of every benchmark terrain, centred on the start."""
 STOP_AFTER_GOAL = 2.0
 """A run ends this many simulated seconds after the root first reaches the goal (s)."""
-MODE_NAMES = {True: 'adapt', False: 'no_adapt'}
-"""Row and summary name of a run with (True) and without (False) terrain adaptation."""
 IDENTITY_KEYS = ('scene', 'kind', 'terrain', 'goal', 'resolution', 'duration', 'adaptation', 'mode', 'error',
                  'error_type')
 """Row keys that say what ran, not how it went (not summarised as metrics)."""
 
 
-# ------------------------------------------------------------------------------------------- the scenes
-
-def _random_terrain(kind: str, rng: np.random.Generator) -> TerrainSpec:
-    """A TerrainSpec of `kind` with parameters drawn from the benchmark's ranges (lengths in m, angles in deg)."""
-    seed = int(rng.integers(0, 1_000_000))
-    if kind == 'hills':
-        params = {'amplitude': rng.uniform(0.03, 0.12), 'wavelength': rng.uniform(0.5, 1.4), 'seed': seed}
-    elif kind == 'tilted':
-        params = {'slope_deg': rng.uniform(5.0, 15.0), 'direction_deg': rng.uniform(0.0, 360.0)}
-    elif kind == 'steps':
-        params = {'block_size': 0.3, 'step_min': 0.03, 'step_max': 0.05, 'seed': seed}
-    else:
-        params = {'amplitude': rng.uniform(0.03, 0.10), 'wavelength': rng.uniform(0.4, 1.2), 'seed': seed}
-    params = {k: v if isinstance(v, int) else round(float(v), 4) for k, v in params.items()}
-    return TerrainSpec(kind=kind, extent=TERRAIN_EXTENT, **params)
-
-
-def random_scenes(n_terrains: int, seed: int, duration: float = 40.0, resolution: str = 'medium',
-                  kinds: Iterable[str] = BENCH_KINDS) -> list[Scene]:
-    """`n_terrains` scenes `bench_<kind>_<index>` cycling through `kinds`, each with one goal 3 m away.
-
-    Scene `i` draws its terrain parameters and goal direction (uniform over the full circle) from its own
-    generator, `SeedSequence(seed, spawn_key=(i,))`: the same (n, seed) always gives the same scenes, and the
-    first scenes of a longer list are those of a shorter one. Model `resolution`, fidelity 'balanced',
-    `duration` s, goal radius 0.2 m, terrain 10 m square. Raises InputError on a bad argument.
-    """
-    kinds = tuple(kinds)
-    if not kinds or any(k not in BENCH_KINDS for k in kinds):
-        raise InputError(f'terrain kinds must be among {", ".join(BENCH_KINDS)}, got {", ".join(kinds) or "none"}')
-    if resolution not in RESOLUTIONS:
-        raise InputError(f'mesh resolution must be one of {", ".join(RESOLUTIONS)}, got {resolution!r}')
-    if isinstance(n_terrains, bool) or not isinstance(n_terrains, int) or n_terrains < 0:
-        raise InputError(f'number of terrains must be an integer >= 0, got {n_terrains!r}')
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InputError(f'seed must be an integer >= 0, got {seed!r}')
-    if not (math.isfinite(duration) and duration > 0):
-        raise InputError(f'duration must be a positive number of seconds, got {duration!r}')
-    scenes = []
-    for i in range(n_terrains):
-        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(i,)))
-        kind = kinds[i % len(kinds)]
-        terrain = _random_terrain(kind, rng)
-        heading = rng.uniform(0.0, 2.0 * np.pi)
-        goal = GoalSpec(x=round(GOAL_DISTANCE * math.cos(heading), 4), y=round(GOAL_DISTANCE * math.sin(heading), 4))
-        name = f'bench_{kind}_{i:03d}'
-        scene = Scene(name=name, description=f'locomotion benchmark (seed {seed}): {kind} terrain, goal 3 m away',
-                      terrain=terrain, model=ModelSpec(resolution=resolution), goals=(goal,), goal_radius=GOAL_RADIUS,
-                      duration=float(duration), fidelity='balanced', adaptation=True)
-        scenes.append(parse_scene(dataclasses.asdict(scene), name))     # the scene file rules hold for these too
-    return scenes
-
-
 # --------------------------------------------------------------------------------------------- the runs
-
-def _identity(scene: Scene, adaptation: bool) -> dict:
-    """The keys of a row that say what ran."""
-    return {'scene': scene.name, 'kind': scene.terrain.kind,
-            'terrain': {k: getattr(scene.terrain, k) for k in KIND_FIELDS.get(scene.terrain.kind, ())},
-            'goal': [scene.goals[-1].x, scene.goals[-1].y] if scene.goals else None,
-            'resolution': scene.model.resolution, 'duration': scene.duration,
-            'adaptation': bool(adaptation), 'mode': MODE_NAMES[bool(adaptation)]}
-
-
-def _error_row(scene: Scene, adaptation: bool, exc: BaseException, wall: float) -> dict:
-    """The row of a run that raised `exc`: what ran, `error` (one line) and `error_type`."""
-    message = ' '.join(str(exc).split()) or type(exc).__name__
-    return {**_identity(scene, adaptation), 'error': message, 'error_type': type(exc).__name__, 'wall_s': wall}
-
 
 def run_task(scene: Scene, adaptation: bool) -> dict:
     """Run one (scene, adaptation) pair to its duration or 2 s past the goal; one plain row for JSON.
 
-    The row holds what ran (`_identity`), `wall_s` (build, run and metrics), `simulated_s`, `realtime_factor`
+    The row holds what ran (`scene_identity`), `wall_s` (build, run and metrics), `simulated_s`, `realtime_factor`
     (simulated over the frame loop's wall time) and every field of the run's LocomotionMetrics. Any exception
     (e.g. SimulationDiverged) gives a row with `error` set instead, so one bad run never ends a benchmark.
     """
+    identity = scene_identity(scene, adaptation)
     start = time.perf_counter()
     try:
-        from iguana_ros import pipeline
-        from iguana_ros.run_metrics import metrics_of_run
-
-        result = pipeline.run(scene, adaptation=adaptation, stop_after_goal=STOP_AFTER_GOAL)
-        metrics = metrics_of_run(result, scene).as_dict()
+        return run_scene(scene, RunOptions(adaptation=bool(adaptation), stop_after_goal=STOP_AFTER_GOAL), identity)
     except Exception as exc:                      # noqa: BLE001 - the row records the failure
-        return _error_row(scene, adaptation, exc, time.perf_counter() - start)
-    simulated = float(result.times[-1]) if len(result.times) else 0.0
-    loop = float(result.wall_seconds)
-    return {**_identity(scene, adaptation), 'wall_s': time.perf_counter() - start, 'simulated_s': simulated,
-            'realtime_factor': simulated / loop if loop > 0 else None, **metrics}
+        return error_row(identity, exc, time.perf_counter() - start)
 
 
-def _init_worker() -> None:
-    """Worker set-up: one BLAS thread per process (the workers already fill the cores)."""
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)
-
-
-def parallel_map(fn: Callable, tasks: list[tuple], workers: int | None = None,
-                 progress: Callable[[object, int, int], None] | None = None,
-                 on_error: Callable[[tuple, BaseException, float], object] | None = None) -> list:
-    """`fn(*task)` for every task, on `workers` spawned processes (default: one per core), results in task order.
-
-    `progress(result, n_done, n_total)` is called as each finishes; a worker that dies gives
-    `on_error(task, exc, wall_s)` (or re-raises without it). Workers use one BLAS thread each.
-    """
-    if not tasks:
-        return []
-    workers = (os.cpu_count() or 1) if workers is None else workers
-    if workers < 1:
-        raise InputError(f'workers must be at least 1, got {workers}')
-    import multiprocessing
-
-    results: list = [None] * len(tasks)
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=multiprocessing.get_context('spawn'),
-                               initializer=_init_worker)
-    try:
-        started = time.perf_counter()
-        futures = {pool.submit(fn, *task): k for k, task in enumerate(tasks)}
-        for n_done, future in enumerate(as_completed(futures), start=1):
-            k = futures[future]
-            try:
-                results[k] = future.result()
-            except Exception as exc:              # noqa: BLE001 - the worker process died (BrokenProcessPool)
-                if on_error is None:
-                    raise
-                results[k] = on_error(tasks[k], exc, time.perf_counter() - started)
-            if progress is not None:
-                progress(results[k], n_done, len(tasks))
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-    return results
+def benchmark_tasks(scenes: list[Scene], modes: tuple = (True, False)) -> list[Task]:
+    """The sweep tasks of every (scene, mode) pair: scene order, modes in the given order within a scene."""
+    return [Task(task_key('locomotion', scene, bool(mode), STOP_AFTER_GOAL), run_task, (scene, bool(mode)),
+                 scene_identity(scene, bool(mode)), f'{scene.name} {MODE_NAMES[bool(mode)]}')
+            for scene in scenes for mode in modes]
 
 
 def run_benchmark(scenes: list[Scene], modes: tuple = (True, False), workers: int | None = None,
                   progress: Callable[[dict, int, int], None] | None = None) -> list[dict]:
-    """Rows of every (scene, mode) pair, run on `workers` processes (default: one per core).
+    """Rows of every (scene, mode) pair, run by the sweep engine on `workers` local processes (default: one per
+    core).
 
     The rows come in scene order, modes in the given order within a scene, whatever the number of workers;
-    `progress(row, n_done, n_total)` is called as each run finishes (in finishing order). Workers are spawned
-    (fresh interpreters) and use one BLAS thread each. A worker that dies gives error rows, not an exception.
+    `progress(row, n_done, n_total)` is called as each run finishes (in finishing order). A worker that dies gives
+    an error row, not an exception.
     """
-    tasks = [(scene, bool(mode)) for scene in scenes for mode in modes]
-    return parallel_map(run_task, tasks, workers, progress, on_error=lambda task, exc, wall: _error_row(*task, exc, wall))
+    return run_local(benchmark_tasks(scenes, modes), workers, progress)
 
 
 # ------------------------------------------------------------------------------------------ the summary

@@ -75,29 +75,32 @@ class Pipeline:
 
 
 def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict | None = None,
-                   blend_frames: int | None = None) -> Pipeline:
+                   blend_frames: int | None = None, simulator_options: dict | None = None) -> Pipeline:
     """Build only what `scene` needs: terrain, model, motion graph (`blend_frames`, default the planner's declared
-    parameter), the four stages (adaptation as the scene says unless `adaptation` is given; off on flat ground),
-    and the scene's goals scheduled as `iguana run` sends them."""
+    parameter), the four stages (adaptation as the scene says unless `adaptation` is given; off on flat ground;
+    `simulator_options` to the SoftBodySimulator), and the scene's goals scheduled as `iguana run` sends them."""
     terrain, model = scene_terrain(scene), scene_model(scene)
     planner = planner_stage(scene, library, blend_frames)
     for goal in scene.goals:
         planner.schedule_goal(np.array([goal.x, goal.y]), goal.at)
     return Pipeline(scene=scene, planner=planner,
                     adaptation=adaptation_stage(scene, adaptation, model.skeleton, terrain),
-                    springs=spring_stage(scene, model), simulator=simulator_stage(scene, model=model, terrain=terrain))
+                    springs=spring_stage(scene, model), simulator=simulator_stage(scene, model=model, terrain=terrain,
+                                                                   options=simulator_options))
 
 
 def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
-        progress: Callable[[int, int], None] | None = None, stop_after_goal: float | None = None) -> RunResult:
+        progress: Callable[[int, int], None] | None = None, stop_after_goal: float | None = None,
+        simulator_options: dict | None = None) -> RunResult:
     """Run `scene` for its duration (or `n_frames`) and return the trajectories.
 
     With `stop_after_goal` (s), the run ends that long after the root first comes within the goal radius of the
-    scene's last goal (the arrays then hold only the frames simulated).
+    scene's last goal (the arrays then hold only the frames simulated). `simulator_options`: SoftBodySimulator
+    keywords (fidelity fields, `friction`) that no scene file names; a sweep's knobs.
     """
     import time as _time
 
-    pipe = build_pipeline(scene, adaptation)
+    pipe = build_pipeline(scene, adaptation, simulator_options=simulator_options)
     total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
     model = pipe.simulator.model
     rows = _allocate(total, model.n_nodes, model.skeleton.n_bones)

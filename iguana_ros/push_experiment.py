@@ -94,10 +94,15 @@ def push_effect(pushed: dict, unpushed: dict, settings: PushSettings) -> dict:
 def run_push_experiment(stiffnesses: tuple = ('normal', 'softer'), settings: PushSettings = PushSettings(),
                         workers: int | None = None, progress=None) -> dict:
     """Every model's unpushed and pushed runs (in parallel), reduced to per-push effects and a summary."""
-    from iguana_ros.locomotion_bench import parallel_map
+    from iguana_ros.errors import IguanaError
+    from iguana_ros.sweep.engine import parallel_map
 
     tasks = [(s, at, settings) for s in stiffnesses for at in [None] + push_times(settings)]
-    traces = parallel_map(walk_trace, tasks, workers, progress)
+    traces = parallel_map(walk_trace, tasks, workers, progress,
+                          identity=lambda task: {'stiffness': task[0], 'at': task[1]})
+    failed = next((tr for tr in traces if 'error' in tr), None)
+    if failed is not None:
+        raise IguanaError(f"push run ({failed['stiffness']} model, push at {failed['at']}) failed: {failed['error']}")
     out = {'settings': dataclasses.asdict(settings), 'models': {}}
     for stiffness in stiffnesses:
         mine = [tr for tr in traces if tr['stiffness'] == stiffness]

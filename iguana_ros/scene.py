@@ -472,41 +472,47 @@ def load_scene(name_or_path: str) -> Scene:
     if not path.is_file():
         raise SceneError(f'no scene {name_or_path!r} ({path} does not exist); '
                          f'shipped scenes: {", ".join(available_scenes())}')
-    text = _read_text(path)
+    scene = parse_scene(read_yaml(path), str(path))
+    if scene.name == 'unnamed':
+        scene = dataclasses.replace(scene, name=path.stem if NAME_PATTERN.fullmatch(path.stem) else 'unnamed')
+    return scene
+
+
+def read_yaml(path: Path, what: str = 'scene'):
+    """The parsed YAML of a `what` file (a scene, or a sweep spec) read as a scene file is: at most MAX_SCENE_BYTES,
+    its structure (nesting, alias expansion, duplicate keys) bounded before it is composed; SceneError (one line)
+    if it is unreadable."""
+    text = _read_text(path, what)
     try:
         _check_structure(text, str(path))
-        raw = yaml.load(text, Loader=_LOADER)
+        return yaml.load(text, Loader=_LOADER)
     except SceneError:
         raise
     except (yaml.YAMLError, ValueError, OverflowError, TypeError, RecursionError) as exc:
         reason = ' '.join(str(exc).split())
         reason = reason if len(reason) <= 240 else reason[:237] + '...'
-        raise SceneError(f'{path}: not a readable YAML scene: {reason}') from None
-    scene = parse_scene(raw, str(path))
-    if scene.name == 'unnamed':
-        scene = dataclasses.replace(scene, name=path.stem if NAME_PATTERN.fullmatch(path.stem) else 'unnamed')
-    return scene
+        raise SceneError(f'{path}: not a readable YAML {what}: {reason}') from None
 
 
 _LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 """The YAML loader of scene files (libyaml's when installed: the same safe types, faster)."""
 
 
-def _read_text(path: Path) -> str:
-    """The text of a scene file of at most MAX_SCENE_BYTES (UTF-8, or UTF-16 with a byte-order mark)."""
+def _read_text(path: Path, what: str = 'scene') -> str:
+    """The text of a `what` file of at most MAX_SCENE_BYTES (UTF-8, or UTF-16 with a byte-order mark)."""
     try:
         with path.open('rb') as f:
             data = f.read(MAX_SCENE_BYTES + 1)
     except OSError as exc:
-        raise SceneError(f'{path}: cannot read the scene file: {exc.strerror or exc}') from None
+        raise SceneError(f'{path}: cannot read the {what} file: {exc.strerror or exc}') from None
     if len(data) > MAX_SCENE_BYTES:
-        raise SceneError(f'{path}: a scene file may have at most {MAX_SCENE_BYTES} bytes, this one has '
+        raise SceneError(f'{path}: a {what} file may have at most {MAX_SCENE_BYTES} bytes, this one has '
                          f'{max(len(data), path.stat().st_size)}')
     encoding = 'utf-16' if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)) else 'utf-8-sig'
     try:
         return data.decode(encoding)
     except UnicodeDecodeError as exc:
-        raise SceneError(f'{path}: not a readable YAML scene: not {encoding.split("-sig")[0].upper()} text '
+        raise SceneError(f'{path}: not a readable YAML {what}: not {encoding.split("-sig")[0].upper()} text '
                          f'(byte 0x{data[exc.start]:02x} at offset {exc.start})') from None
 
 

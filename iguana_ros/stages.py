@@ -210,12 +210,13 @@ class SimulatorStage:
     """Section V: the soft body, placed at the scene's start pose on the terrain, advanced frame by frame."""
 
     def __init__(self, model, terrain: HeightField, fidelity: str, pushes: tuple = (),
-                 start_xy: tuple = (0.0, 0.0), start_yaw: float = 0.0) -> None:
-        """Build the simulator for `model` on `terrain`; pushes are applied by simulated time."""
+                 start_xy: tuple = (0.0, 0.0), start_yaw: float = 0.0, options: dict | None = None) -> None:
+        """Build the simulator for `model` on `terrain`; pushes are applied by simulated time. `options` are
+        SoftBodySimulator keywords (fidelity fields such as `dt`, `friction`), none by default."""
         self.model = model
         self.terrain = terrain
         self.pushes = tuple(pushes)
-        self.sim = SoftBodySimulator(model, terrain, fidelity)
+        self.sim = SoftBodySimulator(model, terrain, fidelity, **(options or {}))
         self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
                                                   lift_only=True))
         self.tracker = RootTracker(model)
@@ -245,11 +246,11 @@ class SimulatorStage:
 
 
 def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,
-                    terrain: HeightField | None = None) -> SimulatorStage:
+                    terrain: HeightField | None = None, options: dict | None = None) -> SimulatorStage:
     """The simulator of `scene`: its model (or `model`) on its terrain (or `terrain`) at its fidelity (unless
-    `fidelity` names a preset), placed at its start pose, with its pushes."""
+    `fidelity` names a preset), placed at its start pose, with its pushes and the SoftBodySimulator `options`."""
     return SimulatorStage(scene_model(scene) if model is None else model,
                           scene_terrain(scene) if terrain is None else terrain,
                           scene.fidelity if fidelity is None else fidelity,
                           scene.pushes if scene.needs_pushes else (),
-                          (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg))
+                          (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg), options)

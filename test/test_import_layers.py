@@ -56,13 +56,13 @@ def floors(*rows: tuple) -> tuple[Floor, ...]:
 FLOORS = floors(
     ('base', 'constants errors config jit geometry topics parameters executables'),
     ('core rooms', 'body motion terrain physics metrics render visuals'),
-    ('scene', 'scene validation'),
+    ('scene', 'scene validation random_scenes'),
     ('pipeline stages', 'stages pipeline run_metrics'),
-    ('library tools', 'diagnostics locomotion_bench push_experiment warmup doctor'),
+    ('library tools', 'diagnostics warmup doctor'),
     ('ROS adapter', 'ros'),
     ('nodes and bag', 'nodes bag', True),
     ('supervisor', 'supervisor'),
-    ('tools', 'bench faults view sweep'),
+    ('tools', 'bench faults view sweep locomotion_bench push_experiment'),
     ('cli', 'cli'),
 )
 """The floors of iguana_ros, lowest first (see the module docstring)."""

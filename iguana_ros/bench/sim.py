@@ -5,10 +5,12 @@ import os
 import platform
 import resource
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from iguana_ros.bench.workload import bench_model, gait_for, run_gait
+from iguana_ros.errors import IguanaError
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
@@ -166,8 +168,43 @@ REFERENCE = dict(dt=1.0 / 4800.0, cg_tol=1e-8, cg_max_iter=1000, jacobian_every=
 """The finest run every other run is compared with."""
 
 
-def _run(resolution: str, seconds: float, settings: dict) -> dict:
-    """One gait-scene run; final positions, centre of mass, speed, or the divergence."""
+MESH_REFERENCE = {'preset': 'accurate'}
+"""The run every mesh is compared with, on the finest mesh (the dt 1/4800 REFERENCE is too slow on `fine`)."""
+TRADEOFF_MESHES = ('coarse', 'medium', 'fine')
+TRADEOFF_GROUPS = tuple(dict.fromkeys(group for group, _, _ in TRADEOFF_SETTINGS))
+"""The groups of settings of the table: dt, cg_tol, solver, jacobian_every, factor_every, polar_iters, preset."""
+
+
+class TradeoffRun(NamedTuple):
+    """One run of the speed-accuracy table: its `group`, `label`, `mesh` and fidelity `settings` (with an optional
+    'preset'), and `reference`, the index of the run it is compared with (None: it is a reference)."""
+
+    group: str
+    label: str
+    mesh: str
+    settings: dict
+    reference: int | None
+
+
+def tradeoff_runs(resolution: str = 'medium', meshes: tuple = TRADEOFF_MESHES,
+                  groups: tuple | None = None) -> list[TradeoffRun]:
+    """The runs of the table in order: REFERENCE on `resolution`, every TRADEOFF_SETTINGS entry (of `groups`, default
+    all) against it, MESH_REFERENCE on the finest of `meshes`, each mesh with `balanced` (against that, centre of
+    mass only; no meshes: no mesh rows)."""
+    runs = [TradeoffRun('reference', 'reference', resolution, dict(REFERENCE), None)]
+    runs += [TradeoffRun(group, label, resolution, dict(settings), 0) for group, label, settings in TRADEOFF_SETTINGS
+             if groups is None or group in groups]
+    if not meshes:
+        return runs
+    mesh_ref = len(runs)
+    runs.append(TradeoffRun('reference', 'mesh reference', meshes[-1], dict(MESH_REFERENCE), None))
+    runs += [TradeoffRun('mesh', f'mesh={mesh}', mesh, {'preset': 'balanced'}, mesh_ref) for mesh in meshes]
+    return runs
+
+
+def gait_run(resolution: str, seconds: float, settings: dict) -> dict:
+    """One gait-scene run: final node positions `(n, 3)` and centre of mass `(3,)` as lists (JSON), speed, or the
+    divergence."""
     settings = dict(settings)
     preset = settings.pop('preset', 'balanced')
     sim, gait, _, _ = make_scene(resolution, preset, **settings)
@@ -179,49 +216,44 @@ def _run(resolution: str, seconds: float, settings: dict) -> dict:
     except SimulationDiverged as exc:
         return {'diverged': exc.cause, 'message': str(exc)}
     cpu_s = time.process_time() - cpu0 - timing['gait_wall_s']
-    return {'positions': sim.positions, 'com': sim.center_of_mass(), 'nodes': len(sim.rest_positions),
+    return {'positions': sim.positions.tolist(), 'com': sim.center_of_mass().tolist(),
+            'nodes': len(sim.rest_positions),
             'realtime_factor': sim.time / timing['sim_wall_s'], 'realtime_factor_cpu': sim.time / cpu_s,
             'ms_per_step': 1e3 * timing['sim_wall_s'] / sim.stats['steps'],
             'cg_iterations_per_step': sim.stats['cg_iterations_per_step']}
 
 
-def tradeoff(resolution: str = 'medium', seconds: float = 2.0, meshes=('coarse', 'medium', 'fine'),
-             progress=None) -> list:
-    """Speed and error (node RMS and COM difference after `seconds`, against the finest run) per setting.
-
-    Settings are compared with the REFERENCE run of the same mesh; meshes (COM only) with `accurate` on the finest.
-    """
-    ref = _run(resolution, seconds, REFERENCE)
-    if 'diverged' in ref:
-        raise SimulationDiverged(ref['diverged'], 'tradeoff reference run: ' + ref['message'])
+def tradeoff_rows(runs: list[TradeoffRun], results: list) -> list[dict]:
+    """The table rows of the non-reference runs among the first len(`results`) `runs` (results of `gait_run` in
+    run order, or error rows): speed and error (node RMS, COM difference) against the run's reference. Raises
+    SimulationDiverged if a reference diverged, IguanaError if it failed."""
     rows = []
-    for group, label, settings in TRADEOFF_SETTINGS:
-        run = _run(resolution, seconds, settings)
-        rows.append(_row(group, label, resolution, run, ref))
-        if progress:
-            progress(rows[-1])
-    finest = meshes[-1]
-    mesh_ref = _run(finest, seconds, {'preset': 'accurate'})   # the dt 1/4800 reference is too slow on `fine`
-    for mesh in meshes:
-        run = _run(mesh, seconds, {'preset': 'balanced'})
-        rows.append(_row('mesh', f'mesh={mesh}', mesh, run, mesh_ref, nodes_comparable=False))
-        if progress:
-            progress(rows[-1])
+    for run, result in zip(runs, results):
+        if run.reference is None:
+            if 'diverged' in result:
+                raise SimulationDiverged(result['diverged'], f'tradeoff {run.label} run: ' + result['message'])
+            if 'error' in result:
+                raise IguanaError(f"tradeoff {run.label} run failed: {result['error']}")
+            continue
+        rows.append(_row(run.group, run.label, run.mesh, result, results[run.reference],
+                         nodes_comparable=run.group != 'mesh'))
     return rows
 
 
 def _row(group: str, label: str, mesh: str, run: dict, ref: dict, nodes_comparable: bool = True) -> dict:
-    """A table row; errors are None when the run diverged (or node RMS when meshes differ)."""
+    """A table row; errors are None when the run diverged or failed (`error`: why), node RMS when meshes differ."""
     row = {'group': group, 'label': label, 'mesh': mesh, 'diverged': run.get('diverged')}
-    if row['diverged']:
+    if row['diverged'] or 'error' in run:
+        failed = {'error': run['error'], 'error_type': run.get('error_type')} if 'error' in run else {}
         return {**row, 'realtime_factor': None, 'realtime_factor_cpu': None, 'ms_per_step': None,
-                'node_rms_m': None, 'com_error_m': None, 'cg_iterations_per_step': None}
-    rms = (float(np.sqrt(np.mean(np.sum((run['positions'] - ref['positions']) ** 2, axis=1))))
+                'node_rms_m': None, 'com_error_m': None, 'cg_iterations_per_step': None, **failed}
+    rms = (float(np.sqrt(np.mean(np.sum((np.asarray(run['positions']) - np.asarray(ref['positions'])) ** 2,
+                                        axis=1))))
            if nodes_comparable and 'positions' in ref else None)
     return {**row, 'realtime_factor': run['realtime_factor'], 'realtime_factor_cpu': run['realtime_factor_cpu'],
             'ms_per_step': run['ms_per_step'],
             'cg_iterations_per_step': run['cg_iterations_per_step'], 'node_rms_m': rms,
-            'com_error_m': float(np.linalg.norm(run['com'] - ref['com']))}
+            'com_error_m': float(np.linalg.norm(np.asarray(run['com']) - np.asarray(ref['com'])))}
 
 
 def plot_tradeoff(rows: list, path) -> None:

@@ -95,13 +95,3 @@ def _push_forces(model, total: float):
     tags = model.node_tags
     mask = tags['trunk_left'] if 'trunk_left' in tags else tags['left']
     return region_force(model.node_mass, mask, (0.0, -total, 0.0))
-
-
-def stability_table(model, seconds: float = 1.5, names=None, progress=None) -> list:
-    """`run_scenario` for every scenario (or `names`)."""
-    rows = []
-    for name in names or SCENARIOS:
-        rows.append(run_scenario(model, name, seconds))
-        if progress:
-            progress(rows[-1])
-    return rows

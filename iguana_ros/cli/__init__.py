@@ -20,6 +20,7 @@ SUBCOMMANDS = (
     ('bench', 'iguana_ros.cli.bench'),
     ('bench-adaptation', 'iguana_ros.cli.bench_adaptation'),
     ('simulate', 'iguana_ros.cli.simulate'),
+    ('sweep', 'iguana_ros.cli.sweep'),
     ('run', 'iguana_ros.cli.run'),
     ('demo', 'iguana_ros.cli.demo'),
     ('warm', 'iguana_ros.cli.warm'),

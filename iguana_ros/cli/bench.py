@@ -9,6 +9,7 @@ import json
 from fractions import Fraction
 
 from iguana_ros.cli import bench_faults, bench_locomotion, bench_pushes, bench_statics
+from iguana_ros.cli.argtypes import count
 
 
 def _time_step(text: str) -> float:
@@ -46,11 +47,14 @@ def register(subparsers) -> None:
     trade.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
     trade.add_argument('--seconds', type=float, default=2.0, help='simulated seconds per run (default 2)')
     trade.add_argument('--plot', default=None, help='write error-vs-speed plot to this PNG')
+    trade.add_argument('--workers', type=count(1), default=1,
+                       help='worker processes (default 1: each run timed alone on the machine)')
     trade.add_argument('--json', action='store_true')
     trade.set_defaults(func=run_tradeoff)
     stab = sub.add_parser('stability', help='extreme stiffness, E, dt, pushes, drops, slopes, inverted start')
     stab.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='coarse')
     stab.add_argument('--seconds', type=float, default=1.5)
+    stab.add_argument('--workers', type=count(1), default=None, help='worker processes (default: one per core)')
     stab.add_argument('--json', action='store_true')
     stab.set_defaults(func=run_stability)
     pipe = sub.add_parser('pipeline', help='realtime factor: four-process lockstep node run vs library run')
@@ -109,7 +113,9 @@ def run_tradeoff(args) -> int:
     """`iguana bench tradeoff`."""
     import sys
 
-    from iguana_ros.bench.sim import plot_tradeoff, tradeoff
+    from iguana_ros.bench.sim import plot_tradeoff
+    from iguana_ros.sweep.benchmarks import tradeoff_plan
+    from iguana_ros.sweep.engine import Cluster, row_stream, run_tasks
 
     out = sys.stderr if args.json else sys.stdout      # with --json the progress table goes to stderr
 
@@ -118,7 +124,8 @@ def run_tradeoff(args) -> int:
 
     print(f"{'setting':22s} {'mesh':7s} {'RTF':>7s} {'RTF cpu':>7s} {'ms/step':>8s} {'CG/step':>7s} "
           f"{'node RMS m':>11s} {'COM err m':>10s}", file=out)
-    rows = tradeoff(args.mesh, seconds=args.seconds, progress=show)
+    plan = tradeoff_plan(args.mesh, seconds=args.seconds)
+    rows = plan.rows(run_tasks(plan.tasks, Cluster(workers=args.workers), on_result=row_stream(plan, show)))
     if args.plot:
         plot_tradeoff(rows, args.plot)
     if args.json:
@@ -130,6 +137,8 @@ def _format_row(row: dict) -> str:
     """One line of the tradeoff table."""
     if row['diverged']:
         return f"{row['label']:22s} {row['mesh']:7s} diverged ({row['diverged']})"
+    if row.get('error'):
+        return f"{row['label']:22s} {row['mesh']:7s} failed ({row['error_type']}: {row['error']})"
 
     def num(v, fmt):
         return format(v, fmt) if v is not None else '-'
@@ -141,15 +150,18 @@ def _format_row(row: dict) -> str:
 
 def run_stability(args) -> int:
     """`iguana bench stability`."""
-    from iguana_ros.bench.stability import stability_table
     from iguana_ros.bench.workload import bench_model
+    from iguana_ros.sweep.benchmarks import stability_plan
+    from iguana_ros.sweep.engine import Cluster, row_stream, run_tasks
 
-    model, name = bench_model(args.mesh)
+    _, name = bench_model(args.mesh)
 
     def show(r):
         if args.json:
             return
-        if r['outcome'] == 'stable':
+        if r.get('error'):
+            print(f"{r['scenario']:40s} FAILED    ({r['error_type']}) {r['error']}", flush=True)
+        elif r['outcome'] == 'stable':
             print(f"{r['scenario']:40s} stable    max speed {r['max_speed']:6.2f} m/s, end depth "
                   f"{1e3 * r['final_max_depth']:5.1f} mm, inverted tets {r['inverted_tets_at_start']}"
                   f" -> {r['inverted_tets_at_end']}", flush=True)
@@ -158,7 +170,8 @@ def run_stability(args) -> int:
 
     if not args.json:
         print(f'{name}, {args.seconds:g} s per scenario')
-    rows = stability_table(model, seconds=args.seconds, progress=show)
+    plan = stability_plan(args.mesh, args.seconds)
+    rows = plan.rows(run_tasks(plan.tasks, Cluster(workers=args.workers), on_result=row_stream(plan, show)))
     if args.json:
         print(json.dumps({'model': name, 'rows': rows}, indent=1))
     return 0

@@ -1,0 +1,65 @@
+"""One sweep task on a scene: the library loop (`pipeline.run`) with the task's options, reduced to one row of
+what ran and its locomotion metrics."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from iguana_ros.scene import Scene
+
+KIND_FIELDS = {'hills': ('amplitude', 'wavelength', 'seed'), 'tilted': ('slope_deg', 'direction_deg'),
+               'steps': ('block_size', 'step_min', 'step_max', 'seed'), 'noise': ('amplitude', 'wavelength', 'seed'),
+               'heightmap': ('file', 'scale')}
+"""The TerrainSpec fields each terrain kind reads (copied into every row as `terrain`)."""
+MODE_NAMES = {True: 'adapt', False: 'no_adapt'}
+"""Row name of a run with (True) and without (False) terrain adaptation."""
+IDENTITY_ALIASES = {'model.resolution': 'resolution', 'terrain.kind': 'kind'}
+"""Overrides that `scene_identity` already shows under another name."""
+TIMING_COLUMNS = ('wall_s', 'realtime_factor')
+"""Row fields that measure the machine, not the run: they differ between runs of the same task."""
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How a scene task runs besides its scene: adaptation (None = the scene's), `stop_after_goal` (s after the
+    root first reaches the last goal; None = the whole duration) and `simulator`, sorted (name, value) pairs of
+    SoftBodySimulator keywords (fidelity fields such as `dt`, and `friction`)."""
+
+    adaptation: bool | None = None
+    stop_after_goal: float | None = None
+    simulator: tuple = ()
+
+    def simulator_options(self) -> dict:
+        """The SoftBodySimulator keywords (a friction given per node tag as pairs becomes a mapping)."""
+        return {name: dict(value) if name == 'friction' and isinstance(value, tuple) else value
+                for name, value in self.simulator}
+
+
+def scene_identity(scene: Scene, adaptation: bool | None = None) -> dict:
+    """The row fields that say what ran: scene, terrain kind and its parameters, last goal, mesh, duration and
+    adaptation (`adaptation` or the scene's) with its mode name."""
+    adapt = scene.adaptation if adaptation is None else bool(adaptation)
+    return {'scene': scene.name, 'kind': scene.terrain.kind,
+            'terrain': {k: getattr(scene.terrain, k) for k in KIND_FIELDS.get(scene.terrain.kind, ())},
+            'goal': [scene.goals[-1].x, scene.goals[-1].y] if scene.goals else None,
+            'resolution': scene.model.resolution, 'duration': scene.duration,
+            'adaptation': adapt, 'mode': MODE_NAMES[adapt]}
+
+
+def run_scene(scene: Scene, options: RunOptions, identity: dict) -> dict:
+    """Run `scene` with `options`; the row `identity` + `wall_s` (build, run and metrics), `simulated_s`,
+    `realtime_factor` (simulated over the frame loop's wall time) and every LocomotionMetrics field.
+
+    Raises what the run raises (SimulationDiverged, InputError, ...): the engine makes that an error row.
+    """
+    from iguana_ros import pipeline
+    from iguana_ros.run_metrics import metrics_of_run
+
+    start = time.perf_counter()
+    result = pipeline.run(scene, adaptation=options.adaptation, stop_after_goal=options.stop_after_goal,
+                          simulator_options=options.simulator_options())
+    metrics = metrics_of_run(result, scene).as_dict()
+    simulated = float(result.times[-1]) if len(result.times) else 0.0
+    loop = float(result.wall_seconds)
+    return {**identity, 'wall_s': time.perf_counter() - start, 'simulated_s': simulated,
+            'realtime_factor': simulated / loop if loop > 0 else None, **metrics}
