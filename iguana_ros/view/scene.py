@@ -27,8 +27,8 @@ ARROW_M_PER_N = 0.01
 ARROW_LIFT = 0.06
 """Height of a push arrow's tip above the root, m."""
 
-ARROW_SHOW_S = 1.0
-"""A push arrow is shown at least this long, s (a 0.1 s push would last three frames)."""
+ARROW_SHOW_S = 5.0
+"""A push arrow is shown at least this long, s (a 0.1 s push would last three frames: too short to notice)."""
 
 SLIP_WINDOW_S = 1.0
 """Simulated seconds over which foot slip is measured."""

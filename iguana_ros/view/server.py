@@ -23,11 +23,14 @@ DRAW_HZ = 20.0
 CAMERA_OFFSET = np.array([-0.5, -0.65, 0.4])
 """Where the camera starts, relative to the root, m (behind-left and above, looking at the root)."""
 
+CLOSE_S = 1.0
+"""Wall seconds `close` waits for the server to stop."""
+
 FOLLOW_STEP_M = 0.01
 """The cameras follow the root once it has moved this far, m."""
 
 CONTACT_RGB = (240, 140, 40)
-PUSH_RGB = (220, 30, 30)
+PUSH_RGB = (210, 0, 0)
 DEFAULT_PUSH_N = 40.0
 """The push button's default force, N (Section VIII-D)."""
 
@@ -239,22 +242,19 @@ class ViewerPage:
                 self._follow_root(frame.root)
 
     def _follow_root(self, root: np.ndarray) -> None:
-        """Aim new browsers at the root; with 'follow the iguana', move every camera along with it (keeping the
-        viewing angle each browser has)."""
+        """Aim new browsers at the root; with 'follow the iguana', move every camera so it looks at the root from
+        the angle and distance that browser has (setting a viser camera's position moves its look-at along)."""
         drawn = self.drawn
         if drawn.followed is not None and np.linalg.norm(root - drawn.followed) < FOLLOW_STEP_M:
             return
         self._aim(self.server.initial_camera, root)
-        clients = self.server.get_clients().values()
-        if drawn.followed is None or not self._follow.value:
-            for client in clients if drawn.followed is None else ():
-                self._aim(client.camera, root)
-            drawn.followed = root.copy()
-            return
-        shift = root - drawn.followed
-        for client in clients:
+        for client in self.server.get_clients().values():
             camera = client.camera
-            camera.look_at, camera.position = tuple(camera.look_at + shift), tuple(camera.position + shift)
+            if drawn.followed is None:
+                self._aim(camera, root)
+            elif self._follow.value:
+                shift = root - np.asarray(camera.look_at, float)
+                camera.position = tuple(np.asarray(camera.position, float) + shift)
         drawn.followed = root.copy()
 
     def _replace(self, name: str, handle) -> None:
@@ -323,7 +323,12 @@ class ViewerPage:
             self.pending_goal = None
 
     def close(self) -> None:
-        """Stop the server (the page then shows that it lost it)."""
-        with _quiet():
-            self.server.stop()
+        """Stop the server (the page then shows that it lost it), waiting at most CLOSE_S: viser's stop waits up to
+        5 s for a connected browser's goodbye, and its server thread is a daemon that exit ends anyway."""
+        def stop() -> None:
+            with _quiet():
+                self.server.stop()
+        stopper = threading.Thread(target=stop, name='iguana-view-stop', daemon=True)
+        stopper.start()
+        stopper.join(CLOSE_S)
 

@@ -51,7 +51,8 @@ def test_a_missing_bag_is_one_line(tmp_path):
 
 def test_a_bag_without_mesh_frames_is_one_line(tmp_path):
     bag = _bag_without_mesh(tmp_path / 'no_mesh')
-    _one_error_line(_iguana('view', bag), 'iguana view', 'no mesh_marker topic', 'recorded: /iguana_state', 'nothing to show')
+    _one_error_line(_iguana('view', bag), 'iguana view', 'no mesh_marker topic', 'recorded: /iguana_state',
+                    'nothing to show')
 
 
 @pytest.fixture

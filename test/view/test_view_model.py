@@ -83,7 +83,8 @@ def test_goals_and_unknown_figures_before_anything_arrived():
     view = RunView()
     frame = view.frame()
     assert frame.root is None and frame.mesh is None and frame.goals is None and len(frame.path) == 0
-    assert panel_lines(frame) == ['simulated time 0.00 s', 'realtime factor –', 'clip –', 'speed –', 'foot slip –']
+    assert panel_lines(frame) == ['simulated time 0.00 s', 'realtime factor –', 'clip –', 'speed –',
+                                  'foot slip –']
     first = GoalSet(0.0, np.zeros((1, 3)), np.array([0.05]), np.ones((1, 4)))
     second = GoalSet(2.0, np.ones((2, 3)), np.array([0.05, 0.05]), np.ones((2, 4)))
     view.add_goals(second)

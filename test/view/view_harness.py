@@ -12,7 +12,7 @@ import numpy as np
 
 CHROMIUM_FLAGS = ('--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
                   '--disable-background-networking', '--disable-component-update', '--disable-sync',
-                  '--window-size=900,600')
+                  '--window-size=900,640')
 """Flags that run Debian's Chromium here (a closed network: no background connections)."""
 
 APT_INSTALL_S = 600
@@ -52,7 +52,8 @@ def start_browser(chromium: str, chromedriver: str):
     options.add_argument('--user-data-dir=' + tempfile.mkdtemp(prefix='iguana_view_chromium_'))
     options.binary_location = chromium
     driver = webdriver.Chrome(service=Service(chromedriver), options=options)
-    driver.set_page_load_timeout(60)
+    driver.set_page_load_timeout(120)
+    driver.set_script_timeout(120)      # a loaded 2-core machine renders software WebGL slowly
     return driver
 
 
@@ -67,8 +68,12 @@ def wait_until(predicate, timeout: float, period: float = 0.25):
 
 
 def page_text(driver) -> str:
-    """The visible text of the page."""
-    return driver.execute_script('return document.body.innerText') or ''
+    """The visible text of the page ('' when the busy browser did not answer in time)."""
+    from selenium.common.exceptions import TimeoutException
+    try:
+        return driver.execute_script('return document.body.innerText') or ''
+    except TimeoutException:
+        return ''
 
 
 def figure(driver, name: str) -> float | None:
@@ -90,11 +95,26 @@ def screenshot(driver) -> tuple[bytes, np.ndarray]:
     return png, iio.imread(io.BytesIO(png))[..., :3]
 
 
-def colored_pixels(pixels: np.ndarray, channel: int, margin: int = 40) -> int:
-    """How many pixels have colour channel `channel` (0 red, 1 green) at least `margin` above both others."""
+GIZMO_PX = 110
+"""Size of the bottom-left corner where viser draws its red / green / blue axes gizmo, px (left out of counts)."""
+
+
+def green_pixels(pixels: np.ndarray, margin: int = 40) -> int:
+    """How many pixels have green at least `margin` above red and blue (the iguana's skin), outside the axes
+    gizmo's corner."""
     p = pixels.astype(int)
-    others = [c for c in range(3) if c != channel]
-    return int(np.sum((p[..., channel] >= p[..., others[0]] + margin) & (p[..., channel] >= p[..., others[1]] + margin)))
+    p[-GIZMO_PX:, :GIZMO_PX] = 0
+    return int(np.sum((p[..., 1] >= p[..., 0] + margin) & (p[..., 1] >= p[..., 2] + margin)))
+
+
+def red_pixels(pixels: np.ndarray, margin: int = 60, tint: int = 25) -> int:
+    """How many pixels are red: red at least `margin` above green and blue, which are within `tint` of each other
+    (the push arrows, shaded towards pink; not the orange path and contacts, whose green is far above their blue),
+    outside the axes gizmo's corner."""
+    p = pixels.astype(int)
+    p[-GIZMO_PX:, :GIZMO_PX] = 0
+    r, g, b = p[..., 0], p[..., 1], p[..., 2]
+    return int(np.sum((r >= np.maximum(g, b) + margin) & (np.abs(g - b) <= tint)))
 
 
 def click_canvas(driver, fx: float, fy: float) -> None:
