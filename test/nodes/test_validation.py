@@ -13,6 +13,7 @@ from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.nodes.goal_sender import goal_message
 from iguana_ros.ros import messages as m
+from iguana_ros.scene import MAX_PUSH_FORCE
 from iguana_ros.stages import motion_graph
 from iguana_ros.terrain.adaptation import pose_kinematics
 
