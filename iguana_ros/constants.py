@@ -132,3 +132,7 @@ translation) and the skeleton's offset (the adaptation's poses fit to 4e-16 m)."
 
 MAX_CLIP_FRAMES = 300
 """Most points a motion_clip may hold (10 s at 30 Hz; the library's stride clips have 21)."""
+
+MAX_SCHEDULE_AHEAD = 3600.0
+"""A goal stamped further ahead of simulated time than this (s) is taken as a wall-clock stamp: adopted now (the
+planner's rule; `iguana run`'s progress follows it to know which goal is current)."""

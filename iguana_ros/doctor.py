@@ -169,29 +169,52 @@ def kernel_modules(package_dir: Path | None = None) -> list[Path]:
     return sorted(p for p in root.rglob('*.py') if KERNEL_DECORATOR.search(p.read_bytes()))
 
 
-def check_kernel_cache(package_dir: Path | None = None) -> Check:
-    """Whether the compiled kernels are cached (warm: a run starts at once; cold: the first run compiles them)
-    and whether the cache folders can be written."""
+@dataclass(frozen=True)
+class KernelCache:
+    """State of the compiled-kernel cache: the package's kernel modules, those without cached kernels for their
+    current source (relative paths), those whose cache folder cannot be written."""
+
+    modules: tuple
+    cold: tuple
+    unwritable: tuple
+
+    @property
+    def state(self) -> str:
+        """'warm', 'cold' or 'partly warm (7 of 10)'."""
+        if not self.cold:
+            return 'warm'
+        if len(self.cold) == len(self.modules):
+            return 'cold'
+        return f'partly warm ({len(self.modules) - len(self.cold)} of {len(self.modules)})'
+
+
+def kernel_cache(package_dir: Path | None = None) -> KernelCache:
+    """KernelCache of the package (cold unless the cache's source stamp matches the sources, see jit.py)."""
     from iguana_ros.jit import PACKAGE_DIR, STAMP_NAME, kernel_sources_digest
     root = Path(package_dir or PACKAGE_DIR)
     modules = kernel_modules(root)
-    unwritable = [m for m in modules if not _writable_dir(m.parent / '__pycache__')[0]]
     stamp = root / '__pycache__' / STAMP_NAME
     fresh = stamp.is_file() and stamp.read_text(encoding='ascii', errors='replace').strip() == \
         kernel_sources_digest(root)
     cached = [m for m in modules if any((m.parent / '__pycache__').glob(f'{m.stem}.*.nbi'))] if fresh else []
-    cold = [str(m.relative_to(root)) for m in modules if m not in cached]
-    if unwritable:
-        folders = ', '.join(str(m.parent / '__pycache__') for m in unwritable[:3])
+    return KernelCache(tuple(modules), tuple(str(m.relative_to(root)) for m in modules if m not in cached),
+                       tuple(m for m in modules if not _writable_dir(m.parent / '__pycache__')[0]))
+
+
+def check_kernel_cache(package_dir: Path | None = None) -> Check:
+    """Whether the compiled kernels are cached (warm: a run starts at once; cold: the first run compiles them)
+    and whether the cache folders can be written."""
+    cache = kernel_cache(package_dir)
+    if cache.unwritable:
+        folders = ', '.join(str(m.parent / '__pycache__') for m in cache.unwritable[:3])
         return Check('kernel cache', False, f'cannot write {folders}: every run compiles its kernels again '
                      '(about a minute)', 'install the package where you can write (pip install -e .), or set '
                      'NUMBA_CACHE_DIR to a writable folder', needed=False)
-    if not cold:
-        return Check('kernel cache', True, f'warm ({len(modules)} modules compiled and cached), writable')
-    state = 'cold' if len(cold) == len(modules) else f'partly warm ({len(modules) - len(cold)} of {len(modules)})'
-    listed = ', '.join(cold[:3]) + (f' and {len(cold) - 3} more' if len(cold) > 3 else '')
-    return Check('kernel cache', True, f'{state}, writable: {listed} compile at first use (about a minute on 2 '
-                 'cores), cached afterwards; `iguana warm` (make install runs it) compiles them ahead')
+    if not cache.cold:
+        return Check('kernel cache', True, f'warm ({len(cache.modules)} modules compiled and cached), writable')
+    listed = ', '.join(cache.cold[:3]) + (f' and {len(cache.cold) - 3} more' if len(cache.cold) > 3 else '')
+    return Check('kernel cache', True, f'{cache.state}, writable: {listed} compile at first use (about a minute on '
+                 '2 cores), cached afterwards; `iguana warm` (make install runs it) compiles them ahead')
 
 
 def check_model_cache(resolution: str = 'medium') -> Check:

@@ -16,7 +16,7 @@ from iguana_ros.body.model import build_model
 from iguana_ros.body.root_tracking import RootTracker
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.body.spring_lengths import SpringLengthComputer
-from iguana_ros.constants import FRAME_RATE
+from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip, MotionGraph, PolicyParams
 from iguana_ros.parameters import node_parameters
@@ -30,9 +30,6 @@ from iguana_ros.terrain.placement import place_on_terrain
 
 STANCE_HEIGHT = 0.006
 """A clip foot lower than this above the capture floor counts as in stance for residual fitting, m."""
-
-MAX_SCHEDULE_AHEAD = 3600.0
-"""A goal stamped further ahead of simulated time than this (s) is taken as a wall-clock stamp: adopted now."""
 
 
 def scene_model(scene: Scene):

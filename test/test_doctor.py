@@ -98,7 +98,8 @@ def test_check_lines_and_required_checks():
     bad = doctor.Check('thing', False, 'broken', 'mend it')
     optional = doctor.Check('extra', False, 'absent', 'add it', needed=False)
     assert ok.lines() == ['✓ thing: fine']
-    assert bad.lines() == ['✗ thing: broken', '    fix: mend it'] and bad.one_line() == '✗ thing: broken; fix: mend it'
+    assert bad.lines() == ['✗ thing: broken', '    fix: mend it']
+    assert bad.one_line() == '✗ thing: broken; fix: mend it'
     assert optional.lines()[0] == '✗ extra (optional): absent'
     doctor.require([ok, optional])
     with pytest.raises(doctor.CheckFailed, match='^✗ thing: broken; fix: mend it$'):
@@ -127,3 +128,27 @@ def test_kernel_cache_cold_then_warm(tmp_path):
     (package / 'room' / '__pycache__' / 'fast.f-4.py311.nbi').write_bytes(b'')
     warm = doctor.check_kernel_cache(package)
     assert warm.ok and warm.detail == 'warm (1 modules compiled and cached), writable', warm
+
+
+def test_iguana_run_that_hears_none_of_its_nodes_stops_with_the_loopback_line(tmp_path, monkeypatch):
+    """Discovery off: no node is ever heard; the run asks the doctor's loopback and stops with its line instead of
+    waiting for a lockstep or goal time-out (the silence and loopback limits shortened for the test)."""
+    import yaml
+
+    from iguana_ros.supervisor import run as supervisor
+    from iguana_ros.supervisor.run import RunOptions, run_scene
+
+    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'OFF')
+    monkeypatch.setattr(supervisor, 'STARTUP_SILENCE_S', 2.0)
+    monkeypatch.setattr(supervisor, 'SILENCE_LOOPBACK_S', 3.0)
+    scene = tmp_path / 'walk.yaml'
+    scene.write_text(yaml.safe_dump({'name': 'walk', 'terrain': {'kind': 'flat'}, 'model': {'resolution': 'coarse'},
+                                     'goals': [{'x': 1.0, 'y': 0.0}], 'duration': 2.0}))
+    summary = run_scene(RunOptions(scene=str(scene), record=tmp_path / 'bag', domain_check_s=0.2))
+    assert summary.outcome == 'failed' and summary.exit_code == 1, summary.lines()
+    assert summary.reason == (
+        'no node of the run was heard within 2 s; ✗ DDS loopback on ROS_DOMAIN_ID '
+        f'{os.environ["ROS_DOMAIN_ID"]}: no echo within 3 s: processes cannot reach each other over DDS '
+        '(ROS_AUTOMATIC_DISCOVERY_RANGE OFF); fix: ROS_AUTOMATIC_DISCOVERY_RANGE=OFF turns discovery off: export '
+        'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST'), summary.reason
+    assert summary.phases == ()                                  # not even the launch finished: nothing was heard

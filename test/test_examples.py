@@ -41,7 +41,8 @@ def driven(tmp_path_factory):
     scene = folder / 'driven.yaml'
     scene.write_text(yaml.safe_dump(DRIVEN_SCENE))
     bag = folder / 'bag'
-    run = NodeProcess([*IGUANA, 'run', str(scene), '--record', str(bag)], 'iguana_run', folder)
+    run = NodeProcess([*IGUANA, 'run', str(scene), '--record', str(bag), '--progress-every', '1'], 'iguana_run',
+                      folder)
     with run.start():
         drive = example('drive_running_system.py', '--ahead', '0.25', '--timeout', '120', '--push', '40',
                         timeout=200)
@@ -82,3 +83,29 @@ def test_read_bag_example_reads_the_driven_run(driven, tmp_path):
     arrays = np.load(tmp_path / 'run.npz')
     assert arrays['position'].shape == (301, 3) and arrays['foot_position'].shape == (301, 4, 3)
     assert np.all(np.isfinite(arrays['position']))
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_the_driven_run_named_its_phases_and_showed_its_progress(driven):
+    """`iguana run` with stdout not a terminal: each start-up phase as it begins and ends, then a progress line
+    every second (simulated time, realtime factor, distance to the goal the commander sent, clip), and the phases'
+    durations in the summary; all from messages (run_events, iguana_state, accepted_goals)."""
+    output, _drive, code, _bag = driven
+    assert code == 0, output[-3000:]
+    lines = output.splitlines()
+    phases = ('launching nodes', 'loading the model', 'DDS discovery', 'compiling kernels')
+    ended = [next(i for i, line in enumerate(lines) if re.fullmatch(rf'\[start-up\] {p}: \d+\.\d\d s( \(.*\))?', line))
+             for p in phases]
+    assert ended == sorted(ended), lines[:12]
+    assert lines[0] == '[start-up] launching nodes ...'
+    shown = re.compile(r'\[progress\] \d+\.\d\d of 10\.00 s simulated \(\d+ %\).*')
+    progress = [line for line in lines if shown.fullmatch(line)]
+    assert progress and all(ended[-1] < lines.index(line) for line in progress), lines
+    assert any(re.search(r', realtime factor \d+\.\d\d, \d+\.\d\d m to the goal, clip \'\w+\'$', line)
+               for line in progress), progress
+    assert lines.index(progress[-1]) < lines.index('run completed: 10.00 of 10.00 s simulated')
+    startup = next(line for line in lines if line.startswith('start-up: '))
+    assert re.fullmatch(r'start-up: launching nodes \d+\.\d\d s, loading the model \d+\.\d\d s '
+                        r'\(model (from cache|built)\), DDS discovery \d+\.\d\d s, compiling kernels \d+\.\d\d s '
+                        r'\(kernel cache [\w ()]+\)', startup), startup

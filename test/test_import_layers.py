@@ -12,7 +12,7 @@ Each floor imports only from the floors below it (and, unless it is marked indep
    `run_metrics` (figures of a run).
 5. library tools -- ROS-free studies and tools over the library loop: `diagnostics`, `locomotion_bench`,
    `push_experiment`, `warmup` (compiles the kernels a run and a render use), `doctor` (the checks that need no
-   ROS graph; it probes rclpy in a child process).
+   ROS graph; it probes rclpy in a child process), `progress` (start-up phases and the progress display of a run).
 6. ROS adapter -- `ros/`: topics and QoS resolved from msg_configs/topics.yaml, message conversions, the CDR
    codec, the pipeline's values as messages. The lowest floor that may import rclpy or message packages.
 7. nodes and bag -- `nodes/` (the four nodes, goal sending) and `bag/` (record, play, read); independent: neither
@@ -58,7 +58,7 @@ FLOORS = floors(
     ('core rooms', 'body motion terrain physics metrics render visuals'),
     ('scene', 'scene validation random_scenes'),
     ('pipeline stages', 'stages pipeline run_metrics'),
-    ('library tools', 'diagnostics warmup doctor'),
+    ('library tools', 'diagnostics warmup doctor progress'),
     ('ROS adapter', 'ros'),
     ('nodes and bag', 'nodes bag', True),
     ('supervisor', 'supervisor'),

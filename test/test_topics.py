@@ -9,12 +9,14 @@ PROBE_KEYS = {'foot_state', 'foot_positions', 'reference_stance'}
 """Per-frame gait probes the run summary reads from the bag."""
 CONFIRM_KEYS = {'accepted_goals'}
 """The planner's latched echo of the goals it accepted (iguana goal and iguana run wait for it)."""
+EVENT_KEYS = {'run_events'}
+"""What the node processes report about themselves (start-up milestones, clips) for iguana run's progress."""
 DOCTOR_KEYS = {'doctor_ping', 'doctor_pong'}
 """`iguana doctor`'s loopback between two processes."""
 
 
 def test_table_has_every_design_topic():
-    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS | DOCTOR_KEYS
+    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS | EVENT_KEYS | DOCTOR_KEYS
 
 
 def test_latched_topics_are_transient_local():

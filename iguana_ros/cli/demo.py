@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from iguana_ros.cli.run import add_progress_option
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `demo` sub-command."""
@@ -13,19 +15,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('scene', nargs='?', default='hills', help='scene to run (default: hills)')
     parser.add_argument('--duration', type=float, default=None, metavar='S', help='simulated seconds')
     parser.add_argument('--bags-dir', type=Path, default=Path('bags'), help='where bags go (default: bags/)')
+    add_progress_option(parser)
     parser.set_defaults(func=run)
+
+
+def next_commands(bag: Path, scene: str) -> list[str]:
+    """The three commands to try after the demo: watch or render its bag, send a goal, run another scene."""
+    from iguana_ros.scene import available_scenes
+    other = next((name for name in ('goal_sequence', 'push_normal', *available_scenes()) if name != scene), scene)
+    return [f'iguana view {bag}                # watch the recorded run in a browser (or: iguana render {bag} '
+            f'-o {bag.with_suffix(".mp4")} --camera orbit)',
+            'iguana run flat_walk --mode realtime --duration 120   # then, in a second terminal: iguana goal 1.5 0.5',
+            f'iguana run {other}                # another scene (all of them: ls msg_configs/scenes/)']
 
 
 def run(args: argparse.Namespace) -> int:
     """iguana run SCENE, then iguana render BAG -o BAG.gif; prints the outputs."""
-    from iguana_ros.cli.run import run_and_report
+    from iguana_ros.cli.run import progress_display, run_and_report
     from iguana_ros.errors import IguanaError
     from iguana_ros.supervisor.run import RunOptions
 
     extra = {} if args.duration is None else {'duration': float(args.duration)}
     print(f'iguana demo: running scene {args.scene!r} with four node processes (lockstep) ...', flush=True)
     summary, code = run_and_report(RunOptions(scene=args.scene, bags_dir=args.bags_dir, extra_params=extra),
-                                   'iguana demo')
+                                   'iguana demo', progress_display(args.progress_every))
     if code != 0:
         return code
     video = summary.bag.with_suffix('.gif')
@@ -37,4 +50,7 @@ def run(args: argparse.Namespace) -> int:
     print(f'  bag (rosbag2 MCAP, open in Foxglove or `ros2 bag info`): {summary.bag}', flush=True)
     print(f'  rendered run:                                           {video}', flush=True)
     print(f'  node logs:                                              {summary.logs}', flush=True)
+    print('\nnext, try:', flush=True)
+    for line in next_commands(summary.bag, args.scene):
+        print(f'  {line}', flush=True)
     return 0

@@ -20,6 +20,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help='wall-clock limit of the run (default: 120 s + 30 x the scene duration)')
     parser.add_argument('--duration', type=float, default=None, metavar='S',
                         help="simulated seconds to run (default: the scene's duration)")
+    add_progress_option(parser)
     parser.add_argument('--view', action='store_true',
                         help='also start `iguana view` (live, in a web browser; it stops with the run)')
     parser.add_argument('--view-port', type=int, default=8080, metavar='PORT',
@@ -29,11 +30,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def run_and_report(options, prog: str) -> tuple:
+def add_progress_option(parser: argparse.ArgumentParser) -> None:
+    """--progress-every S: how often the progress line is printed when stdout is not a terminal."""
+    parser.add_argument('--progress-every', type=float, default=5.0, metavar='S',
+                        help='start-up phases and progress on stdout: a live bar on a terminal, else a line every '
+                             'S wall seconds (default 5; 0: none)')
+
+
+def progress_display(every_s: float):
+    """The ProgressDisplay on stdout for --progress-every `every_s` (None for 0); InputError if negative."""
+    import math
+    import sys
+
+    from iguana_ros.errors import InputError
+    from iguana_ros.progress import ProgressDisplay
+    if not (every_s >= 0 and math.isfinite(every_s)):
+        raise InputError(f'--progress-every is {every_s}; expected a number of seconds >= 0')
+    return ProgressDisplay(sys.stdout, every_s) if every_s > 0 else None
+
+
+def run_and_report(options, prog: str, display=None) -> tuple:
     """Run a scene (RunOptions `options`) after `iguana doctor`'s quick checks (CheckFailed: the failed check's
     line), print its summary and, unless it completed, one line on stderr headed
     `prog`; returns (the RunSummary or None if nothing was started, the exit status: 0 completed, 1 failed,
-    128 + n stopped by signal n, e.g. 143 for SIGTERM)."""
+    128 + n stopped by signal n, e.g. 143 for SIGTERM); `display` shows the phases and progress meanwhile."""
     import sys
 
     from iguana_ros.doctor import quick_checks, require
@@ -41,7 +61,7 @@ def run_and_report(options, prog: str) -> tuple:
 
     require(quick_checks(options.record.parent if options.record is not None else options.bags_dir))
     try:
-        summary = run_scene(options)
+        summary = run_scene(options, display)
     except RunInterrupted as exc:  # before anything was started
         print(f'{prog}: {exc} before the run started; nothing was started', file=sys.stderr, flush=True)
         return None, 128 + exc.signum
@@ -61,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
     extra = {} if args.duration is None else {'duration': float(args.duration)}
+    display = progress_display(args.progress_every)
     view = None
     if args.view:
         from iguana_ros.view.server import check_port
@@ -68,4 +89,4 @@ def run(args: argparse.Namespace) -> int:
         view = ['--port', str(args.view_port), '--host', args.view_host]
     return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
                                      single_process=args.single_process, timeout=args.timeout,
-                                     extra_params=extra, view=view), 'iguana run')[1]
+                                     extra_params=extra, view=view), 'iguana run', display)[1]

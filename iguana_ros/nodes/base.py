@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from typing import Callable
 
 import rclpy
@@ -12,7 +13,9 @@ from rclpy.node import Node
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.parameters import ParamSpec, node_parameters
+from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.scene import Scene, load_scene
 from iguana_ros.validation import FRAME_NEW, FRAME_REPEAT, FRAME_STALE, check_frame
 
@@ -42,15 +45,24 @@ class IguanaNode(Node):
 
     KIND = ''
     exit_code = 0
+    load_detail = ''
+    """What the node's 'loaded' run event says about its build (e.g. 'model from cache')."""
 
     def __init__(self, **kwargs) -> None:
-        """Create the node and declare its parameters (read-only, with ranges); load its scene."""
+        """Create the node, say so on run_events, declare its parameters (read-only, with ranges); load its
+        scene."""
         super().__init__(self.KIND, **kwargs)
+        self._events = self.publisher('run_events')
+        self.report(EVENT_UP)
         self._specs = node_parameters(self.KIND)
         for spec in self._specs.values():
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
         self.add_on_set_parameters_callback(self._check_new_parameters)
         self.scene: Scene = load_scene(self.param('scene'))
+
+    def report(self, kind: str, detail: str = '', clip: str = '', frame: int = -1) -> None:
+        """Publish a run event (EVENT_UP, EVENT_LOADED, EVENT_CLIP) stamped with the wall clock on run_events."""
+        self._events.publish(run_event_msg(RunEvent(self.get_name(), kind, time.time(), detail, clip, frame)))
 
     def _check_new_parameters(self, params: list) -> SetParametersResult:
         """Accept a change of dynamic parameters that fit their declaration; refuse the rest with the reason."""
@@ -133,6 +145,9 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
     code = 0
     try:
         nodes = [factory() for factory in factories]
+        for node in nodes:
+            if isinstance(node, IguanaNode):
+                node.report(EVENT_LOADED, node.load_detail)
         executor = SingleThreadedExecutor()
         for node in nodes:
             executor.add_node(node)

@@ -7,6 +7,7 @@ from nav_msgs.msg import Path
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
+from iguana_ros.progress import EVENT_CLIP
 from iguana_ros.ros.messages import clip_to_msg, goal_from_msg, reference_stance_to_msg, state_from_msg
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
@@ -70,6 +71,7 @@ class PlannerNode(IguanaNode):
         if clip is not None:
             self.clip_pub.publish(clip_to_msg(clip, self.skeleton, frame))
             self.get_logger().info(f'frame {frame}: clip {clip.name!r} ({len(clip.root_positions)} frames)')
+            self.report(EVENT_CLIP, clip=clip.name, frame=frame)
         self.stance_pub.publish(reference_stance_to_msg(self.stage.reference_contacts(frame), frame))
 
 

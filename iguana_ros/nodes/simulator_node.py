@@ -17,7 +17,7 @@ from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.ros.conversions import (frame_stamp, marker_array_msg, stamp_frame, triangle_list_marker,
                                         triangle_list_marker_cdr)
-from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
+from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (foot_positions_to_msg, foot_state_to_msg, goal_from_msg, lengths_from_msg,
                                      push_from_msg, state_to_msg)
 from iguana_ros.run_metrics import FootProbe
@@ -53,6 +53,7 @@ class SimulatorNode(IguanaNode):
         fidelity = scene.fidelity if self.param('fidelity') == 'scene' else self.param('fidelity')
         self.stage = simulator_stage(scene, fidelity)
         self.model, self.terrain = self.stage.model, self.stage.terrain
+        self.load_detail = 'model from cache' if self.model.from_cache else 'model built'
         self.mode = self.param('mode')
         duration = self.param('duration') or scene.duration
         self.end_frame = int(round(duration * FRAME_RATE))
@@ -158,9 +159,7 @@ class SimulatorNode(IguanaNode):
 
     def missing_peers(self) -> str:
         """What the start still waits for ('' when ready): lockstep peers, goals, the recorder."""
-        if self.mode == 'lockstep' and (
-                self.count_subscribers(resolve('iguana_state')[0]) < 2
-                or self.count_publishers(resolve('spring_rest_lengths')[0]) < 1):
+        if self.mode == 'lockstep' and not self.lockstep_peers_ready():
             return 'the planner, terrain adaptation and spring-length nodes'
         if self.goals_received < self.param('wait_for_goals'):
             return f'{self.param("wait_for_goals")} goals on goal_pose ({self.goals_received} so far)'
@@ -168,6 +167,13 @@ class SimulatorNode(IguanaNode):
             any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(resolve(k)[0]))
             for k in RECORDED_FROM_START)
         return '' if recorder_ok else 'the bag recorder'
+
+    def lockstep_peers_ready(self) -> bool:
+        """Two iguana_state subscriptions (the planner's and the terrain adaptation's) besides the recorder's and
+        `iguana run`'s progress monitor's, and a spring_rest_lengths publisher."""
+        readers = [info for info in self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])
+                   if info.node_name not in (RECORDER_NODE_NAME, MONITOR_NODE_NAME)]
+        return len(readers) >= 2 and self.count_publishers(resolve('spring_rest_lengths')[0]) >= 1
 
     def on_lockstep_timeout(self, waited: float) -> None:
         """Log, re-send the state (a peer may have missed it), give up after lockstep_max_timeouts."""

@@ -16,6 +16,10 @@ RECORDER_NODE_NAME = 'iguana_bag_recorder'
 """ROS node name of the bag recorder (`iguana bag record`): the simulator waits for its subscriptions, the
 supervisor's domain check looks for it."""
 
+MONITOR_NODE_NAME = 'iguana_run_monitor'
+"""ROS node name of `iguana run`'s progress monitor (it subscribes to iguana_state; the lockstep simulator does
+not count it as a peer)."""
+
 
 def qos_profile(spec: QosSpec) -> QoSProfile:
     """rclpy QoSProfile for a QosSpec."""

@@ -170,5 +170,14 @@ def dds_checks(run_node_names: tuple[str, ...], timeout: float = LOOPBACK_TIMEOU
     return [check_loopback(result, domain), check_participants(others, domain, run_nodes, other_runs(domain))]
 
 
+def check_loopback_now(timeout: float = LOOPBACK_TIMEOUT_S) -> Check:
+    """The loopback check alone (what `iguana run` asks when it hears nothing of its nodes)."""
+    watch = DomainWatch((), DOCTOR_NODE_NAME)
+    try:
+        return check_loopback(loopback(watch, timeout), current_domain_id())
+    finally:
+        watch.close()
+
+
 if __name__ == '__main__':
     sys.exit(echo_main())

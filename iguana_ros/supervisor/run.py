@@ -7,6 +7,7 @@ bag) and the summary says so; a run refuses a ROS domain that another run (or it
 """
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
@@ -56,6 +57,13 @@ late (at least until the scene's goals are sent)."""
 
 WATCH_PERIOD_S = 0.25
 """Wall seconds between two looks at the graph while the run starts."""
+
+STARTUP_SILENCE_S = 20.0
+"""Wall seconds after the node processes were started without a message from any of them after which the run
+asks the doctor's DDS loopback whether processes here can reach each other at all."""
+
+SILENCE_LOOPBACK_S = 15.0
+"""Wall seconds that loopback may take."""
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 """Signals that stop a run in order, with a summary (unless the parent made `iguana run` ignore them)."""
@@ -172,9 +180,14 @@ def new_bag_dir(options: RunOptions, scene: Scene) -> Path:
 class SceneRun:
     """Starts and supervises the recorder and node processes of one run."""
 
-    def __init__(self, options: RunOptions) -> None:
-        """Validate the scene and choose bag and log folders (nothing is started yet)."""
+    def __init__(self, options: RunOptions, display=None) -> None:
+        """Validate the scene and choose bag and log folders (nothing is started yet); `display` (a
+        progress.ProgressDisplay, optional) shows the start-up phases and the run's progress."""
         self.options = options
+        self.display = display
+        self.monitor = None
+        self.nodes_started = math.nan
+        self.silence_checked = False
         self.scene = load_scene(options.scene)
         self.scene_file = scene_path(options.scene).resolve()
         self.bag = new_bag_dir(options, self.scene)
@@ -229,9 +242,35 @@ class SceneRun:
             self.watch = None
 
     def keep_going(self) -> None:
-        """Called while the run starts: raise if a child exited or the domain turned out to be shared."""
+        """Called while the run starts: raise if a child exited, the domain turned out to be shared or DDS does not
+        connect processes here; take in the run's messages."""
         self.alive_or_raise()
         self.watch_domain()
+        self.listen()
+
+    def start_monitor(self) -> None:
+        """Join the graph as the progress monitor (the start-up phases and the progress come from its messages)."""
+        from iguana_ros.doctor import kernel_cache
+        from iguana_ros.supervisor.progress_monitor import RunMonitor
+        self.monitor = RunMonitor(NODE_KINDS, self.planned_s, self.display)
+        self.monitor.clock.details['compiling'] = f'kernel cache {kernel_cache().state}'
+
+    def listen(self, timeout: float = 0.0) -> None:
+        """Take in the monitor's messages (waiting up to `timeout` s); if no node has been heard STARTUP_SILENCE_S
+        after they were started, the doctor's loopback decides: IguanaError with its line if DDS connects no
+        processes here."""
+        if self.monitor is None:
+            time.sleep(timeout)
+            return
+        self.monitor.poll(timeout)
+        if (self.monitor.heard or self.silence_checked or math.isnan(self.nodes_started)
+                or time.monotonic() - self.nodes_started < STARTUP_SILENCE_S):
+            return
+        self.silence_checked = True
+        from iguana_ros.supervisor.doctor_dds import check_loopback_now
+        check = check_loopback_now(SILENCE_LOOPBACK_S)
+        if not check.ok:
+            raise IguanaError(f'no node of the run was heard within {STARTUP_SILENCE_S:g} s; {check.one_line()}')
 
     def _child(self, name: str, command: list[str]) -> NodeProcess:
         """A child of this run: in the run's process group (the first one leads it), marked with the run id."""
@@ -243,6 +282,8 @@ class SceneRun:
     def start(self) -> None:
         """Recorder first (so it sees every topic), then the nodes."""
         recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '-o', str(self.bag)]
+        if self.monitor is not None:
+            self.monitor.launched()
         child = self._child('recorder', recorder)
         child.start()
         self.group = child.pid
@@ -251,6 +292,7 @@ class SceneRun:
             raise IguanaError(f'the recorder did not start within 30 s; logs in {self.logs}')
         if self.options.view is not None:
             self.start_viewer()
+        self.nodes_started = time.monotonic()
         for name, command in node_commands(self.options, self.scene, self.scene_file).items():
             self.keep_going()
             self._child(name, command).start()
@@ -299,7 +341,7 @@ class SceneRun:
             self.watch_domain(may_close=True)
             if time.monotonic() > deadline:
                 raise IguanaError(f'run exceeded the wall-clock limit of {limit:.0f} s; logs in {self.logs}')
-            time.sleep(POLL_S)
+            self.listen(POLL_S)
         self.sim_code = sim.proc.returncode
         return self.sim_code
 
@@ -307,6 +349,7 @@ class SceneRun:
         """Stop every node (all at once), then the recorder (which finalises the bag); kill anything of this
         run still alive after that (there should be none: it is named in the summary)."""
         self.close_watch()
+        self.close_monitor()
         stop_all([c for name, c in self.children.items() if name != 'recorder'], NODE_STOP_S)
         if 'recorder' in self.children:
             stop_all([self.children['recorder']], RECORDER_STOP_S)
@@ -316,6 +359,14 @@ class SceneRun:
                 os.kill(proc.pid, signal.SIGKILL)
             except (ProcessLookupError, PermissionError):
                 pass
+
+    def close_monitor(self) -> None:
+        """Take in the last messages, finish the display and leave the graph (the phases stay for the summary)."""
+        if self.monitor is not None and self.monitor.node is not None:
+            try:
+                self.monitor.poll()
+            finally:
+                self.monitor.close()
 
     def outcome(self, simulated: float) -> tuple[str, str, int]:
         """(outcome, reason, exit code) of the run, judged from what happened and how far it got."""
@@ -372,7 +423,8 @@ class SceneRun:
         node, tail = self.failed_node() if outcome == 'failed' else ('', '')
         return RunSummary(self.scene.name, self.bag, self.logs, simulated, progress.loop_wall_s, reached, when,
                           final, exit_code, tail, gait, planned_s=self.planned_s, outcome=outcome, reason=reason,
-                          total_wall_s=total, bag_note=progress.note(), failed_node=node)
+                          total_wall_s=total, bag_note=progress.note(), failed_node=node,
+                          phases=self.monitor.clock.finished() if self.monitor is not None else ())
 
 
 def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
@@ -395,14 +447,16 @@ def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene) -> t
     return goal_arrival(times[after], positions[after, :2], np.array([goal.x, goal.y]), scene.goal_radius)
 
 
-def run_scene(options: RunOptions) -> RunSummary:
+def run_scene(options: RunOptions, display=None) -> RunSummary:
     """Run a scene end to end and return its summary, whatever ends it: the scene's end, a child's crash, the
     wall-clock limit, or SIGINT / SIGTERM / SIGHUP (every child is stopped and the bag finalised first).
-    Raises (before anything is started) for a bad scene, an existing bag directory or a busy ROS domain."""
-    run = SceneRun(options)
+    Raises (before anything is started) for a bad scene, an existing bag directory or a busy ROS domain.
+    `display` (a progress.ProgressDisplay) shows the start-up phases and the progress as they happen."""
+    run = SceneRun(options, display)
     with stop_signals() as signals:
         try:
             run.check_domain()
+            run.start_monitor()
             run.start()
             run.send_goals()
             run.wait()

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from iguana_ros.progress import startup_line
 from iguana_ros.supervisor.run_gait import RunGait
 
 STATE_TOPIC = '/iguana_state'
@@ -90,6 +91,8 @@ class RunSummary:
     total_wall_s: float = 0.0
     bag_note: str = ''
     failed_node: str = ''
+    phases: tuple = ()
+    """Start-up phases that finished (iguana_ros.progress.PhaseTime), from the node processes' run_events."""
 
     @property
     def realtime_factor(self) -> float:
@@ -131,4 +134,5 @@ class RunSummary:
         return [f'scene {self.scene}: {goal}', self.outcome_text(),
                 f'simulated {self.simulated_s:.2f} s in {self.wall_s:.2f} s wall '
                 f'(realtime factor {self.realtime_factor:.2f}{total})',
+                *([startup_line(self.phases)] if self.phases else []),
                 *gait, *detail, bag, f'logs: {self.logs}']

@@ -1,0 +1,40 @@
+"""run_events messages: what a node process reports about itself (iguana_ros.progress.RunEvent) as the topic
+table's diagnostic_msgs/DiagnosticArray: header stamped with the wall clock (system time) of the event, one
+DiagnosticStatus whose name is the node, message the event, values detail, clip and frame."""
+from __future__ import annotations
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from std_msgs.msg import Header
+
+from iguana_ros.errors import InputError
+from iguana_ros.progress import RunEvent
+from iguana_ros.ros.conversions import time_from_msg, time_to_msg
+
+MAX_TEXT = 200
+"""Longest node name, event, detail or clip name accepted from the topic (characters)."""
+
+
+def run_event_msg(event: RunEvent) -> DiagnosticArray:
+    """DiagnosticArray of one RunEvent."""
+    values = [KeyValue(key='detail', value=event.detail), KeyValue(key='clip', value=event.clip),
+              KeyValue(key='frame', value=str(int(event.frame)))]
+    status = DiagnosticStatus(level=DiagnosticStatus.OK, name=event.node, message=event.kind, values=values)
+    return DiagnosticArray(header=Header(stamp=time_to_msg(event.wall_time)), status=[status])
+
+
+def run_event_from_msg(msg) -> RunEvent:
+    """RunEvent of a run_events message; InputError unless it holds one status with a short name, event and
+    values and an integer frame."""
+    if len(msg.status) != 1:
+        raise InputError(f'run_events holds {len(msg.status)} statuses, expected 1')
+    status = msg.status[0]
+    values = {kv.key: kv.value for kv in status.values}
+    texts = [status.name, status.message, values.get('detail', ''), values.get('clip', '')]
+    if any(len(text) > MAX_TEXT for text in texts):
+        raise InputError(f'run_events text longer than {MAX_TEXT} characters')
+    try:
+        frame = int(values.get('frame', '-1'))
+    except ValueError:
+        raise InputError(f'run_events frame {values.get("frame")!r} is not an integer') from None
+    return RunEvent(status.name, status.message, time_from_msg(msg.header.stamp), values.get('detail', ''),
+                    values.get('clip', ''), frame)

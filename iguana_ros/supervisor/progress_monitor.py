@@ -1,0 +1,126 @@
+"""The supervisor's view of a run over DDS, for `iguana run`'s progress: the node processes' run_events (start-up
+milestones, the planner's clips), the simulator's iguana_state (how far the run is, when frames 0 and 1 were
+published, where the root is) and the planner's accepted_goals (the goal it follows). Everything comes from
+messages; nothing is read from a log.
+
+The monitor is a node of its own (`iguana_run_monitor`, its own rclpy context, no signal handlers) that the
+supervisor spins in short steps from its own loop (`poll`); a message it cannot read is skipped, never raised.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
+from iguana_ros.errors import IguanaError
+from iguana_ros.progress import EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus, StartupClock, active_goal
+from iguana_ros.ros.conversions import time_from_msg
+from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, resolve
+from iguana_ros.ros.messages import state_from_msg
+from iguana_ros.ros.run_events import run_event_from_msg
+
+MAX_TAKES = 500
+"""Most messages one `poll` takes in (a burst after a stall is drained over a few polls)."""
+
+
+class RunMonitor:
+    """Listens to a run (see the module docstring); `display` (optional) shows phases and progress."""
+
+    def __init__(self, nodes: tuple, planned_s: float, display: ProgressDisplay | None = None) -> None:
+        """Join the graph and subscribe; nothing is shown until `launched()`."""
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        self.clock = StartupClock(tuple(nodes))
+        self.planned_s, self.display = planned_s, display
+        self.rate = RateWindow()
+        self.frame, self.root, self.clip = -1, None, ''
+        self.goals: list[tuple] = []
+        self.heard = 0
+        self.taken = 0
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(MONITOR_NODE_NAME, context=self.context)
+        for key, callback in (('run_events', self._on_event), ('iguana_state', self._on_state),
+                              ('accepted_goals', self._on_goals)):
+            name, cls, qos = resolve(key)
+            self.node.create_subscription(cls, name, callback, qos)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def launched(self) -> None:
+        """The supervisor starts the run's processes now."""
+        self.clock.launched = time.time()
+        self._show()
+
+    def _on_event(self, msg) -> None:
+        """A node's run event: a start-up milestone or the planner's new clip."""
+        self.taken += 1
+        try:
+            event = run_event_from_msg(msg)
+        except IguanaError:
+            return
+        self.heard += 1
+        self.clock.note(event)
+        if event.kind == EVENT_CLIP and event.clip:
+            self.clip = event.clip
+
+    def _on_state(self, msg, info) -> None:
+        """The simulator's state of a frame: its publication time (frames 0 and 1) and the root."""
+        self.taken += 1
+        try:
+            frame, root, _ = state_from_msg(msg)
+        except IguanaError:
+            return
+        self.heard += 1
+        self.clock.note_frame(frame, info['source_timestamp'] / 1e9)
+        if frame > self.frame:
+            self.frame, self.root = frame, root
+            self.rate.add(time.monotonic(), frame / FRAME_RATE)
+
+    def _on_goals(self, msg) -> None:
+        """The planner's accepted goals, in order: (x, y, adoption time s)."""
+        self.taken += 1
+        self.goals = [(p.pose.position.x, p.pose.position.y, time_from_msg(p.header.stamp)) for p in msg.poses]
+
+    def status(self) -> RunStatus:
+        """Simulated time, recent realtime factor, distance to the goal the planner follows, current clip."""
+        now = max(self.frame, 0) / FRAME_RATE
+        goal = active_goal(self.goals, now, MAX_SCHEDULE_AHEAD)
+        distance = math.nan if goal is None or self.root is None else float(np.hypot(*(self.root[:2] - goal)))
+        return RunStatus(now, self.planned_s, self.rate.factor(), distance, self.clip)
+
+    def poll(self, timeout: float = 0.0) -> None:
+        """Take in what has arrived (waiting up to `timeout` s for the first message) and update the display."""
+        self.executor.spin_once(timeout_sec=timeout)
+        for _ in range(MAX_TAKES):             # everything already queued, without waiting
+            before = self.taken
+            self.executor.spin_once(timeout_sec=0.0)
+            if self.taken == before:
+                break
+        self._show()
+
+    def _show(self) -> None:
+        """Phases as they begin and end; the progress once frame 1 is out."""
+        if self.display is None:
+            return
+        self.display.phases(self.clock.finished(), self.clock.current())
+        if not math.isnan(self.clock.frame1):
+            self.display.update(self.status())
+
+    def close(self) -> None:
+        """Finish the display and leave the graph (once; the clock and status stay readable)."""
+        import rclpy
+        if self.display is not None:
+            self.display.close()
+        if self.node is None:
+            return
+        try:
+            self.executor.shutdown()
+            self.node.destroy_node()
+        finally:
+            self.node = None
+            rclpy.try_shutdown(context=self.context)
