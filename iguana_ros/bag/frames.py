@@ -12,7 +12,6 @@ receive times when the stamps do not advance (an unstamped publisher). Frames ar
 from __future__ import annotations
 
 import math
-import struct
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ from iguana_ros.bag.storage import BagReader, BagSummary, summarize
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_normalize, quat_rotate, yaw_of
 from iguana_ros.render.run import GoalSet, RecordedRun
+from iguana_ros.ros.cdr import MarkerData, header_stamp_ns, marker_array_from_cdr, triangle_list_from_cdr
 from iguana_ros.topics import topic
 
 NS = 1_000_000_000
@@ -46,12 +46,6 @@ def match_topic(recorded: list[str], name: str) -> str | None:
         return absolute
     namespaced = sorted(r for r in recorded if r.endswith('/' + name.lstrip('/')))
     return namespaced[0] if namespaced else None
-
-
-def stamp_ns(data: bytes) -> int:
-    """header.stamp (ns) of a serialized stamped message (the stamp opens the CDR payload)."""
-    sec, nsec = struct.unpack_from('<iI', data, 4)
-    return sec * NS + nsec
 
 
 @dataclass
@@ -104,7 +98,7 @@ class _Collector:
     def add_mesh(self, data: bytes, log_ns: int) -> None:
         """Take one serialized mesh Marker; the time base is fixed by the first two messages."""
         self.mesh_count += 1
-        stamp = stamp_ns(data)
+        stamp = header_stamp_ns(data)
         if self.base is None:
             if not self.stamps:
                 self.stamps.append((stamp, log_ns, data))
@@ -124,8 +118,6 @@ class _Collector:
 
     def _accept(self, time_ns: int, log_ns: int, data: bytes) -> None:
         """Record the centroid of a mesh frame and keep its arrays if the selection wants it."""
-        from iguana_ros.ros.conversions import triangle_list_from_cdr
-
         t = (time_ns - self.t0_ns) / NS
         self.last_t = max(self.last_t, t)
         sel = self.selection
@@ -195,7 +187,7 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
         if role == 'mesh_marker':
             collector.add_mesh(msg.data, msg.log_time)
         elif role == 'iguana_state':
-            collector.odometry.append((stamp_ns(msg.data), msg.log_time, msg.data))
+            collector.odometry.append((header_stamp_ns(msg.data), msg.log_time, msg.data))
         elif role == 'scene_markers':
             collector.scenes.append((msg.log_time, msg.data))
         if progress is not None and k % 64 == 63:
@@ -307,87 +299,3 @@ def goal_set(t: float, markers: list[MarkerData]) -> GoalSet:
     pos = np.array([m.position for m in markers])
     radii = np.array([0.5 * max(float(m.scale[0]), 1e-3) for m in markers])
     return GoalSet(t, pos, radii, np.array([m.color for m in markers]))
-
-
-@dataclass
-class MarkerData:
-    """The fields of a visualization_msgs/Marker that rendering uses, as numpy arrays."""
-
-    ns: str
-    type: int
-    action: int
-    position: np.ndarray        # (3,) m
-    orientation: np.ndarray     # (4,) xyzw
-    scale: np.ndarray           # (3,)
-    color: np.ndarray           # (4,) RGBA
-    points: np.ndarray          # (n, 3) m
-    colors: np.ndarray          # (n, 4) RGBA
-
-
-class _CdrCursor:
-    """Little-endian CDR reader; alignment is relative to the payload start (after the 4-byte header)."""
-
-    def __init__(self, data: bytes) -> None:
-        if len(data) < 4 or data[:4] != b'\x00\x01\x00\x00':
-            raise InputError('scene_markers: message bytes are not little-endian CDR')
-        self.data, self.pos = data, 0
-
-    def take(self, fmt: str, align: int) -> tuple:
-        """Unpack `fmt` at the next `align`-aligned offset."""
-        self.pos += (-self.pos) % align
-        values = struct.unpack_from('<' + fmt, self.data, 4 + self.pos)
-        self.pos += struct.calcsize('<' + fmt)
-        return values
-
-    def string(self) -> str:
-        """A CDR string (uint32 length including the NUL, bytes)."""
-        (n,) = self.take('I', 4)
-        text = self.data[4 + self.pos:4 + self.pos + max(n - 1, 0)].decode(errors='replace')
-        self.pos += n
-        return text
-
-    def sequence(self, dtype: str, width: int, align: int) -> np.ndarray:
-        """A sequence of `width`-wide rows of `dtype` as an array `(n, width)`."""
-        (n,) = self.take('I', 4)
-        if n == 0:
-            return np.zeros((0, width))
-        self.pos += (-self.pos) % align
-        values = np.frombuffer(self.data, dtype, n * width, 4 + self.pos).reshape(n, width)
-        self.pos += values.nbytes
-        return values
-
-
-def _read_marker(cur: _CdrCursor) -> MarkerData:
-    """One Marker at the cursor (every field read, so the cursor lands on the next one)."""
-    cur.take('iI', 4)
-    cur.string()                                   # header
-    ns = cur.string()
-    _, kind, action = cur.take('iii', 4)
-    pose = np.array(cur.take('7d', 8))
-    scale = np.array(cur.take('3d', 8))
-    color = np.array(cur.take('4f', 4), dtype=np.float64)
-    cur.take('iI?', 4)                             # lifetime, frame_locked
-    points = cur.sequence('<f8', 3, 8).astype(np.float64)
-    colors = cur.sequence('<f4', 4, 4).astype(np.float64)
-    cur.string()                                   # texture_resource
-    cur.take('iI', 4)
-    cur.string()
-    cur.string()
-    cur.sequence('u1', 1, 1)                       # texture: header, format, data
-    cur.sequence('<f4', 2, 4)                      # uv_coordinates
-    cur.string()
-    cur.string()                                   # text, mesh_resource
-    cur.string()
-    cur.sequence('u1', 1, 1)                       # mesh_file
-    cur.take('?', 1)                               # mesh_use_embedded_materials
-    return MarkerData(ns, kind, action, pose[:3], pose[3:], scale, color, points, colors)
-
-
-def marker_array_from_cdr(data: bytes) -> list[MarkerData]:
-    """The markers of a serialized visualization_msgs/MarkerArray, read with numpy (no per-point objects)."""
-    cur = _CdrCursor(data)
-    try:
-        (n,) = cur.take('I', 4)
-        return [_read_marker(cur) for _ in range(n)]
-    except (struct.error, ValueError) as exc:
-        raise InputError(f'scene_markers: message is truncated or not a MarkerArray: {exc}') from exc

@@ -15,8 +15,8 @@ from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.ros.conversions import (frame_stamp, marker_array_msg, stamp_frame, triangle_list_marker,
-                                        triangle_list_marker_cdr)
+from iguana_ros.ros.cdr import triangle_list_marker_cdr
+from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, stamp_frame, triangle_list_marker
 from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (foot_positions_to_msg, foot_state_to_msg, goal_from_msg, lengths_from_msg,
                                      push_from_msg, state_to_msg)

@@ -1,14 +1,12 @@
 """Vectorised conversions between numpy arrays and the ROS messages of the topic table.
 
 Quaternions are xyzw everywhere (ROS and scipy order). Times are float seconds on the numpy side.
-Message construction is bounded by the Python message classes (one object per point); for the
-large per-frame mesh marker, `triangle_list_marker_cdr` builds the serialized CDR bytes directly
-with numpy (publish them with `publisher.publish(bytes)`), and `triangle_list_from_cdr` reads them.
+Message construction is bounded by the Python message classes (one object per point); the large per-frame mesh
+marker is built and read as serialized bytes with numpy by the CDR codec, `iguana_ros.ros.cdr`.
 """
 from __future__ import annotations
 
 import array
-import struct
 from collections.abc import Sequence
 
 import numpy as np
@@ -26,7 +24,6 @@ from iguana_ros.errors import InputError
 from iguana_ros.validation import validate_array  # noqa: F401 (the one definition, re-exported here)
 
 _NS_PER_S = 1_000_000_000
-_CDR_LE_HEADER = b'\x00\x01\x00\x00'
 
 
 # ----------------------------------------------------------------------------- time
@@ -196,8 +193,8 @@ def multi_dof_trajectory_to_numpy(msg: MultiDOFJointTrajectory
 
 # ----------------------------------------------------------------------------- triangle-list markers
 
-def _triangle_soup(vertices, triangles, colors) -> tuple[np.ndarray, np.ndarray]:
-    """Per-corner points `(3*n_t, 3)` and RGBA `(3*n_t, 4)` from an indexed mesh."""
+def triangle_soup(vertices, triangles, colors) -> tuple[np.ndarray, np.ndarray]:
+    """Per-corner points `(3*n_t, 3)` and RGBA `(3*n_t, 4)` from an indexed mesh (validated)."""
     verts = validate_array('vertices', vertices, (None, 3))
     rgba = validate_array('colors', colors, (verts.shape[0], 4))
     tris = np.asarray(triangles)
@@ -217,7 +214,7 @@ def triangle_list_marker(vertices, triangles, colors, stamp: float | Time = 0.0,
 
     points/colors get 3*n_t entries; color.a = 1, scale = 1, identity pose so RViz2 and Foxglove draw it.
     """
-    points, rgba = _triangle_soup(vertices, triangles, colors)
+    points, rgba = triangle_soup(vertices, triangles, colors)
     msg = Marker(header=_header(stamp, frame_id), ns=ns, id=int(marker_id),
                  type=Marker.TRIANGLE_LIST, action=Marker.ADD)
     msg.pose.orientation.w = 1.0
@@ -234,97 +231,6 @@ def triangle_list_from_marker(msg: Marker) -> tuple[np.ndarray, np.ndarray]:
     points = np.array([(p.x, p.y, p.z) for p in msg.points], dtype=np.float64).reshape(-1, 3)
     colors = np.array([(c.r, c.g, c.b, c.a) for c in msg.colors], dtype=np.float64).reshape(-1, 4)
     return points, colors
-
-
-class _CdrWriter:
-    """Little-endian CDR (XCDR1) byte builder; alignment is relative to the payload start."""
-
-    def __init__(self) -> None:
-        self.parts: list[bytes] = [_CDR_LE_HEADER]
-        self.size = 0
-
-    def _put(self, data: bytes, align: int) -> None:
-        pad = (-self.size) % align
-        if pad:
-            self.parts.append(b'\x00' * pad)
-        self.parts.append(data)
-        self.size += pad + len(data)
-
-    def pack(self, fmt: str, *values, align: int = 4) -> None:
-        self._put(struct.pack('<' + fmt, *values), align)
-
-    def string(self, text: str) -> None:
-        raw = text.encode() + b'\x00'
-        self.pack('I', len(raw))
-        self._put(raw, 1)
-
-    def array(self, values: np.ndarray, align: int) -> None:
-        """A sequence: uint32 count of rows then the raw row-major data."""
-        self.pack('I', values.shape[0])
-        if values.size:
-            self._put(np.ascontiguousarray(values).tobytes(), align)
-
-    def bytes(self) -> bytes:
-        return b''.join(self.parts)
-
-
-def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 0.0,
-                             frame_id: str = WORLD_FRAME, ns: str = 'iguana',
-                             marker_id: int = 0) -> bytes:
-    """Serialized CDR bytes of exactly the Marker `triangle_list_marker` builds (fast path to publish)."""
-    points, rgba = _triangle_soup(vertices, triangles, colors)
-    t = stamp if isinstance(stamp, Time) else time_to_msg(stamp)
-    w = _CdrWriter()
-    w.pack('iI', t.sec, t.nanosec)                            # header.stamp
-    w.string(frame_id)
-    w.string(ns)
-    w.pack('iii', int(marker_id), Marker.TRIANGLE_LIST, Marker.ADD)
-    w.pack('7d', 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, align=8)  # pose
-    w.pack('3d', 1.0, 1.0, 1.0, align=8)                      # scale
-    w.pack('4f', 1.0, 1.0, 1.0, 1.0)                          # color
-    w.pack('iI?', 0, 0, False)                                # lifetime, frame_locked
-    w.array(points.astype('<f8', copy=False), 8)
-    w.array(rgba.astype('<f4'), 4)
-    w.string('')                                              # texture_resource
-    w.pack('iI', 0, 0)                                        # texture.header.stamp
-    for _ in range(2):                                        # texture frame_id, format
-        w.string('')
-    w.pack('I', 0)                                            # texture.data
-    w.pack('I', 0)                                            # uv_coordinates
-    for _ in range(3):                                        # text, mesh_resource, mesh_file.filename
-        w.string('')
-    w.pack('I', 0)                                            # mesh_file.data
-    w.pack('?', False)                                        # mesh_use_embedded_materials
-    return w.bytes()
-
-
-def _cdr_string_end(data: bytes, pos: int) -> int:
-    """Offset after the CDR string starting at aligned offset `pos` (payload-relative)."""
-    (length,) = struct.unpack_from('<I', data, 4 + pos)
-    return pos + 4 + length
-
-
-def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:
-    """Points `(3*n_t, 3)` and RGBA `(3*n_t, 4)` read with numpy from serialized Marker bytes."""
-    if len(data) < 8 or data[:4] != _CDR_LE_HEADER:
-        raise InputError('marker bytes are not little-endian CDR (expected header 00 01 00 00)')
-    try:
-        pos = _cdr_string_end(data, 8)                       # after stamp, frame_id
-        pos = _cdr_string_end(data, pos + (-pos) % 4)        # ns
-        pos += (-pos) % 4 + 12                               # id, type, action
-        pos += (-pos) % 8 + 7 * 8 + 3 * 8                    # pose, scale
-        pos += 16 + 8 + 1                                    # color, lifetime, frame_locked
-        pos += (-pos) % 4
-        (n_points,) = struct.unpack_from('<I', data, 4 + pos)
-        pos += 4 + (-(pos + 4)) % 8 if n_points else 4
-        points = np.frombuffer(data, '<f8', n_points * 3, 4 + pos).reshape(-1, 3)
-        pos += n_points * 24
-        pos += (-pos) % 4
-        (n_colors,) = struct.unpack_from('<I', data, 4 + pos)
-        colors = np.frombuffer(data, '<f4', n_colors * 4, 8 + pos).reshape(-1, 4)
-    except (struct.error, ValueError) as exc:
-        raise InputError(f'marker bytes are truncated or not a visualization_msgs/Marker: {exc}') from exc
-    return points.astype(np.float64), colors.astype(np.float64)
 
 
 def marker_array_msg(markers: Sequence[Marker], delete_all_first: bool = False) -> MarkerArray:

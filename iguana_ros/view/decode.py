@@ -1,15 +1,15 @@
 """The topic table's messages into a `RunView`, one function per topic; the live node and the bag reader both use
-these. Messages that do not fit their topic (the decoders of nodes/messages.py decide) raise InputError; the
+these. Messages that do not fit their topic (the decoders of ros/messages.py decide) raise InputError; the
 caller counts or logs them and goes on."""
 from __future__ import annotations
 
 import numpy as np
 
-from iguana_ros.bag.frames import DEFAULT_MESH_RGBA, NS, marker_array_from_cdr, scene_update, stamp_ns
+from iguana_ros.bag.frames import DEFAULT_MESH_RGBA, NS, scene_update
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
-from iguana_ros.ros.conversions import (multi_dof_trajectory_to_numpy, odometry_to_numpy, time_from_msg,
-                                          triangle_list_from_cdr)
+from iguana_ros.ros.cdr import header_stamp_ns, marker_array_from_cdr, triangle_list_from_cdr
+from iguana_ros.ros.conversions import multi_dof_trajectory_to_numpy, odometry_to_numpy, time_from_msg
 from iguana_ros.ros.messages import foot_positions_from_msg, foot_state_from_msg
 from iguana_ros.view.scene import ClipEvent, MeshFrame, PushEvent, RunView, identify_clip
 
@@ -24,7 +24,7 @@ def take_mesh(view: RunView, data: bytes) -> None:
         raise InputError(f'mesh_marker with {len(points)} points, or NaN/Inf coordinates')
     if len(colors) != len(points):
         colors = np.tile(DEFAULT_MESH_RGBA, (len(points), 1))
-    view.add_mesh(MeshFrame(stamp_ns(data) / NS, points.astype(np.float32), colors.astype(np.float32)))
+    view.add_mesh(MeshFrame(header_stamp_ns(data) / NS, points.astype(np.float32), colors.astype(np.float32)))
 
 
 def take_scene(view: RunView, data: bytes, time: float) -> None:

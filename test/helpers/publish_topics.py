@@ -21,6 +21,7 @@ def build_messages(i: int, t: float) -> dict:
 
     from iguana_ros.geometry import quat_from_yaw
     from iguana_ros.ros import conversions as cv
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
     rng = np.random.default_rng(i)
     verts = rng.random((30, 3))
     tris = rng.integers(0, 30, (40, 3))
@@ -28,7 +29,7 @@ def build_messages(i: int, t: float) -> dict:
         'goal_pose': cv.pose_stamped_msg([i * 0.1, -i * 0.2, 0.0], quat_from_yaw(0.1 * i), t),
         'iguana_state': cv.odometry_msg(rng.random(3), [0, 0, 0, 1], rng.random(3), rng.random(3), t),
         'spring_rest_lengths': cv.joint_state_msg(rng.random(50), t),
-        'mesh_marker': cv.triangle_list_marker_cdr(verts, tris, rng.random((30, 4)), t),
+        'mesh_marker': triangle_list_marker_cdr(verts, tris, rng.random((30, 4)), t),
     }
 
 
@@ -48,6 +49,7 @@ def main() -> int:
     from rclpy.serialization import serialize_message
 
     from iguana_ros.ros import conversions as cv
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
     from iguana_ros.ros.endpoints import resolve
     from ros_harness import wait_for, write_dump
 

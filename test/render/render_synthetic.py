@@ -75,7 +75,8 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
     from iguana_ros.bag.schema import message_definition
     from iguana_ros.bag.storage import BagWriter
     from iguana_ros.geometry import quat_from_yaw
-    from iguana_ros.ros.conversions import odometry_msg, triangle_list_marker_cdr
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
+    from iguana_ros.ros.conversions import odometry_msg
     from iguana_ros.topics import topic
 
     writer = BagWriter(directory, chunk_bytes=chunk_bytes)

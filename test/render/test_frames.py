@@ -6,8 +6,9 @@ import pytest
 from render_synthetic import (GOAL, GOAL_DIAMETER, GOAL_RGBA, RATE, TERRAIN_RGBA, box_mesh, root_pose,
                               write_synthetic_bag)
 
-from iguana_ros.bag.frames import marker_array_from_cdr, match_topic, read_run
+from iguana_ros.bag.frames import match_topic, read_run
 from iguana_ros.errors import InputError
+from iguana_ros.ros.cdr import marker_array_from_cdr
 
 
 def _box_corners(t):
@@ -69,7 +70,7 @@ def test_truncated_bag_and_non_finite_frames_are_reported(tmp_path):
     import struct
 
     from iguana_ros.bag.storage import BagWriter
-    from iguana_ros.ros.conversions import triangle_list_marker_cdr
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
     from iguana_ros.topics import topic
     bag = write_synthetic_bag(tmp_path / 'full', duration=2.0, scene=False, chunk_bytes=4096)
     data = (bag / 'full.mcap').read_bytes()

@@ -1,0 +1,236 @@
+"""The one CDR codec: serialized ROS 2 messages (little-endian plain CDR, XCDR1, as rmw_fastrtps and rosbag2 write
+them) read and written with numpy, for the messages too large for the Python message classes (one object per
+point): visualization_msgs/Marker and MarkerArray.
+
+A layout lists a message's fields in wire order; `CdrWriter.write` and `CdrReader.read` walk the same layout, so
+the bytes built and the bytes read follow one definition (`MARKER`). Alignment is relative to the payload start,
+after the 4-byte encapsulation header; an empty sequence has no padding. Reading needs numpy only (a bag reader
+imports no message package for it); the message classes are imported when a marker is built.
+"""
+from __future__ import annotations
+
+import struct
+import typing
+from dataclasses import dataclass
+
+import numpy as np
+
+from iguana_ros.constants import WORLD_FRAME
+from iguana_ros.errors import InputError
+
+if typing.TYPE_CHECKING:
+    from builtin_interfaces.msg import Time
+
+CDR_LE_HEADER = b'\x00\x01\x00\x00'
+"""Encapsulation header of little-endian plain CDR."""
+
+STRING = 'string'
+"""Layout type of a CDR string (uint32 length including the NUL, the bytes, the NUL)."""
+
+_TRIANGLE_LIST, _ADD = 11, 0
+"""visualization_msgs/Marker type and action codes of a triangle-list marker."""
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """Layout type of a CDR sequence of rows: uint32 row count, then `width` values of `dtype` per row."""
+
+    dtype: str
+    width: int
+
+
+MARKER = (
+    ('stamp', 'iI'), ('frame_id', STRING), ('ns', STRING), ('id', 'i'), ('type', 'i'), ('action', 'i'),
+    ('pose', '7d'), ('scale', '3d'), ('color', '4f'), ('lifetime', 'iI'), ('frame_locked', '?'),
+    ('points', Sequence('<f8', 3)), ('colors', Sequence('<f4', 4)),
+    ('texture_resource', STRING), ('texture_stamp', 'iI'), ('texture_frame_id', STRING), ('texture_format', STRING),
+    ('texture_data', Sequence('u1', 1)), ('uv_coordinates', Sequence('<f4', 2)),
+    ('text', STRING), ('mesh_resource', STRING), ('mesh_file_filename', STRING), ('mesh_file_data', Sequence('u1', 1)),
+    ('mesh_use_embedded_materials', '?'),
+)
+"""visualization_msgs/msg/Marker (Jazzy) in wire order; nested structs flattened: pose = position xyz then
+orientation xyzw, texture = sensor_msgs/CompressedImage (header stamp, frame_id, format, data), mesh_file =
+visualization_msgs/MeshFile (filename, data)."""
+
+
+def _alignment(fmt: str) -> int:
+    """CDR alignment of a struct format: the size of its first primitive (every field here is homogeneous)."""
+    return struct.calcsize('<' + fmt.lstrip('0123456789')[0])
+
+
+def _default(kind) -> object:
+    """The value a field takes when a writer is not given it: zeros, '' or an empty sequence."""
+    if kind == STRING:
+        return ''
+    if isinstance(kind, Sequence):
+        return np.zeros((0, kind.width), kind.dtype)
+    return tuple(0 for _ in struct.unpack('<' + kind, bytes(struct.calcsize('<' + kind))))
+
+
+class CdrWriter:
+    """Builds one serialized message: the header, then fields appended in order."""
+
+    def __init__(self) -> None:
+        """An empty payload after the little-endian header."""
+        self.parts: list[bytes] = [CDR_LE_HEADER]
+        self.size = 0
+
+    def _put(self, data: bytes, align: int) -> None:
+        """Append `data` at the next `align`-aligned payload offset."""
+        pad = (-self.size) % align
+        if pad:
+            self.parts.append(b'\x00' * pad)
+        self.parts.append(data)
+        self.size += pad + len(data)
+
+    def pack(self, fmt: str, *values) -> None:
+        """Primitives of struct format `fmt` (aligned to its first primitive)."""
+        self._put(struct.pack('<' + fmt, *values), _alignment(fmt))
+
+    def string(self, text: str) -> None:
+        """A CDR string."""
+        raw = text.encode() + b'\x00'
+        self.pack('I', len(raw))
+        self._put(raw, 1)
+
+    def sequence(self, rows: np.ndarray, kind: Sequence) -> None:
+        """A sequence: the row count, then the rows' raw data (row-major, `kind.dtype`)."""
+        data = np.ascontiguousarray(rows, dtype=kind.dtype).reshape(-1, kind.width)
+        self.pack('I', data.shape[0])
+        if data.size:
+            self._put(data.tobytes(), data.dtype.itemsize)
+
+    def write(self, layout: tuple, values: dict) -> None:
+        """Every field of `layout` from `values` (by name; missing ones take zeros, '' or empty)."""
+        for name, kind in layout:
+            value = values[name] if name in values else _default(kind)
+            if kind == STRING:
+                self.string(value)
+            elif isinstance(kind, Sequence):
+                self.sequence(value, kind)
+            else:
+                self.pack(kind, *(value if isinstance(value, (tuple, list, np.ndarray)) else (value,)))
+
+    def bytes(self) -> bytes:
+        """The serialized message."""
+        return b''.join(self.parts)
+
+
+class CdrReader:
+    """Reads the fields of one serialized message in order; struct.error or ValueError if it ends early."""
+
+    def __init__(self, data: bytes, what: str = 'message') -> None:
+        """InputError naming `what` unless `data` opens with the little-endian CDR header."""
+        if len(data) < 4 or data[:4] != CDR_LE_HEADER:
+            raise InputError(f'{what} bytes are not little-endian CDR (expected header 00 01 00 00)')
+        self.data, self.pos = data, 0
+
+    def take(self, fmt: str) -> tuple:
+        """Primitives of struct format `fmt` at the next aligned offset."""
+        self.pos += (-self.pos) % _alignment(fmt)
+        values = struct.unpack_from('<' + fmt, self.data, 4 + self.pos)
+        self.pos += struct.calcsize('<' + fmt)
+        return values
+
+    def string(self) -> str:
+        """A CDR string (undecodable bytes replaced)."""
+        (n,) = self.take('I')
+        if 4 + self.pos + n > len(self.data):
+            raise ValueError(f'string of {n} bytes runs past the end of the message')
+        text = self.data[4 + self.pos:4 + self.pos + max(n - 1, 0)].decode(errors='replace')
+        self.pos += n
+        return text
+
+    def sequence(self, kind: Sequence) -> np.ndarray:
+        """A sequence as an array `(n, kind.width)` (a read-only view of the bytes; float64 zeros when empty)."""
+        (n,) = self.take('I')
+        if n == 0:
+            return np.zeros((0, kind.width))
+        dtype = np.dtype(kind.dtype)
+        self.pos += (-self.pos) % dtype.itemsize
+        values = np.frombuffer(self.data, dtype, n * kind.width, 4 + self.pos).reshape(n, kind.width)
+        self.pos += values.nbytes
+        return values
+
+    def read(self, layout: tuple, until: str | None = None) -> dict:
+        """{name: value} of the fields of `layout` (struct fields as tuples), stopping after field `until`."""
+        out = {}
+        for name, kind in layout:
+            if kind == STRING:
+                out[name] = self.string()
+            elif isinstance(kind, Sequence):
+                out[name] = self.sequence(kind)
+            else:
+                out[name] = self.take(kind)
+            if name == until:
+                break
+        return out
+
+
+def header_stamp_ns(data: bytes) -> int:
+    """header.stamp (ns) of a serialized stamped message (the stamp opens its payload)."""
+    sec, nsec = struct.unpack_from('<iI', data, 4)
+    return sec * 1_000_000_000 + nsec
+
+
+@dataclass
+class MarkerData:
+    """The fields of a visualization_msgs/Marker that rendering uses, as numpy arrays."""
+
+    ns: str
+    type: int
+    action: int
+    position: np.ndarray        # (3,) m
+    orientation: np.ndarray     # (4,) xyzw
+    scale: np.ndarray           # (3,)
+    color: np.ndarray           # (4,) RGBA
+    points: np.ndarray          # (n, 3) m
+    colors: np.ndarray          # (n, 4) RGBA
+
+
+def _marker_data(fields: dict) -> MarkerData:
+    """MarkerData of the fields `CdrReader.read(MARKER)` returned."""
+    pose = np.array(fields['pose'])
+    return MarkerData(fields['ns'], fields['type'][0], fields['action'][0], pose[:3], pose[3:],
+                      np.array(fields['scale']), np.array(fields['color'], dtype=np.float64),
+                      fields['points'].astype(np.float64), fields['colors'].astype(np.float64))
+
+
+def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 0.0,
+                             frame_id: str = WORLD_FRAME, ns: str = 'iguana',
+                             marker_id: int = 0) -> bytes:
+    """Serialized bytes of exactly the Marker `conversions.triangle_list_marker` builds from vertices `(n_v, 3)`,
+    triangles `(n_t, 3)` and RGBA `(n_v, 4)` (the fast path to publish: `publisher.publish(bytes)`)."""
+    from builtin_interfaces.msg import Time  # noqa: F811 (the class itself, for isinstance)
+
+    from iguana_ros.ros.conversions import time_to_msg, triangle_soup
+
+    points, rgba = triangle_soup(vertices, triangles, colors)
+    t = stamp if isinstance(stamp, Time) else time_to_msg(stamp)
+    writer = CdrWriter()
+    writer.write(MARKER, {'stamp': (t.sec, t.nanosec), 'frame_id': frame_id, 'ns': ns, 'id': int(marker_id),
+                          'type': _TRIANGLE_LIST, 'action': _ADD, 'pose': (0.0,) * 6 + (1.0,),
+                          'scale': (1.0, 1.0, 1.0), 'color': (1.0, 1.0, 1.0, 1.0), 'points': points,
+                          'colors': rgba})
+    return writer.bytes()
+
+
+def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """Points `(3*n_t, 3)` and RGBA `(3*n_t, 4)` (float64) of serialized Marker bytes (read up to its colours)."""
+    reader = CdrReader(data, 'marker')
+    try:
+        fields = reader.read(MARKER, until='colors')
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'marker bytes are truncated or not a visualization_msgs/Marker: {exc}') from exc
+    return fields['points'].astype(np.float64), fields['colors'].astype(np.float64)
+
+
+def marker_array_from_cdr(data: bytes, what: str = 'scene_markers') -> list[MarkerData]:
+    """The markers of a serialized visualization_msgs/MarkerArray (no per-point objects); InputError naming
+    `what` if the bytes are not one."""
+    reader = CdrReader(data, f'{what}: message')
+    try:
+        (n,) = reader.take('I')
+        return [_marker_data(reader.read(MARKER)) for _ in range(n)]
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'{what}: message is truncated or not a MarkerArray: {exc}') from exc

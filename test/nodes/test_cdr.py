@@ -1,0 +1,139 @@
+"""The one CDR codec (iguana_ros/ros/cdr.py) against rclpy's serializer and mcap-ros2-support's decoder."""
+import numpy as np
+import pytest
+
+pytest.importorskip('rclpy')
+from mcap.records import Schema  # noqa: E402
+from mcap_ros2.decoder import DecoderFactory  # noqa: E402
+from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
+from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate  # noqa: E402
+
+from iguana_ros.bag.schema import message_definition  # noqa: E402
+from iguana_ros.errors import InputError  # noqa: E402
+from iguana_ros.ros import cdr  # noqa: E402
+from iguana_ros.ros.conversions import triangle_list_marker  # noqa: E402
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(7)
+
+
+def _mesh(rng, n_v=9, n_t=5):
+    return rng.normal(size=(n_v, 3)), rng.integers(0, n_v, size=(n_t, 3)), rng.uniform(size=(n_v, 4))
+
+
+def _decoder(type_name: str):
+    """mcap-ros2-support's decoder of `type_name` (from the definition a recorded bag's schema holds)."""
+    schema = Schema(id=1, name=type_name, encoding='ros2msg', data=message_definition(type_name).encode())
+    return DecoderFactory().decoder_for('cdr', schema)
+
+
+def _full_marker(rng, n_points: int) -> tuple[Marker, dict]:
+    """A Marker with every field set to something other than its default, and the same values as a layout dict."""
+    points = rng.normal(size=(n_points, 3))
+    colors = rng.uniform(size=(n_points, 4)).astype(np.float32)
+    uv = rng.uniform(size=(2, 2)).astype(np.float32)
+    values = {'stamp': (12, 345_000_000), 'frame_id': 'world', 'ns': 'terrain-ns', 'id': -7, 'type': 11,
+              'action': 2, 'pose': (1.5, -2.0, 0.25, 0.0, 0.0, 0.6, 0.8), 'scale': (2.0, 3.0, 4.0),
+              'color': (0.25, 0.5, 0.75, 1.0), 'lifetime': (3, 7), 'frame_locked': (True,), 'points': points,
+              'colors': colors, 'texture_resource': 'file:///t.png', 'texture_stamp': (1, 2),
+              'texture_frame_id': 'cam', 'texture_format': 'png', 'texture_data': np.arange(5, dtype=np.uint8),
+              'uv_coordinates': uv, 'text': 'héllo', 'mesh_resource': 'package://m.dae',
+              'mesh_file_filename': 'm.stl', 'mesh_file_data': np.arange(3, dtype=np.uint8),
+              'mesh_use_embedded_materials': (True,)}
+    m = Marker(ns=values['ns'], id=values['id'], type=values['type'], action=values['action'],
+               frame_locked=True, texture_resource=values['texture_resource'], text=values['text'],
+               mesh_resource=values['mesh_resource'], mesh_use_embedded_materials=True)
+    m.header.stamp.sec, m.header.stamp.nanosec = values['stamp']
+    m.header.frame_id = values['frame_id']
+    p, o = m.pose.position, m.pose.orientation
+    p.x, p.y, p.z, o.x, o.y, o.z, o.w = values['pose']
+    m.scale.x, m.scale.y, m.scale.z = values['scale']
+    m.color.r, m.color.g, m.color.b, m.color.a = values['color']
+    m.lifetime.sec, m.lifetime.nanosec = values['lifetime']
+    m.points = [type(m.pose.position)(x=x, y=y, z=z) for x, y, z in points.tolist()]
+    m.colors = [type(m.color)(r=r, g=g, b=b, a=a) for r, g, b, a in colors.tolist()]
+    m.texture.header.stamp.sec, m.texture.header.stamp.nanosec = values['texture_stamp']
+    m.texture.header.frame_id, m.texture.format = values['texture_frame_id'], values['texture_format']
+    m.texture.data = values['texture_data'].tolist()
+    m.uv_coordinates = [UVCoordinate(u=u, v=v) for u, v in uv.tolist()]
+    m.mesh_file.filename, m.mesh_file.data = values['mesh_file_filename'], values['mesh_file_data'].tolist()
+    return m, values
+
+
+@pytest.mark.parametrize('n_points', [0, 1, 4])
+def test_marker_layout_writes_what_rclpy_serializes(rng, n_points):
+    message, values = _full_marker(rng, n_points)
+    writer = cdr.CdrWriter()
+    writer.write(cdr.MARKER, values)
+    data = writer.bytes()        # rclpy leaves its padding bytes as they were: same length, same message
+    assert len(data) == len(serialize_message(message)) and deserialize_message(data, Marker) == message
+
+
+@pytest.mark.parametrize('n_points', [0, 1, 4])
+def test_marker_layout_reads_what_rclpy_serializes(rng, n_points):
+    message, values = _full_marker(rng, n_points)
+    data = serialize_message(message)
+    reader = cdr.CdrReader(data)
+    fields = reader.read(cdr.MARKER)
+    assert 4 + reader.pos == len(data)                     # every byte read, nothing left over
+    for name, kind in cdr.MARKER:
+        if isinstance(kind, cdr.Sequence):
+            np.testing.assert_array_equal(fields[name], np.asarray(values[name]).reshape(-1, kind.width))
+        elif kind == cdr.STRING:
+            assert fields[name] == values[name]
+        else:
+            assert fields[name] == tuple(np.atleast_1d(values[name]).tolist())
+
+
+def test_mcap_ros2_decodes_what_the_writer_builds(rng):
+    _, values = _full_marker(rng, 4)
+    writer = cdr.CdrWriter()
+    writer.write(cdr.MARKER, values)
+    decoded = _decoder('visualization_msgs/msg/Marker')(writer.bytes())
+    assert (decoded.ns, decoded.id, decoded.text, decoded.mesh_file.filename) == ('terrain-ns', -7, 'héllo', 'm.stl')
+    assert (decoded.header.stamp.sec, decoded.header.stamp.nanosec, decoded.lifetime.sec) == (12, 345_000_000, 3)
+    assert decoded.frame_locked and decoded.mesh_use_embedded_materials
+    assert [(p.x, p.y, p.z) for p in decoded.points] == [tuple(p) for p in values['points'].tolist()]
+    assert list(decoded.texture.data) == [0, 1, 2, 3, 4] and decoded.uv_coordinates[1].v == values['uv_coordinates'][1, 1]
+
+
+@pytest.mark.parametrize('n_t', [0, 1, 70])
+def test_mesh_marker_bytes_are_rclpys_and_read_back(rng, n_t):
+    verts, tris, rgba = _mesh(rng, n_t=n_t)
+    kwargs = dict(stamp=12.5, frame_id='world', ns='body', marker_id=4)
+    data = cdr.triangle_list_marker_cdr(verts, tris, rgba, **kwargs)
+    message = triangle_list_marker(verts, tris, rgba, **kwargs)
+    assert len(data) == len(serialize_message(message)) and deserialize_message(data, Marker) == message
+    decoded = _decoder('visualization_msgs/msg/Marker')(data)
+    assert len(decoded.points) == 3 * n_t and decoded.ns == 'body' and decoded.header.stamp.nanosec == 500_000_000
+    points, colors = cdr.triangle_list_from_cdr(data)
+    np.testing.assert_array_equal(points, verts[tris.reshape(-1)])
+    np.testing.assert_array_equal(colors, rgba[tris.reshape(-1)].astype(np.float32))
+    assert cdr.header_stamp_ns(data) == 12_500_000_000
+
+
+def test_marker_array_reader_reads_rclpy_and_every_cut_is_an_input_error(rng):
+    full, values = _full_marker(rng, 3)
+    verts, tris, rgba = _mesh(rng, n_t=2)
+    data = serialize_message(MarkerArray(markers=[full, triangle_list_marker(verts, tris, rgba, ns='x'), Marker()]))
+    markers = cdr.marker_array_from_cdr(data)
+    assert [m.ns for m in markers] == ['terrain-ns', 'x', ''] and [m.action for m in markers] == [2, 0, 0]
+    np.testing.assert_array_equal(markers[0].points, values['points'])
+    np.testing.assert_array_equal(markers[0].orientation, values['pose'][3:])
+    np.testing.assert_array_equal(markers[1].points, verts[tris.reshape(-1)])
+    for cut in range(len(data)):
+        with pytest.raises(InputError, match='not little-endian CDR|truncated or not a MarkerArray'):
+            cdr.marker_array_from_cdr(data[:cut])
+
+
+def test_mesh_reader_refuses_cut_or_foreign_bytes(rng):
+    data = cdr.triangle_list_marker_cdr(*_mesh(rng, n_t=3))
+    reader = cdr.CdrReader(data)
+    reader.read(cdr.MARKER, until='colors')
+    for cut in range(4 + reader.pos):                      # up to the colours: the part the reader needs
+        with pytest.raises(InputError, match='marker'):
+            cdr.triangle_list_from_cdr(data[:cut])
+    with pytest.raises(InputError, match='not little-endian CDR'):
+        cdr.triangle_list_from_cdr(b'\x00\x00' + data[2:])
