@@ -154,6 +154,7 @@ class ViewerPage:
             speeds = sorted(set(SPEEDS) | {pb.speed})                      # --speed may ask for another one
             self._speed = gui.add_dropdown('speed', [f'{s:g}x' for s in speeds], initial_value=f'{pb.speed:g}x')
             self._loop = gui.add_checkbox('loop', initial_value=pb.loop)
+        self._was_playing = pb.playing
         self._play.on_click(lambda _event: pb.toggle())
         self._time.on_update(lambda event: pb.seek(self._time.value) if event.client is not None else None)
         self._speed.on_update(lambda _event: setattr(pb, 'speed', float(self._speed.value.rstrip('x'))))
@@ -206,10 +207,13 @@ class ViewerPage:
                 self._goal_status()
 
     def _show_playback(self) -> None:
-        """The timeline's controls as the clock stands."""
+        """The timeline's controls as the clock stands. The slider follows the clock only while it plays (and once
+        more as it stops): paused, the slider and its number field are the user's, so a value being typed is never
+        overwritten by the clock's previous one."""
         pb = self.playback
-        if abs(self._time.value - pb.time) >= 0.01:
+        if (pb.playing or self._was_playing) and abs(self._time.value - pb.time) >= 0.01:
             self._time.value = round(pb.time, 3)
+        self._was_playing = pb.playing
         self._play.label = 'pause' if pb.playing else 'play'
 
     def draw(self, frame: ViewFrame) -> None:
