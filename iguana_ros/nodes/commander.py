@@ -15,7 +15,6 @@ a push is a WrenchStamped on `push`, its duration set first on the simulator's d
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,10 +135,9 @@ class IguanaCommander:
         self._spin_until(lambda: self._push_pub.get_subscription_count() > 0, timeout,
                          f'no simulator subscribes {self._push_pub.topic_name} within {timeout:g} s')
         self._push_pub.publish(push_msg(force, region))
-        deadline = time.monotonic() + timeout
-        while not self._push_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=0.05)):
-            if time.monotonic() > deadline:
-                raise IguanaError(f'the simulator did not acknowledge the push within {timeout:g} s')
+        acked = rclpy.duration.Duration(seconds=0.005)   # spin while waiting, so no iguana_state is dropped
+        self._spin_until(lambda: self._push_pub.wait_for_all_acked(acked), timeout,
+                         f'the simulator did not acknowledge the push within {timeout:g} s')
 
     def _set_push_duration(self, duration: float, timeout: float) -> None:
         """Set the simulator's push_duration parameter; IguanaError with the simulator's reason if refused."""
