@@ -118,7 +118,8 @@ setup(
         'tqdm>=4.60',
         'threadpoolctl>=3.1',
         'viser>=1.0,<2',     # `iguana view`: the web page and its client (shipped in the wheel)
-        'distributed>=2024.1',      # the sweep engine (iguana sweep): Dask's scheduler, workers, LocalCluster
+        'dask>=2024.1',             # the sweep engine (iguana sweep): Dask's config and sizes ...
+        'distributed>=2024.1',      # ... and its scheduler, workers, LocalCluster
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.

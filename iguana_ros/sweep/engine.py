@@ -26,7 +26,7 @@ from iguana_ros.errors import IguanaError, InputError
 DEFAULT_MEMORY_LIMIT = '3GiB'
 """Memory limit of each local worker process (Dask's nanny restarts a worker above 95 % of it); a fine-mesh
 run of 600 s keeps ~0.6 GB of trajectories."""
-ENGINE_FAILURES = ('KilledWorker', 'FutureCancelledError', 'CancelledError', 'CommClosedError')
+ENGINE_FAILURES = ('KilledWorker', 'NoWorkerError', 'FutureCancelledError', 'CancelledError', 'CommClosedError')
 """`error_type`s of rows whose task the engine lost (not a result of the task: retried by a resumed sweep)."""
 RETRIES_AFTER_WORKER_DEATH = 1
 """Times a task whose worker died is run again on another worker before its row records the death. A local
@@ -34,6 +34,9 @@ scheduler gives each worker one task at a time (worker-saturation 1.0), so a dyi
 innocent task with it."""
 CONNECT_TIMEOUT = '20s'
 """How long to wait for a scheduler given by address."""
+NO_WORKERS_TIMEOUT = '5 minutes'
+"""How long a local cluster's tasks wait while it has no worker (a nanny that could not restart its worker on an
+overloaded machine) before they fail as NoWorkerError rows instead of the sweep waiting for ever."""
 
 
 class Task(NamedTuple):
@@ -164,7 +167,8 @@ def _client(cluster: Cluster, n_tasks: int) -> Iterator:
     from distributed import Client, LocalCluster
 
     with dask.config.set({'distributed.scheduler.allowed-failures': RETRIES_AFTER_WORKER_DEATH,
-                          'distributed.scheduler.worker-saturation': 1.0}):
+                          'distributed.scheduler.worker-saturation': 1.0,
+                          'distributed.scheduler.no-workers-timeout': NO_WORKERS_TIMEOUT}):
         if cluster.scheduler:
             try:
                 client = Client(cluster.scheduler, timeout=CONNECT_TIMEOUT)

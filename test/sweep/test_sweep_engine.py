@@ -23,7 +23,7 @@ from iguana_ros.sweep.engine import Cluster, Task, run_tasks
 from iguana_ros.sweep.scene_task import TIMING_COLUMNS
 from ros_harness import IGUANA, NodeProcess, wait_for
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(400)]   # a hung cluster fails, not the suite
 
 SPEC = '''
 name: engine_test
