@@ -182,7 +182,8 @@ def _client(cluster: Cluster, n_tasks: int) -> Iterator:
         if workers < 1:
             raise InputError(f'workers must be at least 1, got {workers}')
         with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, memory_limit=cluster.memory_limit,
-                          dashboard_address=None, silence_logs=50) as local, Client(local) as client:
+                          dashboard_address=None, scheduler_kwargs={'dashboard_address': '127.0.0.1:0'},
+                          silence_logs=50) as local, Client(local) as client:   # health page on a free port
             yield client
 
 
