@@ -18,14 +18,11 @@ import numpy as np
 from iguana_ros.nodes.commander import IguanaCommander
 
 
-def lateral_peak(iguana: IguanaCommander, seconds: float) -> float:
-    """Largest sideways (world y) root speed m/s over the next `seconds` of simulated time."""
-    first = iguana.state()
-    peak, state = 0.0, first
-    while state.time < first.time + seconds:
-        state = iguana.state()
-        peak = max(peak, abs(float(state.linear_velocity[1])))
-    return peak
+def lateral_peak(iguana: IguanaCommander, since: float, seconds: float) -> float:
+    """Largest sideways (world y) root speed m/s over `seconds` of simulated time from `since` s."""
+    while iguana.state().time < since + seconds:
+        pass
+    return max(abs(float(s.linear_velocity[1])) for s in iguana.states_since(since))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -50,8 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         there = iguana.state()
         print(f't={there.time:.2f} s: reached, {iguana.distance_to_goal():.3f} m from the goal', flush=True)
         if args.push > 0:
-            iguana.push('trunk_left', (0.0, -args.push, 0.0), duration=0.1)
-            print(f'pushed {args.push:g} N for 0.1 s: peak sideways speed {lateral_peak(iguana, 0.5):.3f} m/s',
+            sent = iguana.push('trunk_left', (0.0, -args.push, 0.0), duration=0.1)
+            print(f'pushed {args.push:g} N for 0.1 s: peak sideways speed {lateral_peak(iguana, sent, 0.5):.3f} m/s',
                   flush=True)
     return 0
 

@@ -6,7 +6,8 @@
         iguana.go_to(2.0, 0.5, yaw=0.0)        # returns once the planner accepted the goal
         if iguana.wait_until_reached(timeout=60.0):
             print('reached at', iguana.state().time, 's simulated')
-        iguana.push('trunk_left', (0.0, -40.0, 0.0), duration=0.1)
+        sent = iguana.push('trunk_left', (0.0, -40.0, 0.0), duration=0.1)
+        print(max(abs(s.linear_velocity[1]) for s in iguana.states_since(sent)))
 
 The commander is an rclpy node of its own (its own context, so it can live beside other nodes of the same
 process). Goals go out like `iguana goal`'s (`publish_goals`: the planner must list them on `accepted_goals`);
@@ -15,6 +16,7 @@ a push is a WrenchStamped on `push`, its duration set first on the simulator's d
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +35,8 @@ from iguana_ros.scene import Scene
 
 SIMULATOR_NODE = 'simulator_node'
 """Name of the simulator node whose push_duration a push with a duration sets."""
+HISTORY_LENGTH = 900
+"""iguana_state messages kept for `states_since` (30 s of simulated time at 30 Hz)."""
 
 
 @dataclass(frozen=True)
@@ -65,6 +69,7 @@ class IguanaCommander:
             'goal_radius'].default)
         self.goal: np.ndarray | None = None
         self._state: IguanaState | None = None
+        self._history: deque[IguanaState] = deque(maxlen=HISTORY_LENGTH)
         name, cls, qos = resolve('iguana_state')
         self.node.create_subscription(cls, name, self._on_state, qos)
         name, cls, qos = resolve('push')
@@ -87,6 +92,7 @@ class IguanaCommander:
         """Keep the latest iguana_state."""
         position, orientation, linear, angular = odometry_to_numpy(msg)
         self._state = IguanaState(time_from_msg(msg.header.stamp), position, orientation, linear, angular)
+        self._history.append(self._state)
 
     def _spin_until(self, condition, timeout: float, failure: str) -> None:
         """Spin until `condition()`; IguanaError(`failure`) after `timeout` wall seconds."""
@@ -127,17 +133,26 @@ class IguanaCommander:
                                   'ROS_DOMAIN_ID?') from None
         return self._state
 
-    def push(self, region: str, force, duration: float | None = None, timeout: float = 10.0) -> None:
+    def states_since(self, time: float) -> list[IguanaState]:
+        """Every iguana_state received with simulated time ≥ `time` s (the last HISTORY_LENGTH kept), oldest first."""
+        return [s for s in self._history if s.time >= time]
+
+    def push(self, region: str, force, duration: float | None = None, timeout: float = 10.0) -> float:
         """Push the node group `region` (e.g. 'trunk_left') with `force` `(3,)` N in the world frame for
-        `duration` s (default: the simulator's push_duration), starting at the simulator's next frame."""
+        `duration` s (default: the simulator's push_duration), from the simulator's next frame after it arrives.
+
+        Returns once the simulator acknowledged it (Fast DDS may take its heartbeat period, ~3 s wall, while
+        the run goes on): the simulated time s of the newest state when it was sent, for `states_since`."""
         if duration is not None and duration != self._push_duration:
             self._set_push_duration(float(duration), timeout)
         self._spin_until(lambda: self._push_pub.get_subscription_count() > 0, timeout,
                          f'no simulator subscribes {self._push_pub.topic_name} within {timeout:g} s')
+        sent = self._state.time if self._state is not None else 0.0
         self._push_pub.publish(push_msg(force, region))
         acked = rclpy.duration.Duration(seconds=0.005)   # spin while waiting, so no iguana_state is dropped
         self._spin_until(lambda: self._push_pub.wait_for_all_acked(acked), timeout,
                          f'the simulator did not acknowledge the push within {timeout:g} s')
+        return sent
 
     def _set_push_duration(self, duration: float, timeout: float) -> None:
         """Set the simulator's push_duration parameter; IguanaError with the simulator's reason if refused."""
