@@ -60,6 +60,15 @@ class Probe:
     def wait_matched(self, key, count=1, timeout=30.0):
         assert spin_until(self.executor, lambda: self.pubs[key].get_subscription_count() >= count, timeout)
 
+    def deliver(self, pub, msg, timeout=30.0):
+        """Publish `msg` with `pub` and spin until every matched reader acknowledged it: a reader matched from
+        the writer's side may not have matched the writer yet (discovery is not symmetric), so this is
+        what proves both sides see each other. Fast DDS acknowledges at its heartbeat (up to ~3 s)."""
+        from rclpy.duration import Duration
+        pub.publish(msg)
+        assert spin_until(self.executor, lambda: pub.wait_for_all_acked(Duration(seconds=0.005)),
+                          timeout), f'{pub.topic_name} not acknowledged within {timeout:g} s'
+
     def wait(self, key, n=1, timeout=30.0):
         assert spin_until(self.executor, lambda: len(self.got[key]) >= n, timeout), f'no {key} message'
         return self.got[key]
