@@ -56,6 +56,18 @@ def stamp(header) -> float:
     return header.stamp.sec + header.stamp.nanosec * 1e-9
 
 
+def one_per_frame(messages: list) -> list:
+    """The first message of each header stamp: a lockstep run re-sends a frame (same stamp) to a slow peer."""
+    seen: set = set()
+    kept = []
+    for msg in messages:
+        key = (msg.header.stamp.sec, msg.header.stamp.nanosec)
+        if key not in seen:
+            seen.add(key)
+            kept.append(msg)
+    return kept
+
+
 def read_walk(bag: Path) -> Walk:
     """Decode /iguana_state, /foot_state, /foot_positions and /accepted_goals of `bag` into a Walk."""
     rows: dict[str, list] = {'/iguana_state': [], '/foot_state': [], '/foot_positions': [], '/accepted_goals': []}
@@ -63,7 +75,7 @@ def read_walk(bag: Path) -> Walk:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         for _schema, channel, _message, msg in reader.iter_decoded_messages(topics=list(rows)):
             rows[channel.topic].append(msg)
-    state, feet, soles = rows['/iguana_state'], rows['/foot_state'], rows['/foot_positions']
+    state, feet, soles = (one_per_frame(rows[t]) for t in ('/iguana_state', '/foot_state', '/foot_positions'))
     pose = [(m.pose.pose.position, m.pose.pose.orientation, m.twist.twist.linear) for m in state]
     goals = [(p.pose.position.x, p.pose.position.y) for p in rows['/accepted_goals'][-1].poses] \
         if rows['/accepted_goals'] else []
