@@ -315,7 +315,7 @@ def statics_pipeline(scene: Scene | str, model: IguanaModel | None = None) -> Pi
         scene = dataclasses.replace(scene, model=ModelSpec(model.resolution, model.stiffness))
     pipe = build_pipeline(scene)
     if model is not None and model is not pipe.simulator.model:
-        pipe.springs = spring_stage(scene, model)
+        pipe.springs = pipe.lookahead.springs = spring_stage(scene, model)
         pipe.simulator = simulator_stage(scene, model=model, terrain=pipe.simulator.terrain)
     return pipe
 

@@ -15,7 +15,7 @@ from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import Scene
-from iguana_ros.stages import (AdaptationStage, PlannerStage, SimulatorStage, adaptation_stage, clip_pose,
+from iguana_ros.stages import (AdaptationStage, PlannerStage, SimulatorStage, StrideLookahead, adaptation_stage,
                                planner_stage, scene_model, scene_terrain, simulator_stage, spring_stage)
 
 
@@ -60,33 +60,39 @@ class Pipeline:
     adaptation: AdaptationStage
     springs: SpringLengthComputer
     simulator: SimulatorStage
+    lookahead: StrideLookahead
     frame: int = 0
 
     def step(self) -> tuple:
         """One frame; returns (root position, orientation, adapted joint positions, bone rotations)."""
         root, quat = self.simulator.root_pose()
-        self.planner.update(self.frame, root, quat)
-        ref_root, ref_local = clip_pose(self.planner.clip, self.frame - self.planner.clip_start)
-        joints, rotations = self.adaptation.reference_pose(ref_root, ref_local)
-        lengths = self.springs.lengths_from_bones(rotations, joints)
-        self.simulator.advance(lengths)
+        if self.planner.update(self.frame, root, quat) is not None:
+            self.lookahead.start(self.planner.clip, self.planner.clip_start)
+        reference = self.lookahead.take(self.frame)
+        self.simulator.advance(reference.lengths)
         self.frame += 1
-        return root, quat, joints, rotations
+        return root, quat, reference.joints, reference.rotations
+
+    def close(self) -> None:
+        """Stop the lookahead's worker thread."""
+        self.lookahead.close()
 
 
 def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict | None = None,
-                   blend_frames: int | None = None, simulator_options: dict | None = None) -> Pipeline:
+                   blend_frames: int | None = None, simulator_options: dict | None = None,
+                   lookahead: bool = True) -> Pipeline:
     """Build only what `scene` needs: terrain, model, motion graph (`blend_frames`, default the planner's declared
     parameter), the four stages (adaptation as the scene says unless `adaptation` is given; off on flat ground;
-    `simulator_options` to the SoftBodySimulator), and the scene's goals scheduled as `iguana run` sends them."""
+    `simulator_options` to the SoftBodySimulator), and the scene's goals scheduled as `iguana run` sends them.
+    With `lookahead`, a stride's reference frames are computed on a second thread while the body steps."""
     terrain, model = scene_terrain(scene), scene_model(scene)
     planner = planner_stage(scene, library, blend_frames)
     for goal in scene.goals:
         planner.schedule_goal(np.array([goal.x, goal.y]), goal.at)
-    return Pipeline(scene=scene, planner=planner,
-                    adaptation=adaptation_stage(scene, adaptation, model.skeleton, terrain),
-                    springs=spring_stage(scene, model), simulator=simulator_stage(scene, model=model, terrain=terrain,
-                                                                   options=simulator_options))
+    adapt, springs = adaptation_stage(scene, adaptation, model.skeleton, terrain), spring_stage(scene, model)
+    return Pipeline(scene=scene, planner=planner, adaptation=adapt, springs=springs,
+                    simulator=simulator_stage(scene, model=model, terrain=terrain, options=simulator_options),
+                    lookahead=StrideLookahead(adapt, springs, threaded=lookahead))
 
 
 def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
@@ -107,17 +113,20 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     last_goal = np.array([scene.goals[-1].x, scene.goals[-1].y]) if scene.goals else None
     stop_frame = total
     start = _time.perf_counter()
-    for f in range(total):
-        _, _, joints, rotations = pipe.step()
-        root, quat = pipe.simulator.root_pose()
-        _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations), pipe.planner.reference_contacts(f))
-        if progress is not None:
-            progress(f + 1, total)
-        if (stop_after_goal is not None and last_goal is not None and stop_frame == total
-                and np.hypot(*(root[:2] - last_goal)) <= scene.goal_radius):
-            stop_frame = min(total, f + 1 + int(round(stop_after_goal * FRAME_RATE)))
-        if f + 1 >= stop_frame:
-            break
+    try:
+        for f in range(total):
+            _, _, joints, rotations = pipe.step()
+            root, quat = pipe.simulator.root_pose()
+            _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations), pipe.planner.reference_contacts(f))
+            if progress is not None:
+                progress(f + 1, total)
+            if (stop_after_goal is not None and last_goal is not None and stop_frame == total
+                    and np.hypot(*(root[:2] - last_goal)) <= scene.goal_radius):
+                stop_frame = min(total, f + 1 + int(round(stop_after_goal * FRAME_RATE)))
+            if f + 1 >= stop_frame:
+                break
+    finally:
+        pipe.close()
     wall = _time.perf_counter() - start
     done = f + 1 if total else 0
     rows = {k: v[:done] for k, v in rows.items()}

@@ -9,6 +9,7 @@ the same factories, so a lockstep node run and `pipeline.run(scene)` compute the
 from __future__ import annotations
 
 import dataclasses
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
@@ -170,6 +171,72 @@ def adaptation_stage(scene: Scene, enabled: bool | None = None, skeleton=None,
     elif terrain is None:
         terrain = scene_terrain(scene)
     return AdaptationStage(iguana_skeleton() if skeleton is None else skeleton, terrain, enabled=needed)
+
+
+# ------------------------------------------------------------------------------------- stride lookahead
+
+@dataclasses.dataclass(frozen=True)
+class ReferenceFrame:
+    """One frame's controller output: adapted joint positions `(n_bones, 3)` m, bone rotations `(n_bones, 4)`
+    xyzw, and desired spring lengths `(n_springs,)` m (None when no spring stage was given)."""
+
+    joints: np.ndarray
+    rotations: np.ndarray
+    lengths: np.ndarray | None
+
+
+class StrideLookahead:
+    """The reference frames of a placed clip's stride, computed in frame order on one worker thread while the
+    simulator steps (its kernel releases the GIL), so the two cores work at once.
+
+    A frame's adapted pose depends only on the clip and the adaptation's warm start from the frame before, never
+    on the simulated body, so computing a stride ahead gives the same numbers in the same order as computing each
+    frame on demand. A stride's frames are `start … start + len(clip) − 2`: its last pose is the next clip's first.
+    """
+
+    def __init__(self, adaptation: AdaptationStage, springs=None, threaded: bool = True) -> None:
+        """Look ahead with `adaptation` (and `springs`, a SpringLengthComputer) on a worker thread unless
+        `threaded` is False (then each frame is computed when asked for)."""
+        self.adaptation = adaptation
+        self.springs = springs
+        self._executor = ThreadPoolExecutor(1, thread_name_prefix='lookahead') if threaded else None
+        self._clip: AlignedClip | None = None
+        self._start = 0
+        self._pending: dict[int, Future] = {}
+
+    def compute(self, clip: AlignedClip, index: int) -> ReferenceFrame:
+        """The reference frame of pose `index` of `clip` (advances the adaptation's warm start)."""
+        joints, rotations = self.adaptation.reference_pose(*clip_pose(clip, index))
+        lengths = None if self.springs is None else self.springs.lengths_from_bones(rotations, joints)
+        return ReferenceFrame(joints, rotations, lengths)
+
+    def start(self, clip: AlignedClip, start: int) -> None:
+        """Begin the stride of `clip` placed at frame `start` (frames of an earlier stride not taken are dropped)."""
+        for future in self._pending.values():
+            future.cancel()
+        self._pending.clear()
+        self._clip, self._start = clip, int(start)
+        if self._executor is not None:
+            for frame in range(self._start, self._start + max(len(clip.root_positions) - 1, 1)):
+                self._pending[frame] = self._executor.submit(self.compute, clip, frame - self._start)
+
+    def take(self, frame: int, clip: AlignedClip | None = None, start: int | None = None) -> ReferenceFrame:
+        """The reference frame of `frame`: of the current stride (waiting for the worker if it is not done), or of
+        `clip` placed at `start` when given and not the current stride (a late frame; computed on the worker too,
+        so every adaptation call runs on one thread, in the order asked)."""
+        if clip is None or (clip is self._clip and start == self._start):
+            future = self._pending.pop(frame, None)
+            if future is not None:
+                return future.result()
+            clip, start = self._clip, self._start
+        if self._executor is None:
+            return self.compute(clip, frame - start)
+        return self._executor.submit(self.compute, clip, frame - start).result()
+
+    def close(self) -> None:
+        """Stop the worker thread (frames not yet computed are dropped)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
 
 
 # ----------------------------------------------------------------------------------------- spring lengths

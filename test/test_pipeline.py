@@ -69,3 +69,24 @@ def test_scene_goal_schedule(coarse_scene):
     planner.schedule_goal(np.array([5.0, 5.0]), at=0.0)  # interactive goal: due at once
     planner.activate_due_goals(3 / 30)
     assert np.allclose(planner.goal, [5.0, 5.0])
+
+
+def test_stride_lookahead_on_a_thread_equals_frames_computed_on_demand():
+    """Adapted poses of a stride computed ahead on the worker thread (while the body steps) are the numbers the
+    loop computes frame by frame without it: the same warm-start chain, over three strides with adaptation on."""
+    scene = parse_scene({'terrain': {'kind': 'hills', 'amplitude': 0.08}, 'model': {'resolution': 'coarse'},
+                         'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 1.0}, 'test')
+    runs = []
+    for threaded in (True, False):
+        pipe = pipeline.build_pipeline(scene, lookahead=threaded)
+        try:
+            frames = [pipe.step() for _ in range(45)]
+        finally:
+            pipe.close()
+        runs.append((frames, pipe.simulator.sim.positions.copy(), list(pipe.planner.history)))
+    (ahead, x_ahead, clips_ahead), (demand, x_demand, clips_demand) = runs
+    assert pipe.adaptation.enabled and len(clips_demand) >= 3, clips_demand
+    assert clips_ahead == clips_demand
+    for a, b in zip(ahead, demand):
+        assert all(np.array_equal(u, v) for u, v in zip(a, b))
+    assert np.array_equal(x_ahead, x_demand)

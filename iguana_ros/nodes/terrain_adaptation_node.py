@@ -4,7 +4,7 @@ from __future__ import annotations
 from iguana_ros.errors import InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.ros.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
-from iguana_ros.stages import adaptation_stage, clip_pose, stride_ended
+from iguana_ros.stages import StrideLookahead, adaptation_stage, stride_ended
 from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
 
 MAX_CLIPS = 4
@@ -26,6 +26,7 @@ class TerrainAdaptationNode(IguanaNode):
         choice = self.param('adaptation')
         self.stage = adaptation_stage(self.scene, None if choice == 'scene' else choice == 'on')
         self.skeleton = self.stage.skeleton
+        self.lookahead = StrideLookahead(self.stage)   # a stride's poses adapted while the simulator steps
         self.bound = world_bound(self.scene.terrain.extent)
         self.clips: dict[int, object] = {}
         self.pending: int | None = None
@@ -45,6 +46,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.clips[start] = clip
         for old in sorted(self.clips)[:-MAX_CLIPS]:
             del self.clips[old]
+        self.lookahead.start(clip, start)
         self._serve_pending()
 
     def on_state(self, msg) -> None:
@@ -73,9 +75,13 @@ class TerrainAdaptationNode(IguanaNode):
             return
         clip, start = found
         frame, self.pending = self.pending, None
-        root, local = clip_pose(clip, frame - start)
-        joints, rotations = self.stage.reference_pose(root, local)
-        self.state_gate.handled(frame, reference_pose_to_msg(joints, rotations, frame))
+        reference = self.lookahead.take(frame, clip, start)
+        self.state_gate.handled(frame, reference_pose_to_msg(reference.joints, reference.rotations, frame))
+
+    def destroy_node(self) -> None:
+        """Stop the lookahead's worker thread, then leave the graph."""
+        self.lookahead.close()
+        super().destroy_node()
 
 
 main = node_main(TerrainAdaptationNode)

@@ -208,7 +208,7 @@ def ramp_lengths(ld_from, ld_to, out, fraction):
         out[s] = ld_from[s] + fraction * (ld_to[s] - ld_from[s])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)   # the GIL is free while a frame steps: a lookahead thread adapts poses
 def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, external, n_steps, info, chol,
                  ramp_offset, ramp_steps):
     """Advance `n_steps` steps with preconditioned CG; stops at the first failure. Returns (status, steps done).
