@@ -1,12 +1,27 @@
-"""ament_python package for iguana_ros; also installs with `pip install -e .[ros,test]`.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+ament_python package for iguana_ros; also installs with `pip install -e .[ros,test]`.
 
 Version, description, maintainer and license come from package.xml; the executables from
 iguana_ros/executables.py (read as plain literals, without importing the package).
 """
 import ast
+from pathlib import Path
 import shutil
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 from setuptools import find_packages, setup
 from setuptools.command.develop import develop
@@ -27,7 +42,7 @@ def _manifest() -> dict:
 
 
 def _executables() -> dict:
-    """The literal assignments of iguana_ros/executables.py (NODE_EXECUTABLES, CLI_EXECUTABLE, ...)."""
+    """Return the literal assignments of iguana_ros/executables.py (NODE_EXECUTABLES, CLI_EXECUTABLE, ...)."""
     tree = ast.parse((HERE / PACKAGE / 'executables.py').read_text())
     return {node.targets[0].id: ast.literal_eval(node.value)
             for node in tree.body if isinstance(node, ast.Assign)}
@@ -59,14 +74,17 @@ def _data_files() -> list:
 
 
 def _console_scripts() -> list:
-    """The CLI and one console script per node."""
+    """Return the CLI and one console script per node."""
     nodes = [f'{name}={EXECUTABLES["NODE_PACKAGE"]}.{name}:main' for name in EXECUTABLES['NODE_EXECUTABLES']]
     return [f'{CLI}={EXECUTABLES["CLI_ENTRY_POINT"]}'] + nodes
 
 
 def _cli_on_path(scripts_dir: str) -> list:
-    """Copy the CLI from the ROS executables folder <prefix>/lib/iguana_ros (setup.cfg) to <prefix>/bin, which
-    a colcon workspace's setup script puts on PATH; nothing for any other scripts folder (pip's bin/)."""
+    """
+    Copy the CLI from the ROS executables folder <prefix>/lib/iguana_ros (setup.cfg) to <prefix>/bin.
+
+    which a colcon workspace's setup script puts on PATH; nothing for any other scripts folder (pip's bin/).
+    """
     scripts = Path(scripts_dir)
     if scripts.parts[-2:] != ('lib', PACKAGE) or not (scripts / CLI).is_file():
         return []

@@ -1,4 +1,19 @@
-"""Example 2: drive a running system from Python — send a goal, wait until the iguana is there, push it.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Example 2: drive a running system from Python — send a goal, wait until the iguana is there, push it.
 
 Start the four nodes first (in another terminal, same ROS_DOMAIN_ID), then run this script:
 

@@ -1,4 +1,19 @@
-"""Example 1: the library loop, without ROS — run a scene, compute its locomotion metrics, plot the walk.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Example 1: the library loop, without ROS — run a scene, compute its locomotion metrics, plot the walk.
 
 The four stages of `iguana_ros.pipeline` (planner, terrain adaptation, spring lengths, soft-body simulator) run
 frame by frame in this process, exactly as the four ROS 2 nodes run them in `iguana run` (a lockstep node run
@@ -16,13 +31,17 @@ from pathlib import Path
 import numpy as np
 
 from iguana_ros.constants import FRAME_RATE
-from iguana_ros.pipeline import RunResult, run
+from iguana_ros.pipeline import run, RunResult
 from iguana_ros.run_metrics import metrics_of_run
-from iguana_ros.scene import Scene, load_scene, with_duration
+from iguana_ros.scene import load_scene, Scene, with_duration
 
 
 def scene_for(name: str, duration: float | None, mesh: str | None) -> Scene:
-    """The scene `name` (a shipped scene or a YAML path), shortened to `duration` s, on mesh resolution `mesh`."""
+    """
+    Return the scene `name` (a shipped scene or a YAML path), shortened to `duration` s.
+
+    on mesh resolution `mesh`.
+    """
     scene = load_scene(name)
     if duration is not None:
         scene = with_duration(scene, duration)

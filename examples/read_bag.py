@@ -1,4 +1,19 @@
-"""Example 3: read a recorded bag into numpy arrays with an independent reader (`mcap` + `mcap-ros2-support`).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Example 3: read a recorded bag into numpy arrays with an independent reader (`mcap` + `mcap-ros2-support`).
 
 Every `iguana run` records a rosbag2-compatible MCAP bag (`bags/<scene>_<date>_<time>/`). This script reads it
 without iguana_ros's own bag code — the way any other tool would — into arrays of the root trajectory and the
@@ -14,9 +29,9 @@ import argparse
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+import numpy as np
 
 FEET = ('fl', 'fr', 'hl', 'hr')
 """Order of the feet in foot_state and foot_positions."""
@@ -24,9 +39,13 @@ FEET = ('fl', 'fr', 'hl', 'hr')
 
 @dataclass
 class Walk:
-    """Arrays of one recorded run. State rows (N frames): time `(N,)` s, root position `(N, 3)` m, orientation
-    `(N, 4)` xyzw, linear velocity `(N, 3)` m/s; foot rows (M frames): time `(M,)` s, sole height `(M, 4)` m
-    above the terrain, contact `(M, 4)` bool, sole centroid `(M, 4, 3)` m; goals `(G, 2)` m."""
+    """
+    Arrays of one recorded run.
+
+    State rows (N frames): time `(N,)` s, root position `(N, 3)` m, orientation `(N, 4)` xyzw, linear velocity `(N, 3)`
+    m/s; foot rows (M frames): time `(M,)` s, sole height `(M, 4)` m above the terrain, contact `(M, 4)` bool, sole
+    centroid `(M, 4, 3)` m; goals `(G, 2)` m.
+    """
 
     time: np.ndarray
     position: np.ndarray
@@ -40,7 +59,7 @@ class Walk:
 
 
 def mcap_file(bag: Path) -> Path:
-    """The .mcap of a bag directory (DIR/DIR.mcap or its one .mcap), or `bag` itself if it is a file."""
+    """Return the .mcap of a bag directory (DIR/DIR.mcap or its one .mcap), or `bag` itself if it is a file."""
     bag = Path(bag)
     if bag.is_file():
         return bag
@@ -52,12 +71,12 @@ def mcap_file(bag: Path) -> Path:
 
 
 def stamp(header) -> float:
-    """A header stamp in seconds."""
+    """Return a header stamp in seconds."""
     return header.stamp.sec + header.stamp.nanosec * 1e-9
 
 
 def one_per_frame(messages: list) -> list:
-    """The first message of each header stamp: a lockstep run re-sends a frame (same stamp) to a slow peer."""
+    """Return the first message of each header stamp: a lockstep run re-sends a frame (same stamp) to a slow peer."""
     seen: set = set()
     kept = []
     for msg in messages:

@@ -1,16 +1,34 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Locating the package's configuration folder `msg_configs/` (source tree, pip or colcon install)."""
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
+import sys
 
 CONFIG_ENV = 'IGUANA_CONFIG_DIR'
 """Environment variable that overrides where msg_configs/ is read from."""
 
 
 def config_dir() -> Path:
-    """The msg_configs/ folder: $IGUANA_CONFIG_DIR, the source tree, <prefix>/share/iguana_ros, or the ament index."""
+    """
+    Return the msg_configs/ folder.
+
+    $IGUANA_CONFIG_DIR, the source tree, <prefix>/share/iguana_ros, or the ament index.
+    """
     override = os.environ.get(CONFIG_ENV)
     if override:
         return Path(override)
@@ -18,9 +36,12 @@ def config_dir() -> Path:
 
 
 def shared_path(*parts: str, hint: str = '') -> Path:
-    """A file or folder the package installs under share/iguana_ros/ (msg_configs/, rviz/iguana.rviz,
-    foxglove/iguana_layout.json): from the source tree, <prefix>/share/iguana_ros (pip), or the ament index
-    (colcon); FileNotFoundError naming where it looked."""
+    """
+    Return a file or folder the package installs under share/iguana_ros/.
+
+    (msg_configs/, rviz/iguana.rviz, foxglove/iguana_layout.json): from the source tree, <prefix>/share/iguana_ros
+    (pip), or the ament index (colcon); FileNotFoundError naming where it looked.
+    """
     source = Path(__file__).resolve().parent.parent.joinpath(*parts)
     if source.exists():
         return source
@@ -37,11 +58,18 @@ def shared_path(*parts: str, hint: str = '') -> Path:
 
 
 def config_path(*parts: str) -> Path:
-    """Return a path inside msg_configs/, e.g. config_path('scenes', 'hills.yaml')."""
+    """
+    Return a path inside msg_configs/.
+
+    E.g. config_path('scenes', 'hills.yaml').
+    """
     return config_dir().joinpath(*parts)
 
 
 def params_file() -> Path:
-    """The standard ROS params file of every node (`--params-file`): `iguana run` and launch/iguana.launch.py
-    give it to each node."""
+    """
+    Return the standard ROS params file of every node (`--params-file`).
+
+    `iguana run` and launch/iguana.launch.py give it to each node.
+    """
     return config_path('params', 'iguana.yaml')

@@ -1,4 +1,19 @@
-"""Why a soft body does or does not trot, measured: support margins, standing sag, spring capacity, planted feet.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Why a soft body does or does not trot, measured: support margins, standing sag, spring capacity, planted feet.
 
 Four measurements of a model variant (ROS-free; `iguana bench statics` prints them):
 
@@ -26,14 +41,14 @@ from iguana_ros.body.mesh import PART_LIMB0
 from iguana_ros.body.model import IguanaModel
 from iguana_ros.body.skeleton import rest_joint_positions
 from iguana_ros.body.spring_lengths import SpringLengthComputer
-from iguana_ros.body.stiffness import stiffness_preset, spring_stiffness
+from iguana_ros.body.stiffness import spring_stiffness, stiffness_preset
 from iguana_ros.constants import FRAME_RATE, GRAVITY
 from iguana_ros.errors import InputError
 from iguana_ros.motion.clips import Clip, load_clip_library
 from iguana_ros.physics.simulator import SoftBodySimulator
-from iguana_ros.pipeline import Pipeline, build_pipeline
-from iguana_ros.run_metrics import FEET, TRUNK, bone_node_groups
-from iguana_ros.scene import ModelSpec, Scene, load_scene
+from iguana_ros.pipeline import build_pipeline, Pipeline
+from iguana_ros.run_metrics import bone_node_groups, FEET, TRUNK
+from iguana_ros.scene import load_scene, ModelSpec, Scene
 from iguana_ros.stages import simulator_stage, spring_stage
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
@@ -55,8 +70,11 @@ FRICTION_LIMIT_FRACTION = 0.95
 # --------------------------------------------------------------------------------------------- model variant
 
 def model_variant(model: IguanaModel, spring_scale: float = 1.0, leg_factor: float | None = None) -> IguanaModel:
-    """`model` with every spring stiffness times `spring_scale` and the preset's leg factor replaced by
-    `leg_factor` (None = keep); the same model object when nothing changes."""
+    """
+    `model` with every spring stiffness times `spring_scale` and the preset's leg factor replaced by `leg_factor`.
+
+    (None = keep); the same model object when nothing changes.
+    """
     if not (np.isfinite(spring_scale) and spring_scale > 0):
         raise InputError(f'spring scale must be a positive number, got {spring_scale!r}')
     if leg_factor is not None and not (np.isfinite(leg_factor) and leg_factor > 0):
@@ -73,8 +91,11 @@ def model_variant(model: IguanaModel, spring_scale: float = 1.0, leg_factor: flo
 
 
 def stiffness_summary(model: IguanaModel) -> dict:
-    """Resolution, preset and the effective spring scale A at L_REF (N/m) and leg factor of `model`, read back
-    from its spring stiffness (so a `model_variant` reports its own values)."""
+    """
+    Resolution, preset and the effective spring scale A at L_REF (N/m) and leg factor of `model`.
+
+    read back from its spring stiffness (so a `model_variant` reports its own values).
+    """
     preset = stiffness_preset(model.stiffness)
     legs = model.node_part >= PART_LIMB0
     both = legs[model.springs[:, 0]] & legs[model.springs[:, 1]]
@@ -92,8 +113,11 @@ def stiffness_summary(model: IguanaModel) -> dict:
 # ------------------------------------------------------------------------------------------- support margins
 
 def line_margin(point_xy: np.ndarray, a_xy: np.ndarray, b_xy: np.ndarray, side_xy: np.ndarray) -> dict:
-    """Signed horizontal distance (m) of `point_xy (2,)` from the line through `a_xy`, `b_xy (2,)`, positive on
-    the side of `side_xy (2,)`; with the line's angle from +x (rad, in [-pi/2, pi/2]) and that unit normal."""
+    """
+    Signed horizontal distance (m) of `point_xy (2,)` from the line through `a_xy`, `b_xy (2,)`.
+
+    positive on the side of `side_xy (2,)`; with the line's angle from +x (rad, in [-pi/2, pi/2]) and that unit normal.
+    """
     a, b = np.asarray(a_xy, float)[:2], np.asarray(b_xy, float)[:2]
     direction = (b - a) / np.linalg.norm(b - a)
     normal = np.array([-direction[1], direction[0]])
@@ -119,8 +143,11 @@ def inside_triangle(point_xy: np.ndarray, a_xy: np.ndarray, b_xy: np.ndarray, c_
 
 
 def support_margins(model: IguanaModel, clip: Clip) -> dict:
-    """Centre of mass against the diagonal support lines of `clip` (a `motion.clips.Clip`: `root_positions
-    (N+1, 3)`, `local_rotations (N+1, n_bones, 4)`, `contacts (N+1, 4)`), on `model`'s reference mesh.
+    """
+    Centre of mass against the diagonal support lines of `clip`.
+
+    (a `motion.clips.Clip`: `root_positions (N+1, 3)`, `local_rotations (N+1, n_bones, 4)`, `contacts (N+1, 4)`), on
+    `model`'s reference mesh.
 
     In every frame whose stance flags are exactly one diagonal pair (fl+hr or fr+hl): the signed horizontal
     distance of the mass-weighted COM from the line through the two stance feet's sole centroids, positive
@@ -172,8 +199,12 @@ def _stat(reduce, values: np.ndarray) -> float:
 # ------------------------------------------------------------------------------------------------- static sag
 
 def sag_regions(model: IguanaModel) -> dict:
-    """Node indices of the `static_sag` regions: pelvis, mid trunk, shoulders (dominant skin bone), head (tag),
-    tail base / middle / tip (thirds of the tail tag's rest x range), each foot's sole (tag)."""
+    """
+    Node indices of the `static_sag` regions.
+
+    Pelvis, mid trunk, shoulders (dominant skin bone), head (tag), tail base / middle / tip (thirds of the tail tag's
+    rest x range), each foot's sole (tag).
+    """
     regions = dict(zip(TRUNK_REGIONS, bone_node_groups(model, tuple(TRUNK_REGIONS.values()))))
     regions['head'] = np.flatnonzero(model.node_tags['head'])
     tail = np.flatnonzero(model.node_tags['tail'])
@@ -202,9 +233,11 @@ def place_by_feet(positions: np.ndarray, feet: np.ndarray, terrain: HeightField)
 
 def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanced', clip: Clip | None = None,
                frame: int = 0) -> dict:
-    """The body standing on flat ground for `seconds`, its desired lengths held at pose `frame` of `clip` (a
-    `motion.clips.Clip`; default the idle clip, whose first pose stands on all four feet; a frame of a
-    diagonal phase of `forward` holds the trot's two-foot support with the swing feet lifted).
+    """
+    Return the body standing on flat ground for `seconds`, its desired lengths held at pose `frame` of `clip`.
+
+    (a `motion.clips.Clip`; default the idle clip, whose first pose stands on all four feet; a frame of a diagonal phase
+    of `forward` holds the trot's two-foot support with the swing feet lifted).
 
     Starts from that pose's reference mesh placed on the ground (`terrain.placement.place_on_terrain`: no node below
     it). The reference the offsets are measured from is the same mesh standing on its feet (its lowest sole
@@ -247,14 +280,15 @@ def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanc
 # -------------------------------------------------------------------------------------------- spring capacity
 
 def capacity_planes(model: IguanaModel) -> dict:
-    """The default `spring_capacity` planes: name -> rest x (m) of the joint of CAPACITY_PLANES' bone."""
+    """Return the default `spring_capacity` planes: name -> rest x (m) of the joint of CAPACITY_PLANES' bone."""
     joints = rest_joint_positions(model.skeleton)
     return {name: float(joints[model.skeleton.index(bone), 0]) for name, bone in CAPACITY_PLANES.items()}
 
 
 def spring_capacity(model: IguanaModel, x_planes: dict | tuple | list | None = None,
                     strain: float = CAPACITY_STRAIN) -> list[dict]:
-    """Per vertical plane x = x0 of the rest mesh: the springs' bending moment at `strain` against gravity.
+    """
+    Per vertical plane x = x0 of the rest mesh: the springs' bending moment at `strain` against gravity.
 
     `x_planes`: plane x positions (m), a {name: x} mapping, or None for `capacity_planes(model)`. Each spring
     crossing the plane pulls a_s l_rest,s strain along its direction; its x-component acts at the moment arm
@@ -307,9 +341,12 @@ def _bending_moment(a: np.ndarray, b: np.ndarray, force: np.ndarray, x0: float) 
 # ---------------------------------------------------------------------------------------------- planted feet
 
 def statics_pipeline(scene: Scene | str, model: IguanaModel | None = None) -> Pipeline:
-    """`pipeline.build_pipeline` of `scene` (a Scene or a scene name), its simulator (and spring-length
-    stage) built for `model` instead of the scene's model when given; the scene then names `model`'s
-    resolution and preset."""
+    """
+    `pipeline.build_pipeline` of `scene` (a Scene or a scene name), its simulator.
+
+    (and spring-length stage) built for `model` instead of the scene's model when given; the scene then names `model`'s
+    resolution and preset.
+    """
     scene = load_scene(scene) if isinstance(scene, str) else scene
     if model is not None:
         scene = dataclasses.replace(scene, model=ModelSpec(model.resolution, model.stiffness))
@@ -322,7 +359,8 @@ def statics_pipeline(scene: Scene | str, model: IguanaModel | None = None) -> Pi
 
 def planted_feet(model: IguanaModel | None = None, scene: Scene | str = 'flat_walk', seconds: float = 4.0,
                  settle: float | None = None) -> dict:
-    """The pipeline walking `scene` for `seconds` (with `model`, default the scene's), sampled every frame.
+    """
+    Return the pipeline walking `scene` for `seconds` (with `model`, default the scene's), sampled every frame.
 
     Per foot, over the frames after `settle` s (default min(1 s, seconds / 4)) in which the clip says stance
     (`planner.reference_contacts`): the mean number of its sole nodes in contact (of how many), the fraction
@@ -375,8 +413,11 @@ def planted_feet(model: IguanaModel | None = None, scene: Scene | str = 'flat_wa
 # ---------------------------------------------------------------------------------------------------- report
 
 def mid_diagonal_frame(clip: Clip, stance: str = 'fl+hr') -> int:
-    """The middle frame of the first run of `clip`'s frames whose stance flags are exactly the diagonal
-    `stance` ('fl+hr' or 'fr+hl'); InputError if the clip has none."""
+    """
+    Return the middle frame of the first run of `clip`'s frames whose stance flags are exactly the diagonal `stance`.
+
+    ('fl+hr' or 'fr+hl'); InputError if the clip has none.
+    """
     frames = [i for i, flags in enumerate(np.asarray(clip.contacts, bool))
               if DIAGONALS.get(tuple(bool(f) for f in flags), ('',))[0] == stance]
     if not frames:
@@ -391,10 +432,14 @@ def mid_diagonal_frame(clip: Clip, stance: str = 'fl+hr') -> int:
 
 def statics_report(model: IguanaModel, clip_name: str = 'forward', sag_seconds: float = 2.0,
                    walk_seconds: float = 4.0, fidelity: str = 'balanced', scene: Scene | str = 'flat_walk') -> dict:
-    """All four measurements of `model`: {'model', 'support', 'sag', 'sag_diagonal', 'springs', 'planted',
-    'wall_s'} (see each function). Support margins over the library clip `clip_name`; the sag over
-    `sag_seconds` standing in the idle clip's first pose ('sag') and holding the middle fl+hr frame of
-    `clip_name` ('sag_diagonal'); the walk over `walk_seconds` of `scene`; wall seconds of each part."""
+    """
+    All four measurements of `model`.
+
+    {'model', 'support', 'sag', 'sag_diagonal', 'springs', 'planted', 'wall_s'} (see each function). Support margins
+    over the library clip `clip_name`; the sag over `sag_seconds` standing in the idle clip's first pose ('sag') and
+    holding the middle fl+hr frame of `clip_name` ('sag_diagonal'); the walk over `walk_seconds` of `scene`; wall
+    seconds of each part.
+    """
     library = load_clip_library()
     if clip_name not in library:
         raise InputError(f'no clip {clip_name!r} in the clip library; clips: {", ".join(sorted(library))}')

@@ -1,21 +1,38 @@
-"""`iguana doctor`'s checks that need no ROS graph: Python, rclpy and its RMW (probed in a child process), the
-compiled-kernel cache, the model cache, the bag folder, ffmpeg. Each gives a `Check`: a pass/fail line and, when
-it fails, the fix. The DDS checks (a loopback between two processes, other participants on the domain) are in
-`iguana_ros.supervisor.doctor_dds`; `iguana run` runs `quick_checks` before it starts anything.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana doctor`'s checks that need no ROS graph.
+
+Python, rclpy and its RMW (probed in a child process), the compiled-kernel cache, the model cache, the bag folder,
+ffmpeg. Each gives a `Check`: a pass/fail line and, when it fails, the fix. The DDS checks (a loopback between two
+processes, other participants on the domain) are in `iguana_ros.supervisor.doctor_dds`; `iguana run` runs `quick_checks`
+before it starts anything.
 
 rclpy is never imported here: with RMW_IMPLEMENTATION naming an RMW that is not installed, `import rclpy` ends
 the process (rcl exits with status 102), so it is tried in a child process first.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import json
 import os
+from pathlib import Path
 import re
 import shutil
 import subprocess
 import sys
-from dataclasses import dataclass
-from pathlib import Path
 
 from iguana_ros.errors import IguanaError
 
@@ -28,7 +45,7 @@ PROBE_TIMEOUT_S = 30.0
 RMW_ENV = 'RMW_IMPLEMENTATION'
 """Environment variable that picks the ROS middleware."""
 
-_RMW_PROBE = '''
+_RMW_PROBE = """
 import json, sys
 try:
     import rclpy
@@ -41,14 +58,18 @@ context = rclpy.Context()
 rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
 print(json.dumps({"rmw": get_rmw_implementation_identifier(), "rclpy": rclpy.__file__}))
 rclpy.try_shutdown(context=context)
-'''
+"""
 """Child-side rclpy probe: one JSON object on stdout (the RMW in use, or why rclpy does not import)."""
 
 
 @dataclass(frozen=True)
 class Check:
-    """One check's outcome: its name, whether it passed, what was found, the fix if it failed, and whether a run
-    needs it (a failed optional check does not make `iguana doctor` fail)."""
+    """
+    One check's outcome.
+
+    Its name, whether it passed, what was found, the fix if it failed, and whether a run needs it (a failed optional
+    check does not make `iguana doctor` fail).
+    """
 
     name: str
     ok: bool
@@ -64,7 +85,7 @@ class Check:
         return [head] if self.ok or not self.fix else [head, f'    fix: {self.fix}']
 
     def one_line(self) -> str:
-        """The check and its fix on one line (for an error message)."""
+        """Return the check and its fix on one line (for an error message)."""
         return '; fix: '.join(part for part in (f'✗ {self.name}: {self.detail}', self.fix) if part)
 
 
@@ -83,8 +104,12 @@ def check_python(version: tuple = tuple(sys.version_info[:3])) -> Check:
 
 
 def probe_rclpy(env: dict | None = None, timeout: float = PROBE_TIMEOUT_S) -> dict:
-    """Run the rclpy probe in a child with environment `env`: {'rmw': ...} on success, {'import_error': ...} when
-    rclpy is missing, {'status': n, 'stderr': ...} when the child failed (e.g. rcl's exit 102)."""
+    """
+    Run the rclpy probe in a child with environment `env`.
+
+    {'rmw': ...} on success, {'import_error': ...} when rclpy is missing, {'status': n, 'stderr': ...} when the child
+    failed (e.g. rcl's exit 102).
+    """
     try:
         done = subprocess.run([sys.executable, '-c', _RMW_PROBE], capture_output=True, text=True,
                               timeout=timeout, env=env, stdin=subprocess.DEVNULL)
@@ -100,7 +125,7 @@ def probe_rclpy(env: dict | None = None, timeout: float = PROBE_TIMEOUT_S) -> di
 
 
 def check_rmw(env: dict | None = None) -> Check:
-    """rclpy imports and initialises with the RMW of `env` (default: this process's environment)."""
+    """Rclpy imports and initialises with the RMW of `env` (default: this process's environment)."""
     env = dict(os.environ if env is None else env)
     found = probe_rclpy(env)
     wanted = env.get(RMW_ENV, '').strip()
@@ -131,8 +156,12 @@ def _last_line(text: str) -> str:
 
 
 def _writable_dir(folder: Path) -> tuple[bool, Path]:
-    """(can a file be created in `folder` or, if it does not exist yet, in its nearest existing parent (tried
-    for real: permission bits say nothing to root or on a read-only mount), that folder)."""
+    """
+    Return (whether a file can be created in `folder`, else in its nearest existing parent; that folder).
+
+    The parent is tried when `folder` does not exist yet, and the test is for real: permission bits say nothing
+    to root or on a read-only mount.
+    """
     import tempfile
     probe = Path(folder).absolute()
     while not probe.exists() and probe != probe.parent:
@@ -149,7 +178,7 @@ def check_bag_folder(folder: Path = Path('bags')) -> Check:
     ok, existing = _writable_dir(folder)
     if not ok:
         return Check('bag folder', False, f'{folder} cannot be written ({existing} is not writable)',
-                     f'run from a folder you can write to, or choose one: iguana run --record DIR')
+                     'run from a folder you can write to, or choose one: iguana run --record DIR')
     free = shutil.disk_usage(existing).free / 1e9
     where = folder if existing == Path(folder).absolute() else f'{folder} (will be created in {existing})'
     if free < 0.5:
@@ -171,8 +200,12 @@ def kernel_modules(package_dir: Path | None = None) -> list[Path]:
 
 @dataclass(frozen=True)
 class KernelCache:
-    """State of the compiled-kernel cache: the package's kernel modules, those without cached kernels for their
-    current source (relative paths), those whose cache folder cannot be written."""
+    """
+    State of the compiled-kernel cache.
+
+    The package's kernel modules, those without cached kernels for their current source (relative paths), those whose
+    cache folder cannot be written.
+    """
 
     modules: tuple
     cold: tuple
@@ -189,7 +222,7 @@ class KernelCache:
 
 
 def kernel_cache(package_dir: Path | None = None) -> KernelCache:
-    """KernelCache of the package (cold unless the cache's source stamp matches the sources, see jit.py)."""
+    """`KernelCache` of the package (cold unless the cache's source stamp matches the sources, see jit.py)."""
     from iguana_ros.jit import PACKAGE_DIR, STAMP_NAME, kernel_sources_digest
     root = Path(package_dir or PACKAGE_DIR)
     modules = kernel_modules(root)
@@ -202,8 +235,11 @@ def kernel_cache(package_dir: Path | None = None) -> KernelCache:
 
 
 def check_kernel_cache(package_dir: Path | None = None) -> Check:
-    """Whether the compiled kernels are cached (warm: a run starts at once; cold: the first run compiles them)
-    and whether the cache folders can be written."""
+    """
+    Whether the compiled kernels are cached.
+
+    (warm: a run starts at once; cold: the first run compiles them) and whether the cache folders can be written.
+    """
     cache = kernel_cache(package_dir)
     if cache.unwritable:
         folders = ', '.join(str(m.parent / '__pycache__') for m in cache.unwritable[:3])
@@ -232,7 +268,7 @@ def check_model_cache(resolution: str = 'medium') -> Check:
 
 
 def check_ffmpeg() -> Check:
-    """An ffmpeg that `iguana render -o run.mp4` can use (imageio-ffmpeg's bundled binary or one on PATH)."""
+    """Return an ffmpeg that `iguana render -o run.mp4` can use (imageio-ffmpeg's bundled binary or one on PATH)."""
     try:
         import imageio_ffmpeg
         exe = imageio_ffmpeg.get_ffmpeg_exe()
@@ -253,13 +289,16 @@ def check_ffmpeg() -> Check:
 
 
 def quick_checks(bag_folder: Path = Path('bags')) -> list[Check]:
-    """The checks `iguana run` makes before it starts anything (about 0.3 s): Python, rclpy and RMW, the bag
-    folder."""
+    """
+    Return the checks `iguana run` makes before it starts anything (about 0.3 s).
+
+    Python, rclpy and RMW, the bag folder.
+    """
     return [check_python(), check_rmw(), check_bag_folder(bag_folder)]
 
 
 def require(checks: list[Check]) -> None:
-    """CheckFailed with the first failed needed check's line."""
+    """`CheckFailed` with the first failed needed check's line."""
     for check in checks:
         if check.needed and not check.ok:
             raise CheckFailed(check.one_line())

@@ -1,4 +1,19 @@
-"""The package's executables, listed once.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The package's executables, listed once.
 
 setup.py reads this file without importing the package (plain literals only: `ast.literal_eval`), so keep it
 free of imports and code. setup.py installs the node executables (lib/iguana_ros/, for `ros2 run`) and the

@@ -1,5 +1,22 @@
-"""Vectorised rigid-body geometry: quaternions (x, y, z, w order, as ROS and scipy), rotation vectors, rotation
-matrices, intrinsic Euler angles and the rigid (Kabsch) fit of two point sets.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Vectorised rigid-body geometry.
+
+Quaternions (x, y, z, w order, as ROS and scipy), rotation vectors, rotation matrices, intrinsic Euler angles and the
+rigid (Kabsch) fit of two point sets.
 
 The package's one rotation toolkit: code outside numba kernels rotates with these functions (the kernels inline
 the few products they need). Every quaternion function broadcasts over leading axes: a quaternion array has shape
@@ -20,7 +37,7 @@ def quat_identity(shape: tuple = ()) -> np.ndarray:
 
 
 def quat_normalize(q: np.ndarray) -> np.ndarray:
-    """Unit quaternions `(..., 4)`; a zero quaternion becomes the identity."""
+    """Return unit quaternions `(..., 4)`; a zero quaternion becomes the identity."""
     q = np.asarray(q, dtype=float)
     norm = np.linalg.norm(q, axis=-1, keepdims=True)
     out = np.where(norm > _EPS, q / np.maximum(norm, _EPS), 0.0)
@@ -58,7 +75,7 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def quat_from_rotvec(rotvec: np.ndarray) -> np.ndarray:
-    """Unit quaternions `(..., 4)` from rotation vectors `(..., 3)` (axis times angle, rad)."""
+    """Return unit quaternions `(..., 4)` from rotation vectors `(..., 3)` (axis times angle, rad)."""
     rotvec = np.asarray(rotvec, dtype=float)
     angle = np.linalg.norm(rotvec, axis=-1, keepdims=True)
     half = 0.5 * angle
@@ -90,7 +107,8 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions `(..., 4)` (w >= 0) from rotation matrices `(..., 3, 3)` (Markley 2008).
+    """
+    Return unit quaternions `(..., 4)` (w >= 0) from rotation matrices `(..., 3, 3)` (Markley 2008).
 
     The largest of (m00, m11, m22, trace) picks the best-conditioned component; the arithmetic is scipy's
     `Rotation.from_matrix` for orthogonal matrices, operation for operation, so the results equal it bitwise.
@@ -131,7 +149,11 @@ def _tait_bryan(order: str) -> tuple:
 
 
 def quat_from_euler(angles: np.ndarray, order: str) -> np.ndarray:
-    """Unit quaternions `(..., 4)` of intrinsic Euler angles `(..., 3)` rad: R = R_order[0] R_order[1] R_order[2]."""
+    """
+    Return unit quaternions `(..., 4)` of intrinsic Euler angles `(..., 3)` rad.
+
+    R = R_order[0] R_order[1] R_order[2].
+    """
     angles = np.asarray(angles, dtype=float)
     half = 0.5 * angles
     zeros = np.zeros(angles.shape[:-1])
@@ -145,8 +167,12 @@ def quat_from_euler(angles: np.ndarray, order: str) -> np.ndarray:
 
 
 def matrix_to_euler(m: np.ndarray, order: str) -> np.ndarray:
-    """Intrinsic Euler angles `(..., 3)` rad of rotation matrices `(..., 3, 3)`: R = R_order[0] R_order[1] R_order[2],
-    the middle angle in [-pi/2, pi/2]; at gimbal lock (|middle| = pi/2) the last angle is 0."""
+    """
+    Intrinsic Euler angles `(..., 3)` rad of rotation matrices `(..., 3, 3)`.
+
+    R = R_order[0] R_order[1] R_order[2], the middle angle in [-pi/2, pi/2]; at gimbal lock (|middle| = pi/2) the last
+    angle is 0.
+    """
     i, j, k = _tait_bryan(order)
     m = np.asarray(m, dtype=float)
     sign = 1.0 if (j - i) % 3 == 1 else -1.0             # +1 for a cyclic order (XYZ, YZX, ZXY)
@@ -178,8 +204,11 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
 
 
 def quat_between(a: np.ndarray, b: np.ndarray, min_angle: float = 1e-9) -> np.ndarray | None:
-    """The smallest rotation `(4,)` taking unit vector `a (3,)` to unit vector `b (3,)`; None when they are less than
-    `min_angle` rad apart (opposite vectors turn about an axis perpendicular to `a`)."""
+    """
+    Return the smallest rotation `(4,)` taking unit vector `a (3,)` to unit vector `b (3,)`.
+
+    None when they are less than `min_angle` rad apart (opposite vectors turn about an axis perpendicular to `a`).
+    """
     a = np.asarray(a, dtype=float)
     axis = np.cross(a, b)
     angle = np.arctan2(np.linalg.norm(axis), float(a @ b))
@@ -197,7 +226,8 @@ this fraction of the first: the roll about the line is then not determined by th
 
 def rigid_fit(source: np.ndarray, target: np.ndarray, weights: np.ndarray | None = None,
               identity_bias: float = 0.0) -> tuple:
-    """Rotation `(3, 3)` and translation `(3,)` minimising Σ w‖R s + t − t'‖² over points `(n, 3)` (Kabsch).
+    """
+    Rotation `(3, 3)` and translation `(3,)` minimising Σ w‖R s + t − t'‖² over points `(n, 3)` (Kabsch).
 
     `weights (n,)` >= 0 with a positive sum (None = equal, plain means). Only proper rotations (det +1): a mirrored
     set gets the best rotation, a planar set (singular cross-covariance, det 0) its exact one, a collinear set

@@ -1,5 +1,19 @@
-"""numba compilation settings of the package's kernels, and an on-disk kernel cache kept consistent with the
-sources.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+numba compilation settings of the package's kernels, and an on-disk kernel cache kept consistent with the sources.
 
 numba (`@njit(cache=True)`) keys a cached kernel on the timestamp of the file that defines it, not on the files
 of the kernels it calls: after an edit or upgrade of `forces.py`, the cached `integrator.run_steps_cg` would go
@@ -9,11 +23,11 @@ hash differs from the one stored beside the cache, deletes the package's cached 
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 import contextlib
 import fcntl
 import functools
 import hashlib
-from collections.abc import Iterator
 from pathlib import Path
 
 FASTMATH = {'arcp', 'reassoc', 'nsz'}
@@ -39,8 +53,11 @@ def kernel_sources_digest(package_dir: Path = PACKAGE_DIR) -> str:
 
 
 def invalidate_stale_kernels(package_dir: Path = PACKAGE_DIR) -> int:
-    """Delete cached kernels (`*.nbi`, `*.nbc`) under `package_dir` if its kernel sources changed since they
-    were cached; returns how many files were deleted (0 when fresh or when the cache is not writable)."""
+    """
+    Delete cached kernels (`*.nbi`, `*.nbc`) under `package_dir` if its kernel sources changed since they were cached.
+
+    Returns how many files were deleted (0 when fresh or when the cache is not writable).
+    """
     cache_dir = package_dir / '__pycache__'
     try:
         cache_dir.mkdir(exist_ok=True)
@@ -65,7 +82,8 @@ def invalidate_stale_kernels(package_dir: Path = PACKAGE_DIR) -> int:
 
 
 def touch_kernel_sources(package_dir: Path = PACKAGE_DIR) -> None:
-    """Give every module that uses numba a new modification time.
+    """
+    Give every module that uses numba a new modification time.
 
     numba accepts a cached kernel whose index records its own file's (mtime, size). A process that imported the
     modules before an edit and compiles a caller only after another process deleted the stale caches would save
@@ -92,8 +110,10 @@ def ensure_fresh_kernel_cache() -> int:
 
 @contextlib.contextmanager
 def kernel_cache_lock(package_dir: Path = PACKAGE_DIR) -> Iterator[bool]:
-    """Hold an exclusive lock on `package_dir`'s kernel cache for the `with` body (waiting for it); yields
-    whether the lock is held (False where the cache is not writable: nothing to protect then).
+    """
+    Hold an exclusive lock on `package_dir`'s kernel cache for the `with` body (waiting for it).
+
+    Yields whether the lock is held (False where the cache is not writable: nothing to protect then).
 
     numba writes each cache file atomically, but two processes compiling different signatures of one kernel at
     once may both take the next free data-file number, and the index of one then names the other's code. The

@@ -1,10 +1,25 @@
-"""Randomized locomotion benchmark: many seeded terrains, one goal each, with and without terrain adaptation.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
-`random_scenes` (iguana_ros.random_scenes) draws the scenes (hills, tilted planes, steps, smooth noise; a goal 3 m from the start in a
-random direction, also behind the iguana, which starts facing +x), `run_benchmark` runs every (scene,
-adaptation) pair on the sweep engine (iguana_ros.sweep, Dask) and returns one plain row per run, `summarize` reduces
-the rows per mode and terrain kind and compares the modes. ROS-free; `iguana bench locomotion` is the command over
-it, and `iguana sweep locomotion` (msg_configs/sweeps/locomotion.yaml) the same sweep from a spec file.
+"""
+Randomized locomotion benchmark: many seeded terrains, one goal each, with and without terrain adaptation.
+
+`random_scenes` (iguana_ros.random_scenes) draws the scenes (hills, tilted planes, steps, smooth noise; a goal 3 m from
+the start in a random direction, also behind the iguana, which starts facing +x), `run_benchmark` runs every (scene,
+adaptation) pair on the sweep engine (iguana_ros.sweep, Dask) and returns one plain row per run, `summarize` reduces the
+rows per mode and terrain kind and compares the modes. ROS-free; `iguana bench locomotion` is the command over it, and
+`iguana sweep locomotion` (msg_configs/sweeps/locomotion.yaml) the same sweep from a spec file.
 """
 from __future__ import annotations
 
@@ -15,10 +30,11 @@ from typing import Callable
 
 import numpy as np
 
-from iguana_ros.random_scenes import BENCH_KINDS, GOAL_DISTANCE, GOAL_RADIUS, TERRAIN_EXTENT, random_scenes  # noqa: F401
+from iguana_ros.random_scenes import (BENCH_KINDS, GOAL_DISTANCE, GOAL_RADIUS, random_scenes,  # noqa: F401
+                                      TERRAIN_EXTENT)
 from iguana_ros.scene import Scene
-from iguana_ros.sweep.engine import Task, error_row, run_local, task_key
-from iguana_ros.sweep.scene_task import MODE_NAMES, RunOptions, run_scene, scene_identity
+from iguana_ros.sweep.engine import error_row, run_local, Task, task_key
+from iguana_ros.sweep.scene_task import MODE_NAMES, run_scene, RunOptions, scene_identity
 
 STOP_AFTER_GOAL = 2.0
 """A run ends this many simulated seconds after the root first reaches the goal (s)."""
@@ -30,7 +46,8 @@ IDENTITY_KEYS = ('scene', 'kind', 'terrain', 'goal', 'resolution', 'duration', '
 # --------------------------------------------------------------------------------------------- the runs
 
 def run_task(scene: Scene, adaptation: bool) -> dict:
-    """Run one (scene, adaptation) pair to its duration or 2 s past the goal; one plain row for JSON.
+    """
+    Run one (scene, adaptation) pair to its duration or 2 s past the goal; one plain row for JSON.
 
     The row holds what ran (`scene_identity`), `wall_s` (build, run and metrics), `simulated_s`, `realtime_factor`
     (simulated over the frame loop's wall time) and every field of the run's LocomotionMetrics. Any exception
@@ -45,7 +62,7 @@ def run_task(scene: Scene, adaptation: bool) -> dict:
 
 
 def benchmark_tasks(scenes: list[Scene], modes: tuple = (True, False)) -> list[Task]:
-    """The sweep tasks of every (scene, mode) pair: scene order, modes in the given order within a scene."""
+    """Return the sweep tasks of every (scene, mode) pair: scene order, modes in the given order within a scene."""
     return [Task(task_key('locomotion', scene, bool(mode), STOP_AFTER_GOAL), run_task, (scene, bool(mode)),
                  scene_identity(scene, bool(mode)), f'{scene.name} {MODE_NAMES[bool(mode)]}')
             for scene in scenes for mode in modes]
@@ -53,8 +70,8 @@ def benchmark_tasks(scenes: list[Scene], modes: tuple = (True, False)) -> list[T
 
 def run_benchmark(scenes: list[Scene], modes: tuple = (True, False), workers: int | None = None,
                   progress: Callable[[dict, int, int], None] | None = None) -> list[dict]:
-    """Rows of every (scene, mode) pair, run by the sweep engine on `workers` local processes (default: one per
-    core).
+    """
+    Rows of every (scene, mode) pair, run by the sweep engine on `workers` local processes (default: one per core).
 
     The rows come in scene order, modes in the given order within a scene, whatever the number of workers;
     `progress(row, n_done, n_total)` is called as each run finishes (in finishing order). A worker that dies gives
@@ -71,17 +88,17 @@ def _median(values: list) -> float | None:
 
 
 def _is_number(value) -> bool:
-    """A finite int or float that is not a bool (the rows' scalar metrics)."""
+    """Return a finite int or float that is not a bool (the rows' scalar metrics)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _values(rows: list[dict], key: str) -> list:
-    """The numeric values of `key` over `rows` (missing, None and non-numbers left out)."""
+    """Return the numeric values of `key` over `rows` (missing, None and non-numbers left out)."""
     return [r[key] for r in rows if _is_number(r.get(key))]
 
 
 def _ratio(numerator: float | None, denominator: float | None) -> float | None:
-    """numerator / denominator, None when either is missing or the denominator is 0."""
+    """`numerator` / denominator, None when either is missing or the denominator is 0."""
     if numerator is None or not denominator:
         return None
     return numerator / denominator
@@ -107,7 +124,8 @@ def _group_summary(rows: list[dict], speed_key: str) -> dict:
 
 
 def summarize(rows: list[dict]) -> dict:
-    """Per mode ('adapt', 'no_adapt') and per terrain kind (and 'all'): the figures, and the modes compared.
+    """
+    Per mode ('adapt', 'no_adapt') and per terrain kind (and 'all'): the figures, and the modes compared.
 
     A group's figures: `n` runs (errors included), `reached`, `reach_rate` (reached / n: a run that raised counts
     as not reached), `time_to_goal_median` (over reached runs), `foot_slip_per_stride_median` and `_mean`,
@@ -142,7 +160,7 @@ def summarize(rows: list[dict]) -> dict:
 
 
 def _paired_times(rows: list[dict]) -> dict:
-    """{True: times to goal with adaptation, False: without}, over the scenes that both modes reached."""
+    """Return {True: times to goal with adaptation, False: without}, over the scenes that both modes reached."""
     times = {flag: {r['scene']: r['time_to_goal'] for r in rows if r.get('adaptation') is flag
                     and not r.get('error') and r.get('reached_goal') is True and _is_number(r.get('time_to_goal'))}
              for flag in MODE_NAMES}

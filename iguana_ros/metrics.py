@@ -1,5 +1,22 @@
-"""Locomotion metrics of a run (paper Sections VIII-IX): goal reached, path, speed, foot slip, lateral
-bending, inter-joint distance variation, falls and getting stuck. Plain arrays in, plain numbers out.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Locomotion metrics of a run (paper Sections VIII-IX).
+
+Goal reached, path, speed, foot slip, lateral bending, inter-joint distance variation, falls and getting stuck. Plain
+arrays in, plain numbers out.
 """
 from __future__ import annotations
 
@@ -43,8 +60,11 @@ class LocomotionMetrics:
     gait: GaitMetrics | None = None
 
     def as_dict(self) -> dict:
-        """Plain dict for JSON and the summary line (NaN, e.g. no arrival time, becomes None); the gait
-        figures are flattened in (per-foot figures as lists in the order fl, fr, hl, hr)."""
+        """
+        Plain dict for JSON and the summary line (NaN, e.g. no arrival time, becomes None).
+
+        The gait figures are flattened in (per-foot figures as lists in the order fl, fr, hl, hr).
+        """
         values = asdict(self)
         gait = values.pop('gait') or {}
         return {k: _plain(v) for k, v in {**values, **gait}.items()}
@@ -52,7 +72,8 @@ class LocomotionMetrics:
 
 @dataclass(frozen=True)
 class GaitMetrics:
-    """Per-foot gait figures of a run against its reference motion (feet in the order fl, fr, hl, hr).
+    """
+    Per-foot gait figures of a run against its reference motion (feet in the order fl, fr, hl, hr).
 
     stance_fraction, reference_stance_fraction: fraction of frames a foot touches the ground (simulated) and
     is in stance in the clip; swing_clearance: median over the foot's reference swings of the lowest sole
@@ -114,7 +135,8 @@ def mean_forward_speed(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray) 
 
 
 def foot_slip(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> float:
-    """Horizontal travel of feet while in contact, per stride, summed over feet, m.
+    """
+    Horizontal travel of feet while in contact, per stride, summed over feet, m.
 
     `foot_xy (n_frames, n_feet, 2)` foot centroids, `foot_contact (n_frames, n_feet)` bool.
     """
@@ -122,8 +144,11 @@ def foot_slip(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> 
 
 
 def slip_per_foot(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> np.ndarray:
-    """Horizontal travel `(n_feet,)` m of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames
-    in which it touches the ground (`foot_contact (n_frames, n_feet)`), per stride."""
+    """
+    Horizontal travel `(n_feet,)` m of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames.
+
+    in which it touches the ground (`foot_contact (n_frames, n_feet)`), per stride.
+    """
     step = np.linalg.norm(np.diff(foot_xy, axis=0), axis=2)
     held = foot_contact[1:] & foot_contact[:-1]
     return np.sum(step * held, axis=0) / max(n_strides, 1)
@@ -135,8 +160,11 @@ def stance_fractions(foot_contact: np.ndarray) -> np.ndarray:
 
 
 def swing_intervals(reference_contact: np.ndarray) -> list[list[tuple[int, int]]]:
-    """Per foot, the (first, last) frame of every swing of `reference_contact (n_frames, n_feet)` (stance =
-    True) that starts and ends inside the run."""
+    """
+    Per foot, the (first, last) frame of every swing of `reference_contact (n_frames, n_feet)`.
+
+    (stance = True) that starts and ends inside the run.
+    """
     out = []
     for foot in range(reference_contact.shape[1]):
         swing = ~np.asarray(reference_contact[:, foot], bool)
@@ -147,8 +175,11 @@ def swing_intervals(reference_contact: np.ndarray) -> list[list[tuple[int, int]]
 
 
 def mid_swing_clearances(foot_height: np.ndarray, reference_contact: np.ndarray) -> list[np.ndarray]:
-    """Per foot, the clearance (m) of each reference swing: the highest `foot_height (n_frames, n_feet)` (lowest
-    sole node above the terrain) over the middle half of the swing."""
+    """
+    Per foot, the clearance (m) of each reference swing.
+
+    The highest `foot_height (n_frames, n_feet)` (lowest sole node above the terrain) over the middle half of the swing.
+    """
     out = []
     for foot, swings in enumerate(swing_intervals(reference_contact)):
         values = []
@@ -160,15 +191,21 @@ def mid_swing_clearances(foot_height: np.ndarray, reference_contact: np.ndarray)
 
 
 def speed_fraction(progress: np.ndarray, reference: np.ndarray) -> float:
-    """Total progress `(n_strides,)` m of the body along each stride's clip displacement as a fraction of the
-    clips' displacements `(n_strides,)` m (NaN when no stride moves)."""
+    """
+    Total progress `(n_strides,)` m of the body along each stride's clip displacement as a fraction.
+
+    of the clips' displacements `(n_strides,)` m (NaN when no stride moves).
+    """
     total = float(np.sum(reference))
     return float(np.sum(progress) / total) if total > 1e-9 else float('nan')
 
 
 def rigid_fit_errors(nodes: np.ndarray, reference: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """RMS distance `(n_frames,)` m between nodes `(n_frames, n, 3)` and the reference `(n_frames, n, 3)` after
-    the best rigid (weighted) fit of the reference onto the nodes, frame by frame."""
+    """
+    RMS distance `(n_frames,)` m between nodes `(n_frames, n, 3)` and the reference `(n_frames, n, 3)`.
+
+    after the best rigid (weighted) fit of the reference onto the nodes, frame by frame.
+    """
     w = weights / weights.sum()
     out = np.empty(len(nodes))
     for f in range(len(nodes)):
@@ -182,9 +219,13 @@ def gait_metrics(foot_contact: np.ndarray, reference_contact: np.ndarray, foot_h
                  reference_foot_height: np.ndarray, foot_xy: np.ndarray, n_strides: int,
                  stride_progress: np.ndarray, stride_reference: np.ndarray,
                  shape_errors: np.ndarray) -> GaitMetrics:
-    """GaitMetrics from per-frame arrays: contacts, reference stance flags, foot heights above the terrain and
-    their reference `(n_frames, 4)`, foot centroids `(n_frames, 4, 2)`; per walking stride the body's progress
-    and the clip's displacement `(n_strides,)` m; rigid-fit shape errors `(n_frames,)` m."""
+    """
+    `GaitMetrics` from per-frame arrays.
+
+    Contacts, reference stance flags, foot heights above the terrain and their reference `(n_frames, 4)`, foot centroids
+    `(n_frames, 4, 2)`; per walking stride the body's progress and the clip's displacement `(n_strides,)` m; rigid-fit
+    shape errors `(n_frames,)` m.
+    """
     clearances = mid_swing_clearances(foot_height, reference_contact)
     every = np.concatenate(clearances) if clearances else np.zeros(0)
     height_error = np.sqrt(np.mean((foot_height - reference_foot_height) ** 2, axis=0)) if len(foot_height) \
@@ -203,7 +244,8 @@ def gait_metrics(foot_contact: np.ndarray, reference_contact: np.ndarray, foot_h
 
 
 def lateral_bending(pelvis: np.ndarray, mid_trunk: np.ndarray, shoulders: np.ndarray) -> float:
-    """Amplitude (deg) of the trunk's lateral bend: half the range of the horizontal angle at mid-trunk.
+    """
+    Amplitude (deg) of the trunk's lateral bend: half the range of the horizontal angle at mid-trunk.
 
     Each argument is a landmark trajectory `(n_frames, 3)`.
     """
@@ -215,7 +257,8 @@ def lateral_bending(pelvis: np.ndarray, mid_trunk: np.ndarray, shoulders: np.nda
 
 
 def inter_joint_variation(landmarks: np.ndarray, reference_landmarks: np.ndarray, pairs: np.ndarray) -> float:
-    """Largest relative deviation of simulated landmark distances from the reference's (0.05 = 5 %).
+    """
+    Largest relative deviation of simulated landmark distances from the reference's (0.05 = 5 %).
 
     The paper's Section IX concern: without a skeleton, inter-articular distances of the soft body may
     drift from the reference pose it tracks. `landmarks`, `reference_landmarks (n_frames, n_landmarks, 3)`,
@@ -250,8 +293,12 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
                        foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int,
                        trunk_landmarks: np.ndarray, landmarks: np.ndarray, reference_landmarks: np.ndarray,
                        landmark_pairs: np.ndarray, gait: GaitMetrics | None = None) -> LocomotionMetrics:
-    """All metrics of a run; shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`. Without a goal
-    (`goal_xy` None) no goal is reached: reached_goal False, time and distance to the goal NaN, never stuck."""
+    """
+    All metrics of a run.
+
+    Shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`. Without a goal (`goal_xy` None) no goal is
+    reached: reached_goal False, time and distance to the goal NaN, never stuck.
+    """
     xy = root_positions[:, :2]
     if goal_xy is None:
         reached, t_goal, final, dist = False, float('nan'), float('nan'), np.zeros(len(times))

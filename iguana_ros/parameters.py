@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Node parameter declarations of msg_configs/parameters.yaml as plain data (ROS-free)."""
 from __future__ import annotations
 
@@ -15,14 +29,18 @@ TYPES = {'string': str, 'double': float, 'integer': int, 'bool': bool}
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One declared parameter: name, type name, default, description, numeric range or string choices; `dynamic`
-    parameters may be set while the node runs (the others are read-only)."""
+    """
+    One declared parameter.
+
+    Name, type name, default, description, numeric range or string choices; `dynamic` parameters may be set while the
+    node runs (the others are read-only).
+    """
 
     name: str
-    type: str
+    type: str  # noqa: A003 - the `type` key of msg_configs/parameters.yaml
     default: object
     description: str = ''
-    range: tuple | None = None
+    range: tuple | None = None  # noqa: A003 - the `range` key of msg_configs/parameters.yaml
     choices: tuple | None = None
     dynamic: bool = False
 
@@ -67,12 +85,12 @@ def load_parameters(path: Path | None = None) -> dict[str, dict[str, ParamSpec]]
 
 @lru_cache(maxsize=1)
 def _default_parameters() -> dict:
-    """The package's declarations, read once per process."""
+    """Return the package's declarations, read once per process."""
     return load_parameters()
 
 
 def node_parameters(node: str) -> dict[str, ParamSpec]:
-    """Declarations of `node` (common ones included)."""
+    """Return declarations of `node` (common ones included)."""
     table = _default_parameters()
     if node not in table:
         raise KeyError(f'no parameter declarations for node {node!r}; known: {sorted(table)}')

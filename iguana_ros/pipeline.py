@@ -1,4 +1,19 @@
-"""The ROS-free frame loop: goal -> clip -> adapted pose -> spring lengths -> 40 simulator steps per frame.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The ROS-free frame loop: goal -> clip -> adapted pose -> spring lengths -> 40 simulator steps per frame.
 
 `build_pipeline` builds the four stages of `iguana_ros.stages` from a scene with the factories the ROS 2 nodes
 call too, so a lockstep node run and `run(scene)` compute the same numbers in the same order.
@@ -15,8 +30,8 @@ from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import Scene
-from iguana_ros.stages import (AdaptationStage, PlannerStage, SimulatorStage, StrideLookahead, adaptation_stage,
-                               planner_stage, scene_model, scene_terrain, simulator_stage, spring_stage)
+from iguana_ros.stages import (adaptation_stage, AdaptationStage, planner_stage, PlannerStage, scene_model,
+                               scene_terrain, simulator_stage, SimulatorStage, spring_stage, StrideLookahead)
 
 
 # ---------------------------------------------------------------------------------------------- the run
@@ -46,7 +61,8 @@ class RunResult:
                             root_orientations=self.root_orientations, node_positions=self.node_positions,
                             contacts=self.contacts, reference_joints=self.reference_joints,
                             reference_rotations=self.reference_rotations,
-                            reference_contacts=self.reference_contacts, clip_frames=frames, clip_names=names, goals=np.array(self.goals, float),
+                            reference_contacts=self.reference_contacts, clip_frames=frames, clip_names=names,
+                            goals=np.array(self.goals, float),
                             wall_seconds=self.wall_seconds)
         return path
 
@@ -81,10 +97,14 @@ class Pipeline:
 def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict | None = None,
                    blend_frames: int | None = None, simulator_options: dict | None = None,
                    lookahead: bool = True) -> Pipeline:
-    """Build only what `scene` needs: terrain, model, motion graph (`blend_frames`, default the planner's declared
-    parameter), the four stages (adaptation as the scene says unless `adaptation` is given; off on flat ground;
-    `simulator_options` to the SoftBodySimulator), and the scene's goals scheduled as `iguana run` sends them.
-    With `lookahead`, a stride's reference frames are computed on a second thread while the body steps."""
+    """
+    Build only what `scene` needs.
+
+    Terrain, model, motion graph (`blend_frames`, default the planner's declared parameter), the four stages (adaptation
+    as the scene says unless `adaptation` is given; off on flat ground; `simulator_options` to the SoftBodySimulator),
+    and the scene's goals scheduled as `iguana run` sends them. With `lookahead`, a stride's reference frames are
+    computed on a second thread while the body steps.
+    """
     terrain, model = scene_terrain(scene), scene_model(scene)
     planner = planner_stage(scene, library, blend_frames)
     for goal in scene.goals:
@@ -98,7 +118,8 @@ def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict |
 def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
         progress: Callable[[int, int], None] | None = None, stop_after_goal: float | None = None,
         simulator_options: dict | None = None) -> RunResult:
-    """Run `scene` for its duration (or `n_frames`) and return the trajectories.
+    """
+    Run `scene` for its duration (or `n_frames`) and return the trajectories.
 
     With `stop_after_goal` (s), the run ends that long after the root first comes within the goal radius of the
     scene's last goal (the arrays then hold only the frames simulated). `simulator_options`: SoftBodySimulator

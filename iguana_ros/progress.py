@@ -1,6 +1,23 @@
-"""What `iguana run` shows while it runs (ROS-free): the start-up phases with their durations, and the run's
-progress — simulated time of the planned duration, realtime factor, distance to the current goal, current clip —
-as a live bar on a terminal or as a line every few seconds otherwise.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What `iguana run` shows while it runs (ROS-free).
+
+The start-up phases with their durations, and the run's progress — simulated time of the planned duration, realtime
+factor, distance to the current goal, current clip — as a live bar on a terminal or as a line every few seconds
+otherwise.
 
 The phases are milestones of the whole run, in wall-clock (system) time, from messages only (the node processes'
 events on `run_events`, the simulator's `iguana_state`): launching nodes (the supervisor starts the processes ..
@@ -10,10 +27,10 @@ computation compiles or loads the kernels in every process).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 import math
 import sys
 import time
-from dataclasses import dataclass, field
 from typing import TextIO
 
 PHASES = (('launching', 'launching nodes'), ('loading', 'loading the model'), ('discovery', 'DDS discovery'),
@@ -44,8 +61,12 @@ PROGRESS_TAG = '[progress]'
 
 @dataclass(frozen=True)
 class RunEvent:
-    """One message of `run_events`: which node, what happened (EVENT_*), its wall-clock time (s since the epoch),
-    and for a clip its name and start frame; `detail` says more (e.g. 'model from cache')."""
+    """
+    One message of `run_events`.
+
+    Which node, what happened (EVENT_*), its wall-clock time (s since the epoch), and for a clip its name and start
+    frame; `detail` says more (e.g. 'model from cache').
+    """
 
     node: str
     kind: str
@@ -68,7 +89,7 @@ class PhaseTime:
         return f'{self.seconds:.2f} s' + (f' ({self.detail})' if self.detail else '')
 
     def text(self) -> str:
-        """'loading the model 1.23 s (model from cache)'."""
+        """Return 'loading the model 1.23 s (model from cache)'."""
         return f'{self.label} {self.took()}'
 
 
@@ -79,8 +100,11 @@ def startup_line(phases: tuple) -> str:
 
 @dataclass
 class StartupClock:
-    """Milestones of a run's start-up (wall-clock seconds): launch, each expected node up and loaded, frames 0
-    and 1 published; the phases between them, finished and current."""
+    """
+    Milestones of a run's start-up (wall-clock seconds).
+
+    Launch, each expected node up and loaded, frames 0 and 1 published; the phases between them, finished and current.
+    """
 
     nodes: tuple
     launched: float = math.nan
@@ -116,7 +140,7 @@ class StartupClock:
         return [every(self.up), every(self.loaded), self.frame0, self.frame1]
 
     def finished(self) -> tuple:
-        """PhaseTime of every phase that has ended, in order (a phase ending before its predecessor counts 0)."""
+        """`PhaseTime` of every phase that has ended, in order (a phase ending before its predecessor counts 0)."""
         done, start = [], self.launched
         for (key, label), end in zip(PHASES, self._ends()):
             if math.isnan(end) or math.isnan(start):
@@ -134,8 +158,12 @@ class StartupClock:
 
 
 def active_goal(goals: list, now: float, adopt_now_after: float) -> tuple | None:
-    """The goal `(x, y)` the planner follows at simulated `now` s: the last of `goals` [(x, y, at)] (in the order
-    accepted) whose time has come; a time more than `adopt_now_after` s ahead counts as now (a wall-clock stamp)."""
+    """
+    Return the goal `(x, y)` the planner follows at simulated `now` s.
+
+    The last of `goals` [(x, y, at)] (in the order accepted) whose time has come; a time more than `adopt_now_after` s
+    ahead counts as now (a wall-clock stamp).
+    """
     due = [(x, y) for x, y, at in goals if at <= now + 1e-9 or at > now + adopt_now_after]
     return due[-1] if due else None
 
@@ -154,7 +182,7 @@ class RateWindow:
             self.samples.pop(0)
 
     def factor(self) -> float:
-        """Simulated seconds per wall second over the window (nan with fewer than two samples)."""
+        """Return simulated seconds per wall second over the window (nan with fewer than two samples)."""
         if len(self.samples) < 2 or self.samples[-1][0] <= self.samples[0][0]:
             return math.nan
         (w0, s0), (w1, s1) = self.samples[0], self.samples[-1]
@@ -163,8 +191,12 @@ class RateWindow:
 
 @dataclass(frozen=True)
 class RunStatus:
-    """What the progress line shows: simulated and planned seconds, realtime factor, m to the goal (nan: no
-    goal), the current clip ('' before the first)."""
+    """
+    What the progress line shows.
+
+    Simulated and planned seconds, realtime factor, m to the goal (nan: no goal), the current clip ('' before the
+    first).
+    """
 
     simulated: float
     planned: float
@@ -190,13 +222,19 @@ class RunStatus:
 
 
 class ProgressDisplay:
-    """Writes phases and progress to `stream`: a tqdm bar on a terminal, else a line every `period_s` s (and
-    every phase as it begins and ends, on both)."""
+    """
+    Writes phases and progress to `stream`.
+
+    A tqdm bar on a terminal, else a line every `period_s` s (and every phase as it begins and ends, on both).
+    """
 
     def __init__(self, stream: TextIO | None = None, period_s: float = LINE_PERIOD_S,
                  bar: bool | None = None) -> None:
-        """`bar` None = a bar when `stream` is a terminal. Lines are headed PHASE_TAG or PROGRESS_TAG (not the
-        command's name, which heads only its one error line)."""
+        """
+        `bar` None = a bar when `stream` is a terminal.
+
+        Lines are headed PHASE_TAG or PROGRESS_TAG (not the command's name, which heads only its one error line).
+        """
         self.stream, self.period_s = stream or sys.stdout, period_s
         self.use_bar = self.stream.isatty() if bar is None else bar
         self._bar = None

@@ -1,5 +1,22 @@
-"""The push experiment of paper Section VIII-D (Figure 12): 40 N for 0.1 s to the left of the trunk of a walking
-iguana, at several phases of a stride, for the normal and the softer model.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The push experiment of paper Section VIII-D (Figure 12).
+
+40 N for 0.1 s to the left of the trunk of a walking iguana, at several phases of a stride, for the normal and the
+softer model.
 
 Each model walks straight ahead on flat ground once unpushed and once per push phase. The runs are identical
 until the push (the simulation is deterministic), so the push's effect is the pushed run minus the unpushed one:
@@ -10,8 +27,8 @@ the window (slip per foot per stride, from the run's gait figures). ROS-free; `i
 from __future__ import annotations
 
 import dataclasses
-import statistics
 from dataclasses import dataclass
+import statistics
 
 import numpy as np
 
@@ -26,8 +43,12 @@ SETTLE = 3.0
 
 @dataclass(frozen=True)
 class PushSettings:
-    """Experiment settings: push phases per stride, force (N, +y is the iguana's left; the paper pushes its
-    left side, i.e. toward -y), duration (s), windows (s) and the mesh."""
+    """
+    Experiment settings.
+
+    Push phases per stride, force (N, +y is the iguana's left; the paper pushes its left side, i.e. toward -y), duration
+    (s), windows (s) and the mesh.
+    """
 
     phases: int = 6
     force: float = PUSH_FORCE
@@ -38,7 +59,7 @@ class PushSettings:
 
 
 def push_scene(stiffness: str, at: float | None, settings: PushSettings) -> Scene:
-    """A straight walk on flat ground (goal 20 m ahead) with one push at `at` s (None: unpushed)."""
+    """Return a straight walk on flat ground (goal 20 m ahead) with one push at `at` s (None: unpushed)."""
     pushes = () if at is None else (PushSpec(at=at, force=(0.0, -settings.force, 0.0), duration=settings.duration,
                                              region='trunk_left'),)
     length = SETTLE + STRIDE_FRAMES / FRAME_RATE + settings.duration + settings.window + settings.recovery
@@ -79,7 +100,7 @@ def push_effect(pushed: dict, unpushed: dict, settings: PushSettings) -> dict:
     at = pushed['at']
     window = (t > at) & (t <= at + settings.duration + settings.window)
     late = (t > at + settings.duration + settings.window) & (t <= at + settings.duration + settings.window
-                                                          + settings.recovery)
+                                                             + settings.recovery)
     speed = {}
     for name, trace in (('pushed', pushed), ('unpushed', unpushed)):
         x = np.asarray(trace['root_xy'])[late, 0]

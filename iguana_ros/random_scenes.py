@@ -1,6 +1,24 @@
-"""Seeded random scenes of the locomotion benchmark: hills, tilted planes, steps and smooth noise, each with one
-goal 3 m from the start in a random direction (also behind the iguana, which starts facing +x). ROS-free; used by
-`iguana bench locomotion` (iguana_ros.locomotion_bench) and `iguana sweep` (iguana_ros.sweep)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Seeded random scenes of the locomotion benchmark.
+
+Hills, tilted planes, steps and smooth noise, each with one goal 3 m from the start in a random direction (also behind
+the iguana, which starts facing +x). ROS-free; used by `iguana bench locomotion` (iguana_ros.locomotion_bench) and
+`iguana sweep` (iguana_ros.sweep).
+"""
 from __future__ import annotations
 
 import dataclasses
@@ -10,7 +28,7 @@ from typing import Iterable
 import numpy as np
 
 from iguana_ros.errors import InputError
-from iguana_ros.scene import RESOLUTIONS, GoalSpec, ModelSpec, Scene, TerrainSpec, parse_scene
+from iguana_ros.scene import GoalSpec, ModelSpec, parse_scene, RESOLUTIONS, Scene, TerrainSpec
 
 BENCH_KINDS = ('hills', 'tilted', 'steps', 'noise')
 """Terrain kinds of the benchmark, in the order `random_scenes` cycles through them."""
@@ -20,8 +38,13 @@ GOAL_RADIUS = 0.2
 TERRAIN_EXTENT = 10.0
 """Side (m) of every benchmark terrain, centred on the start."""
 
+
 def _random_terrain(kind: str, rng: np.random.Generator) -> TerrainSpec:
-    """A TerrainSpec of `kind` with parameters drawn from the benchmark's ranges (lengths in m, angles in deg)."""
+    """
+    Return a TerrainSpec of `kind` with parameters drawn from the benchmark's ranges.
+
+    (lengths in m, angles in deg).
+    """
     seed = int(rng.integers(0, 1_000_000))
     if kind == 'hills':
         params = {'amplitude': rng.uniform(0.03, 0.12), 'wavelength': rng.uniform(0.5, 1.4), 'seed': seed}
@@ -37,7 +60,8 @@ def _random_terrain(kind: str, rng: np.random.Generator) -> TerrainSpec:
 
 def random_scenes(n_terrains: int, seed: int, duration: float = 40.0, resolution: str = 'medium',
                   kinds: Iterable[str] = BENCH_KINDS) -> list[Scene]:
-    """`n_terrains` scenes `bench_<kind>_<index>` cycling through `kinds`, each with one goal 3 m away.
+    """
+    `n_terrains` scenes `bench_<kind>_<index>` cycling through `kinds`, each with one goal 3 m away.
 
     Scene `i` draws its terrain parameters and goal direction (uniform over the full circle) from its own
     generator, `SeedSequence(seed, spawn_key=(i,))`: the same (n, seed) always gives the same scenes, and the

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Locomotion metrics of a pipeline run: landmarks of the soft body (node groups by bone) -> metrics."""
 from __future__ import annotations
 
@@ -9,8 +23,8 @@ import numpy as np
 from iguana_ros.body.model import build_model
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
-from iguana_ros.metrics import (N_FEET, GaitMetrics, LocomotionMetrics, gait_metrics, goal_arrival,
-                                locomotion_metrics, rigid_fit_errors)
+from iguana_ros.metrics import (gait_metrics, GaitMetrics, goal_arrival, locomotion_metrics, LocomotionMetrics, N_FEET,
+                                rigid_fit_errors)
 from iguana_ros.physics.simulator import contact_offsets
 from iguana_ros.scene import terrain_from_spec
 
@@ -22,7 +36,7 @@ LIMB_CHAINS = (('shoulder_fl', 'elbow_fl', 'wrist_fl'), ('shoulder_fr', 'elbow_f
 
 
 def bone_node_groups(model, bones: tuple) -> list[np.ndarray]:
-    """Indices of the nodes skinned mostly to each bone of `bones`."""
+    """Return indices of the nodes skinned mostly to each bone of `bones`."""
     dominant = model.skin_bones[np.arange(model.n_nodes), np.argmax(model.skin_weights, axis=1)]
     return [np.flatnonzero(dominant == model.skeleton.index(b)) for b in bones]
 
@@ -33,9 +47,12 @@ def group_centroids(node_positions: np.ndarray, groups: list[np.ndarray]) -> np.
 
 
 def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetrics:
-    """LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: none reached, no distance), with
-    the gait figures against the reference (clips from `library`, default the shipped clip library); foot slip
-    per stride (four feet summed) is that of the walk, until the goal is reached."""
+    """
+    `LocomotionMetrics` of a RunResult for the last goal of `scene` (no goal: none reached, no distance).
+
+    with the gait figures against the reference (clips from `library`, default the shipped clip library); foot slip per
+    stride (four feet summed) is that of the walk, until the goal is reached.
+    """
     model = build_model(scene.model.resolution, scene.model.stiffness)
     terrain = terrain_from_spec(scene.terrain)
     nodes = result.node_positions
@@ -68,8 +85,11 @@ def foot_groups(model) -> list[np.ndarray]:
 
 
 def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, offset: np.ndarray) -> np.ndarray:
-    """Height (m) of each foot's lowest sole point (node minus its contact `offset (n_nodes,)`) above the
-    terrain, `(n_frames, n_feet)`."""
+    """
+    Height (m) of each foot's lowest sole point (node minus its contact `offset (n_nodes,)`) above the terrain.
+
+    `(n_frames, n_feet)`.
+    """
     out = np.empty((len(node_positions), len(feet)))
     for k, idx in enumerate(feet):
         sole = node_positions[:, idx]
@@ -80,17 +100,23 @@ def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, of
 
 def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np.ndarray], terrain,
                offset: np.ndarray) -> tuple:
-    """The foot probe of node trajectories `(n_frames, n, 3)` with contact flags `(n_frames, n)`: per frame and
-    foot, the height of the lowest sole point above the terrain `(n_frames, n_feet)` m (`foot_heights`), whether
-    any sole node touches the ground `(n_frames, n_feet)` bool, and the sole centroid `(n_frames, n_feet, 3)` m."""
+    """
+    Return the foot probe of node trajectories `(n_frames, n, 3)` with contact flags `(n_frames, n)`.
+
+    Per frame and foot, the height of the lowest sole point above the terrain `(n_frames, n_feet)` m (`foot_heights`),
+    whether any sole node touches the ground `(n_frames, n_feet)` bool, and the sole centroid `(n_frames, n_feet, 3)` m.
+    """
     contact = np.stack([in_contact[:, f].any(axis=1) for f in feet], axis=1)
     return foot_heights(node_positions, feet, terrain, offset), contact, group_centroids(node_positions, feet)
 
 
 class FootProbe:
-    """One frame's foot probe of a model on a terrain: of the simulated body (what `simulator_node` publishes on
-    foot_state / foot_positions) and of the reference mesh skinned to an adapted pose, the same figures
-    `metrics_of_run` computes from a library run's trajectories."""
+    """
+    One frame's foot probe of a model on a terrain.
+
+    Of the simulated body (what `simulator_node` publishes on foot_state / foot_positions) and of the reference mesh
+    skinned to an adapted pose, the same figures `metrics_of_run` computes from a library run's trajectories.
+    """
 
     def __init__(self, model, terrain) -> None:
         """Probe the feet (`foot_groups`) of `model` on `terrain`."""
@@ -101,15 +127,22 @@ class FootProbe:
         self._skinning: SpringLengthComputer | None = None
 
     def body(self, positions: np.ndarray, in_contact: np.ndarray) -> tuple:
-        """(heights `(4,)` m, contact `(4,)` bool, sole centroids `(4, 3)` m) of nodes `(n, 3)` with contact
-        flags `(n,)` (the simulator's `positions` and `in_contact`)."""
+        """
+        (heights `(4,)` m, contact `(4,)` bool, sole centroids `(4, 3)` m) of nodes `(n, 3)` with contact flags `(n,)`.
+
+        (the simulator's `positions` and `in_contact`).
+        """
         heights, contact, soles = foot_probe(np.asarray(positions, float)[None], np.asarray(in_contact, bool)[None],
                                              self.feet, self.terrain, self.offset)
         return heights[0], contact[0], soles[0]
 
     def reference_heights(self, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
-        """Reference foot heights `(n_frames, 4)` m: the reference mesh skinned (DQS) to adapted poses (joint
-        positions `(n_frames, n_bones, 3)`, bone rotations `(n_frames, n_bones, 4)`), by `foot_heights`."""
+        """
+        Return reference foot heights `(n_frames, 4)` m.
+
+        The reference mesh skinned (DQS) to adapted poses (joint positions `(n_frames, n_bones, 3)`, bone rotations
+        `(n_frames, n_bones, 4)`), by `foot_heights`.
+        """
         if self._skinning is None:
             self._skinning = SpringLengthComputer(self.model)
         mesh = skinned_meshes(self._skinning, joints, rotations)
@@ -118,9 +151,13 @@ class FootProbe:
 
 @dataclass(frozen=True)
 class Stride:
-    """One stride of a run: the frame its clip starts, the frames it advances, and the clip's root displacement
-    `(2,)` m with the heading (rad) of its first frame, both in one frame of reference (canonical for a library
-    clip, the world for a placed one); displacement None = unknown clip."""
+    """
+    One stride of a run.
+
+    The frame its clip starts, the frames it advances, and the clip's root displacement `(2,)` m with the heading (rad)
+    of its first frame, both in one frame of reference (canonical for a library clip, the world for a placed one);
+    displacement None = unknown clip.
+    """
 
     start: int
     n_frames: int
@@ -141,9 +178,12 @@ def library_strides(clip_history: list, library: dict) -> list[Stride]:
 
 def stride_progress(strides: list[Stride], root_positions: np.ndarray, root_orientations: np.ndarray,
                     until_frame: int) -> tuple:
-    """Per walking stride of `strides` completed before `until_frame`: the body's root progress along the clip's
-    displacement and the clip's displacement, both `(n_strides,)` m, from the root after each frame of the run
-    `(n_frames, 3)`, `(n_frames, 4)`."""
+    """
+    Per walking stride of `strides` completed before `until_frame`.
+
+    The body's root progress along the clip's displacement and the clip's displacement, both `(n_strides,)` m, from the
+    root after each frame of the run `(n_frames, 3)`, `(n_frames, 4)`.
+    """
     starts = [s.start for s in strides] + [len(root_positions)]
     progress, reference = [], []
     for stride, end in zip(strides, starts[1:]):
@@ -163,8 +203,12 @@ def stride_progress(strides: list[Stride], root_positions: np.ndarray, root_orie
 
 
 def walk_frames(times: np.ndarray, root_positions: np.ndarray, goal: np.ndarray | None, goal_radius: float) -> tuple:
-    """(frames of a run's walk, whether it reached the goal): until (and with) the first frame within
-    `goal_radius` of `goal` (2,), else (or with no goal, None) every frame of `times (n,)`, root `(n, 3)`."""
+    """
+    (frames of a run's walk, whether it reached the goal).
+
+    Until (and with) the first frame within `goal_radius` of `goal` (2,), else (or with no goal, None) every frame of
+    `times (n,)`, root `(n, 3)`.
+    """
     if goal is None:
         return len(times), False
     reached, t_goal, _ = goal_arrival(times, root_positions[:, :2], goal, goal_radius)
@@ -172,7 +216,11 @@ def walk_frames(times: np.ndarray, root_positions: np.ndarray, goal: np.ndarray 
 
 
 def scene_goal(scene) -> np.ndarray | None:
-    """The goal `(2,)` a run of `scene` is measured against: its last goal (None without goals: none is reached)."""
+    """
+    Return the goal `(2,)` a run of `scene` is measured against.
+
+    Its last goal (None without goals: none is reached).
+    """
     if scene.goals:
         return np.array([scene.goals[-1].x, scene.goals[-1].y])
     return None
@@ -180,9 +228,12 @@ def scene_goal(scene) -> np.ndarray | None:
 
 @dataclass
 class GaitTracks:
-    """Per-frame arrays of a run for its gait figures; row f = the body after frame f (times `(F,)` s, root
-    `(F, 3)`, `(F, 4)`, foot probe) and the reference of frame f (the clip's stance flags, reference foot
-    heights); None = not known (e.g. a topic missing from a node run's bag)."""
+    """
+    Per-frame arrays of a run for its gait figures.
+
+    Row f = the body after frame f (times `(F,)` s, root `(F, 3)`, `(F, 4)`, foot probe) and the reference of frame f
+    (the clip's stance flags, reference foot heights); None = not known (e.g. a topic missing from a node run's bag).
+    """
 
     times: np.ndarray
     root_positions: np.ndarray
@@ -211,8 +262,11 @@ GAIT_NEEDS = {
 
 
 def tracks_gait_metrics(tracks: GaitTracks, until: int, shape_errors: np.ndarray | None = None) -> GaitMetrics:
-    """GaitMetrics of the first `until` frames (the walk) of `tracks`, with the rigid-fit shape errors of those
-    frames; a figure whose tracks (GAIT_NEEDS) are not known is NaN (per foot: NaN each; swings: 0)."""
+    """
+    `GaitMetrics` of the first `until` frames (the walk) of `tracks`, with the rigid-fit shape errors of those frames.
+
+    A figure whose tracks (GAIT_NEEDS) are not known is NaN (per foot: NaN each; swings: 0).
+    """
     n = len(tracks.times)
     walk = slice(0, until)
 
@@ -233,7 +287,7 @@ def tracks_gait_metrics(tracks: GaitTracks, until: int, shape_errors: np.ndarray
 
 
 def _unknown(value):
-    """The 'not known' value of a GaitMetrics field like `value`."""
+    """Return the 'not known' value of a GaitMetrics field like `value`."""
     if isinstance(value, tuple):
         return tuple(float('nan') for _ in value)
     return 0 if isinstance(value, int) else float('nan')
@@ -241,8 +295,11 @@ def _unknown(value):
 
 def run_gait_metrics(model, result, scene, reference: np.ndarray, heights: np.ndarray, foot_xy: np.ndarray,
                      foot_contact: np.ndarray, goal: np.ndarray | None, library: dict | None, terrain) -> GaitMetrics:
-    """GaitMetrics of a run's walk (its frames until the goal is reached): per-foot contact, clearance, slip
-    and height error, speed, shape error."""
+    """
+    `GaitMetrics` of a run's walk (its frames until the goal is reached).
+
+    per-foot contact, clearance, slip and height error, speed, shape error.
+    """
     if library is None:
         from iguana_ros.motion.clips import load_clip_library
         library = load_clip_library()
@@ -257,13 +314,16 @@ def run_gait_metrics(model, result, scene, reference: np.ndarray, heights: np.nd
 
 
 def reference_mesh(model, result) -> np.ndarray:
-    """The reference mesh skinned (DQS) to each frame's adapted pose, `(n_frames, n_nodes, 3)`."""
+    """Return the reference mesh skinned (DQS) to each frame's adapted pose, `(n_frames, n_nodes, 3)`."""
     return skinned_meshes(SpringLengthComputer(model), result.reference_joints, result.reference_rotations)
 
 
 def skinned_meshes(computer: SpringLengthComputer, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
-    """The reference mesh skinned by `computer` to each pose (joint positions `(n_frames, n_bones, 3)`, bone
-    rotations `(n_frames, n_bones, 4)`), `(n_frames, n_nodes, 3)`."""
+    """
+    Return the reference mesh skinned by `computer` to each pose.
+
+    (joint positions `(n_frames, n_bones, 3)`, bone rotations `(n_frames, n_bones, 4)`), `(n_frames, n_nodes, 3)`.
+    """
     out = np.empty((len(joints), len(computer.rest_positions), 3))
     for f, (pos, rot) in enumerate(zip(joints, rotations)):
         out[f] = computer.skin_bones_to(rot, pos)

@@ -1,4 +1,19 @@
-"""Scene files (YAML under msg_configs/scenes/): schema, defaults and validation with clear errors.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Scene files (YAML under msg_configs/scenes/): schema, defaults and validation with clear errors.
 
 A scene says what a run contains — terrain, model, start, goals, pushes, duration, fidelity, what to
 record — and only what it names is built ("model only what a scene requires"; docs/ARCHITECTURE.md).
@@ -7,13 +22,13 @@ from __future__ import annotations
 
 import codecs
 import dataclasses
+from dataclasses import dataclass, field
 import math
+from pathlib import Path
 import re
 import reprlib
 import types
 import typing
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import yaml
 
@@ -36,7 +51,8 @@ class SceneError(InputError):
 
 @dataclass(frozen=True)
 class TerrainSpec:
-    """Terrain of a scene: flat ground, a tilted plane, procedural hills, steps or noise, or a height-map file.
+    """
+    Terrain of a scene: flat ground, a tilted plane, procedural hills, steps or noise, or a height-map file.
 
     Fields by kind (lengths in m): tilted `slope_deg`, `direction_deg`; hills `amplitude`, `wavelength`, `seed`;
     steps `block_size`, `step_min`, `step_max`, `seed`, `spacing` (flat pad of radius 0.4 m at height 0 around
@@ -192,7 +208,7 @@ def _fail(source: str, path: str, message: str) -> typing.NoReturn:
 
 
 def _show(value) -> str:
-    """A short one-line repr of a (possibly huge or deeply shared) YAML value for an error message."""
+    """Return a short one-line repr of a (possibly huge or deeply shared) YAML value for an error message."""
     short = reprlib.Repr()
     short.maxstring = short.maxother = short.maxlong = 60
     short.maxlist = short.maxtuple = short.maxdict = short.maxset = 6
@@ -201,7 +217,7 @@ def _show(value) -> str:
 
 
 def _limit(value: float) -> str:
-    """A limit for a message: integers in full, other numbers in %g."""
+    """Return a limit for a message: integers in full, other numbers in %g."""
     return str(int(value)) if float(value).is_integer() else f'{value:g}'
 
 
@@ -214,7 +230,7 @@ def _check_number(value, source: str, path: str, expected: type):
 
 
 def _number_problem(value, key: str, expected: type) -> str:
-    """What is wrong with `value` as number field `key` ('goals.at'; ranges in _POSITIVE ... _WITHIN), or ''."""
+    """Return what is wrong with `value` as number field `key` ('goals.at'; ranges in _POSITIVE ... _WITHIN), or ''."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return f'expected a number, got {_show(value)}'
     if isinstance(value, float) and not math.isfinite(value):
@@ -361,8 +377,12 @@ def _cross_checks(scene: Scene, source: str) -> None:
 
 
 def _check_pushes(pushes: tuple, source: str) -> None:
-    """Each push's impulse within MAX_PUSH_IMPULSE; the pushes acting when one starts within MAX_PUSH_FORCE in all
-    (the rules of the push topic, iguana_ros.validation.check_push)."""
+    """
+    Each push's impulse within MAX_PUSH_IMPULSE.
+
+    The pushes acting when one starts within MAX_PUSH_FORCE in all (the rules of the push topic,
+    iguana_ros.validation.check_push).
+    """
     for i, push in enumerate(pushes):
         magnitude = math.hypot(*push.force)
         if magnitude * push.duration > MAX_PUSH_IMPULSE:
@@ -375,7 +395,7 @@ def _check_pushes(pushes: tuple, source: str) -> None:
 
 
 def _check_grid(extent: float, spacing: float, field_path: str, what: str, source: str) -> None:
-    """A generated terrain of side `extent` m sampled every `spacing` m has at most MAX_GRID_NODES nodes."""
+    """Check that a generated terrain of side `extent` m sampled every `spacing` m has at most MAX_GRID_NODES nodes."""
     from iguana_ros.terrain.heightfield import MAX_GRID_NODES, grid_nodes, node_count
 
     nodes = grid_nodes(extent / 2.0, spacing)
@@ -385,7 +405,11 @@ def _check_grid(extent: float, spacing: float, field_path: str, what: str, sourc
 
 
 def _check_heightmap(terrain: TerrainSpec, source: str) -> None:
-    """A heightmap terrain names a file that exists and whose header promises at most MAX_GRID_NODES values."""
+    """
+    Check that a heightmap terrain names a file.
+
+    that exists and whose header promises at most MAX_GRID_NODES values.
+    """
     from iguana_ros.terrain.heightfield import heightmap_shape
 
     if not terrain.file:
@@ -421,7 +445,7 @@ def parse_scene(raw, source: str = '<scene>') -> Scene:
 
 
 def scene_path(name_or_path: str) -> Path:
-    """A scene file: an existing path, or the name of a scene under msg_configs/scenes/."""
+    """Return a scene file: an existing path, or the name of a scene under msg_configs/scenes/."""
     path = Path(name_or_path)
     if path.suffix in ('.yaml', '.yml') or path.exists():
         return path
@@ -434,8 +458,11 @@ def available_scenes() -> list[str]:
 
 
 def with_duration(scene: Scene, seconds: float, option: str = '--duration') -> Scene:
-    """`scene` run for `seconds` instead (a command-line `option`), within the limits of a scene's own duration;
-    InputError naming the option otherwise."""
+    """
+    `scene` run for `seconds` instead (a command-line `option`), within the limits of a scene's own duration.
+
+    InputError naming the option otherwise.
+    """
     problem = _number_problem(seconds, 'duration', float)
     if problem:
         raise InputError(f'{option}: {problem}')
@@ -443,7 +470,7 @@ def with_duration(scene: Scene, seconds: float, option: str = '--duration') -> S
 
 
 def terrain_from_spec(spec: TerrainSpec) -> HeightField:
-    """The HeightField of a scene's terrain; `spec.extent` is the side of the square (m), centred on 0."""
+    """Return the HeightField of a scene's terrain; `spec.extent` is the side of the square (m), centred on 0."""
     import numpy as np
 
     from iguana_ros.terrain.heightfield import HeightField   # the terrain floor, imported when needed (numba)
@@ -465,9 +492,12 @@ def terrain_from_spec(spec: TerrainSpec) -> HeightField:
 
 
 def load_scene(name_or_path: str) -> Scene:
-    """Read and validate a scene by name or path; SceneError (one line naming file and field) if missing or
-    invalid. The file's size is bounded before it is parsed, its YAML structure (nesting, alias expansion,
-    duplicate keys) before anything is built from it."""
+    """
+    Read and validate a scene by name or path.
+
+    SceneError (one line naming file and field) if missing or invalid. The file's size is bounded before it is parsed,
+    its YAML structure (nesting, alias expansion, duplicate keys) before anything is built from it.
+    """
     path = scene_path(name_or_path)
     if not path.is_file():
         raise SceneError(f'no scene {name_or_path!r} ({path} does not exist); '
@@ -479,9 +509,12 @@ def load_scene(name_or_path: str) -> Scene:
 
 
 def read_yaml(path: Path, what: str = 'scene'):
-    """The parsed YAML of a `what` file (a scene, or a sweep spec) read as a scene file is: at most MAX_SCENE_BYTES,
-    its structure (nesting, alias expansion, duplicate keys) bounded before it is composed; SceneError (one line)
-    if it is unreadable."""
+    """
+    Return the parsed YAML of a `what` file (a scene, or a sweep spec) read as a scene file is.
+
+    At most MAX_SCENE_BYTES, its structure (nesting, alias expansion, duplicate keys) bounded before it is composed;
+    SceneError (one line) if it is unreadable.
+    """
     text = _read_text(path, what)
     try:
         _check_structure(text, str(path))
@@ -499,7 +532,7 @@ _LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 
 
 def _read_text(path: Path, what: str = 'scene') -> str:
-    """The text of a `what` file of at most MAX_SCENE_BYTES (UTF-8, or UTF-16 with a byte-order mark)."""
+    """Return the text of a `what` file of at most MAX_SCENE_BYTES (UTF-8, or UTF-16 with a byte-order mark)."""
     try:
         with path.open('rb') as f:
             data = f.read(MAX_SCENE_BYTES + 1)
@@ -535,13 +568,17 @@ class _Collection:
     keys: dict = field(default_factory=dict)
 
     def step(self) -> str:
-        """The path step to the child being read: '.key' or '[index]'."""
+        """Return the path step to the child being read: '.key' or '[index]'."""
         return f'.{self.key}' if self.mapping else f'[{self.index}]'
 
 
 def _check_structure(text: str, source: str) -> None:
-    """From the parser's events, before anything is composed: at most MAX_NESTING levels of collections, at most
-    MAX_YAML_NODES nodes with every alias counted at its full size, no key given twice in a mapping."""
+    """
+    From the parser's events, before anything is composed.
+
+    At most MAX_NESTING levels of collections, at most MAX_YAML_NODES nodes with every alias counted at its full size,
+    no key given twice in a mapping.
+    """
     open_: list[_Collection] = [_Collection(mapping=False, anchor=None)]   # the document as a sequence
     anchors: dict[str, tuple[int, int]] = {}            # anchor -> (size, height)
 

@@ -1,4 +1,19 @@
-"""The four stages of the frame loop, each built from a scene by one factory (ROS-free).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The four stages of the frame loop, each built from a scene by one factory (ROS-free).
 
 goal -> `PlannerStage` (Section IV: a clip per stride) -> `AdaptationStage` (Section VI: the clip pose on the
 terrain) -> spring lengths (Section VII: `SpringLengthComputer`) -> `SimulatorStage` (Section V: the soft body,
@@ -8,8 +23,8 @@ the same factories, so a lockstep node run and `pipeline.run(scene)` compute the
 """
 from __future__ import annotations
 
-import dataclasses
 from concurrent.futures import Future, ThreadPoolExecutor
+import dataclasses
 
 import numpy as np
 
@@ -24,8 +39,8 @@ from iguana_ros.parameters import node_parameters
 from iguana_ros.physics.pushes import region_force
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import PushSpec, Scene
-from iguana_ros.terrain.adaptation import AdaptationState, adapt_pose, pose_kinematics, residual_heights_of
 from iguana_ros.scene import terrain_from_spec
+from iguana_ros.terrain.adaptation import adapt_pose, AdaptationState, pose_kinematics, residual_heights_of
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
 
@@ -34,20 +49,23 @@ STANCE_HEIGHT = 0.006
 
 
 def scene_model(scene: Scene):
-    """The scene's soft-body model (resolution and stiffness preset; cached by `build_model`)."""
+    """Return the scene's soft-body model (resolution and stiffness preset; cached by `build_model`)."""
     return build_model(scene.model.resolution, scene.model.stiffness)
 
 
 def scene_terrain(scene: Scene) -> HeightField:
-    """The scene's terrain as a height field."""
+    """Return the scene's terrain as a height field."""
     return terrain_from_spec(scene.terrain)
 
 
 # ----------------------------------------------------------------------------------------------- planner
 
 def stride_ended(clip_start: int, clip_points: int, frame: int) -> bool:
-    """Whether a clip of `clip_points` poses started at frame `clip_start` is used up at `frame` (its last pose is the
-    next clip's first: a new clip is chosen there)."""
+    """
+    Whether a clip of `clip_points` poses started at frame `clip_start` is used up at `frame`.
+
+    (its last pose is the next clip's first: a new clip is chosen there).
+    """
     return frame >= clip_start + clip_points - 1
 
 
@@ -75,8 +93,12 @@ class PlannerStage:
         self._scheduled = sorted(self._scheduled + [entry], key=lambda e: (e[0], e[1]))
 
     def accept_goal(self, goal_xy: np.ndarray, at: float) -> float:
-        """Schedule a received goal `(2,)` stamped `at` s; a stamp more than MAX_SCHEDULE_AHEAD past the frame planned
-        last is a wall-clock stamp and adopted now (0). Returns the adoption time used, s."""
+        """
+        Schedule a received goal `(2,)` stamped `at` s.
+
+        A stamp more than MAX_SCHEDULE_AHEAD past the frame planned last is a wall-clock stamp and adopted now (0).
+        Returns the adoption time used, s.
+        """
         if at > max(self.frame, 0) / FRAME_RATE + MAX_SCHEDULE_AHEAD:
             at = 0.0
         self.schedule_goal(goal_xy, at)
@@ -92,7 +114,7 @@ class PlannerStage:
         return self.clip is None or stride_ended(self.clip_start, len(self.clip.root_positions), frame)
 
     def reference_contacts(self, frame: int) -> np.ndarray:
-        """The current clip's stance flags `(4,)` (fl, fr, hl, hr) at `frame` (all True before any clip)."""
+        """Return the current clip's stance flags `(4,)` (fl, fr, hl, hr) at `frame` (all True before any clip)."""
         if self.clip is None:
             return np.ones(4, bool)
         index = frame - self.clip_start
@@ -114,8 +136,11 @@ class PlannerStage:
 
 
 def motion_graph(library: dict | None = None, blend_frames: int | None = None) -> MotionGraph:
-    """The motion graph over `library` (default: the shipped clip library), blending `blend_frames` frames at each
-    transition (default: the planner's declared `blend_frames` parameter)."""
+    """
+    Return the motion graph over `library` (default: the shipped clip library).
+
+    blending `blend_frames` frames at each transition (default: the planner's declared `blend_frames` parameter).
+    """
     if library is None:
         from iguana_ros.motion.clips import load_clip_library
         library = load_clip_library()
@@ -126,8 +151,12 @@ def motion_graph(library: dict | None = None, blend_frames: int | None = None) -
 
 def planner_stage(scene: Scene, library: dict | None = None, blend_frames: int | None = None,
                   goal_radius: float = 0.0) -> PlannerStage:
-    """The planner of `scene`: its motion graph (`motion_graph`) and the scene's goal radius unless `goal_radius`
-    (m) > 0. The scene's goals are not scheduled here: the library loop schedules them, a node receives them."""
+    """
+    Return the planner of `scene`.
+
+    Its motion graph (`motion_graph`) and the scene's goal radius unless `goal_radius` (m) > 0. The scene's goals are
+    not scheduled here: the library loop schedules them, a node receives them.
+    """
     return PlannerStage(motion_graph(library, blend_frames), PolicyParams(goal_radius=goal_radius or scene.goal_radius))
 
 
@@ -162,9 +191,11 @@ class AdaptationStage:
 
 def adaptation_stage(scene: Scene, enabled: bool | None = None, skeleton=None,
                      terrain: HeightField | None = None) -> AdaptationStage:
-    """The terrain adaptation of `scene` (on as the scene says unless `enabled` is given; never on flat ground),
-    for `skeleton` (default the iguana's); the terrain is built only when adaptation runs (or taken from
-    `terrain`)."""
+    """
+    Return the terrain adaptation of `scene` (on as the scene says unless `enabled` is given; never on flat ground).
+
+    for `skeleton` (default the iguana's); the terrain is built only when adaptation runs (or taken from `terrain`).
+    """
     needed = (scene if enabled is None else dataclasses.replace(scene, adaptation=bool(enabled))).needs_adaptation
     if not needed:
         terrain = HeightField.flat()
@@ -177,8 +208,12 @@ def adaptation_stage(scene: Scene, enabled: bool | None = None, skeleton=None,
 
 @dataclasses.dataclass(frozen=True)
 class ReferenceFrame:
-    """One frame's controller output: adapted joint positions `(n_bones, 3)` m, bone rotations `(n_bones, 4)`
-    xyzw, and desired spring lengths `(n_springs,)` m (None when no spring stage was given)."""
+    """
+    One frame's controller output.
+
+    Adapted joint positions `(n_bones, 3)` m, bone rotations `(n_bones, 4)` xyzw, and desired spring lengths
+    `(n_springs,)` m (None when no spring stage was given).
+    """
 
     joints: np.ndarray
     rotations: np.ndarray
@@ -186,8 +221,11 @@ class ReferenceFrame:
 
 
 class StrideLookahead:
-    """The reference frames of a placed clip's stride, computed in frame order on one worker thread while the
-    simulator steps (its kernel releases the GIL), so the two cores work at once.
+    """
+    The reference frames of a placed clip's stride.
+
+    computed in frame order on one worker thread while the simulator steps (its kernel releases the GIL), so the two
+    cores work at once.
 
     A frame's adapted pose depends only on the clip and the adaptation's warm start from the frame before, never
     on the simulated body, so computing a stride ahead gives the same numbers in the same order as computing each
@@ -195,8 +233,12 @@ class StrideLookahead:
     """
 
     def __init__(self, adaptation: AdaptationStage, springs=None, threaded: bool = True) -> None:
-        """Look ahead with `adaptation` (and `springs`, a SpringLengthComputer) on a worker thread unless
-        `threaded` is False (then each frame is computed when asked for)."""
+        """
+        Look ahead with `adaptation`.
+
+        (and `springs`, a SpringLengthComputer) on a worker thread unless `threaded` is False (then each frame is
+        computed when asked for).
+        """
         self.adaptation = adaptation
         self.springs = springs
         self._executor = ThreadPoolExecutor(1, thread_name_prefix='lookahead') if threaded else None
@@ -205,7 +247,7 @@ class StrideLookahead:
         self._pending: dict[int, Future] = {}
 
     def compute(self, clip: AlignedClip, index: int) -> ReferenceFrame:
-        """The reference frame of pose `index` of `clip` (advances the adaptation's warm start)."""
+        """Return the reference frame of pose `index` of `clip` (advances the adaptation's warm start)."""
         joints, rotations = self.adaptation.reference_pose(*clip_pose(clip, index))
         lengths = None if self.springs is None else self.springs.lengths_from_bones(rotations, joints)
         return ReferenceFrame(joints, rotations, lengths)
@@ -221,9 +263,13 @@ class StrideLookahead:
                 self._pending[frame] = self._executor.submit(self.compute, clip, frame - self._start)
 
     def take(self, frame: int, clip: AlignedClip | None = None, start: int | None = None) -> ReferenceFrame:
-        """The reference frame of `frame`: of the current stride (waiting for the worker if it is not done), or of
-        `clip` placed at `start` when given and not the current stride (a late frame; computed on the worker too,
-        so every adaptation call runs on one thread, in the order asked)."""
+        """
+        Return the reference frame of `frame`.
+
+        Of the current stride (waiting for the worker if it is not done), or of `clip` placed at `start` when given and
+        not the current stride (a late frame; computed on the worker too, so every adaptation call runs on one thread,
+        in the order asked).
+        """
         if clip is None or (clip is self._clip and start == self._start):
             future = self._pending.pop(frame, None)
             if future is not None:
@@ -249,7 +295,8 @@ def spring_stage(scene: Scene, model=None) -> SpringLengthComputer:
 # ----------------------------------------------------------------------------------------------- pushes
 
 def push_forces(model, pushes: tuple, time: float) -> np.ndarray | None:
-    """External forces `(n_nodes, 3)` N of the pushes active at `time` (None when none is active).
+    """
+    External forces `(n_nodes, 3)` N of the pushes active at `time` (None when none is active).
 
     Each push's force is spread over its region's nodes in proportion to their mass (total = the force).
     """
@@ -275,8 +322,12 @@ class SimulatorStage:
 
     def __init__(self, model, terrain: HeightField, fidelity: str, pushes: tuple = (),
                  start_xy: tuple = (0.0, 0.0), start_yaw: float = 0.0, options: dict | None = None) -> None:
-        """Build the simulator for `model` on `terrain`; pushes are applied by simulated time. `options` are
-        SoftBodySimulator keywords (fidelity fields such as `dt`, `friction`), none by default."""
+        """
+        Build the simulator for `model` on `terrain`.
+
+        pushes are applied by simulated time. `options` are SoftBodySimulator keywords (fidelity fields such as `dt`,
+        `friction`), none by default.
+        """
         self.model = model
         self.terrain = terrain
         self.pushes = tuple(pushes)
@@ -288,7 +339,7 @@ class SimulatorStage:
 
     @property
     def time(self) -> float:
-        """Simulated time at the current frame, s."""
+        """Return simulated time at the current frame, s."""
         return self.frame / FRAME_RATE
 
     def root_pose(self) -> tuple:
@@ -300,8 +351,11 @@ class SimulatorStage:
         return self.tracker.root_twist(self.sim.positions, self.sim.velocities)
 
     def advance(self, desired_lengths: np.ndarray | None, extra_forces: np.ndarray | None = None) -> None:
-        """Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` (None = rest lengths), the
-        scene's active pushes and optional extra forces `(n_nodes, 3)` N."""
+        """
+        Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` (None = rest lengths).
+
+        the scene's active pushes and optional extra forces `(n_nodes, 3)` N.
+        """
         forces = push_forces(self.model, self.pushes, self.time) if self.pushes else None
         if extra_forces is not None:
             forces = extra_forces if forces is None else forces + extra_forces
@@ -311,8 +365,12 @@ class SimulatorStage:
 
 def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,
                     terrain: HeightField | None = None, options: dict | None = None) -> SimulatorStage:
-    """The simulator of `scene`: its model (or `model`) on its terrain (or `terrain`) at its fidelity (unless
-    `fidelity` names a preset), placed at its start pose, with its pushes and the SoftBodySimulator `options`."""
+    """
+    Return the simulator of `scene`.
+
+    Its model (or `model`) on its terrain (or `terrain`) at its fidelity (unless `fidelity` names a preset), placed at
+    its start pose, with its pushes and the SoftBodySimulator `options`.
+    """
     return SimulatorStage(scene_model(scene) if model is None else model,
                           scene_terrain(scene) if terrain is None else terrain,
                           scene.fidelity if fidelity is None else fidelity,

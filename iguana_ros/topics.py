@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The topic table of msg_configs/topics.yaml as plain data (ROS-free); the only source of topic names."""
 from __future__ import annotations
 
@@ -30,7 +44,7 @@ class TopicSpec:
 
     key: str
     name: str
-    type: str
+    type: str  # noqa: A003 - the `type` key of msg_configs/topics.yaml
     qos: QosSpec
     rate_hz: float | None = None
     publishers: tuple = field(default_factory=tuple)
@@ -88,12 +102,12 @@ def load_topics(path: Path | None = None) -> dict[str, TopicSpec]:
 
 @lru_cache(maxsize=1)
 def default_topics() -> dict[str, TopicSpec]:
-    """The package's topic table, read once per process."""
+    """Return the package's topic table, read once per process."""
     return load_topics()
 
 
 def topic(key: str) -> TopicSpec:
-    """The TopicSpec for `key` (e.g. 'goal_pose'); KeyError lists the known keys."""
+    """Return the TopicSpec for `key` (e.g. 'goal_pose'); KeyError lists the known keys."""
     table = default_topics()
     if key not in table:
         raise KeyError(f'unknown topic key {key!r}; known: {sorted(table)}')

@@ -1,4 +1,19 @@
-"""What a node accepts from a topic: one check per topic payload, bounded by the model and the scene (ROS-free).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What a node accepts from a topic: one check per topic payload, bounded by the model and the scene (ROS-free).
 
 `iguana_ros.ros.messages` decodes each subscribed topic's message into numpy values and calls the check of that
 topic here, so every node that reads a topic applies the same rules (the planner and the simulator both read
@@ -63,8 +78,11 @@ def check_unit_quaternions(name: str, quaternions: np.ndarray) -> np.ndarray:
 
 
 def check_frame(what: str, frame: int, last_frame: int) -> str:
-    """FRAME_STALE, FRAME_REPEAT or FRAME_NEW for a message of `frame` after `last_frame` (-1 = none yet);
-    InputError for a frame more than MAX_FRAME_GAP frames ahead of `last_frame` (a stamp from another clock)."""
+    """
+    FRAME_STALE, FRAME_REPEAT or FRAME_NEW for a message of `frame` after `last_frame` (-1 = none yet).
+
+    InputError for a frame more than MAX_FRAME_GAP frames ahead of `last_frame` (a stamp from another clock).
+    """
     if frame < last_frame:
         return FRAME_STALE
     if frame == last_frame:
@@ -78,9 +96,12 @@ def check_frame(what: str, frame: int, last_frame: int) -> str:
 # ----------------------------------------------------------------------------------------- per topic payload
 
 def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_extent: float) -> tuple:
-    """goal_pose: ((x, y) `(2,)`, adoption time s) of a goal at `position` `(3,)`, `orientation` `(4,)` stamped `at`
-    s, on a terrain reaching `half_extent` m from the origin; InputError if non-finite, off the terrain, or
-    stamped before 0."""
+    """
+    goal_pose.
+
+    ((x, y) `(2,)`, adoption time s) of a goal at `position` `(3,)`, `orientation` `(4,)` stamped `at` s, on a terrain
+    reaching `half_extent` m from the origin; InputError if non-finite, off the terrain, or stamped before 0.
+    """
     position = validate_array('goal position', position, (3,))
     validate_array('goal orientation', orientation, (4,))
     xy = position[:2]
@@ -92,9 +113,13 @@ def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_ex
 
 
 def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.ndarray:
-    """spring_rest_lengths: desired lengths `(n_springs,)` m, each within DESIRED_LENGTH_FACTOR of its rest
-    length (above rest / factor, below rest x factor), their RMS log strain at most DESIRED_STRAIN_RMS;
-    InputError naming the worst spring (or the strain) otherwise."""
+    """
+    spring_rest_lengths.
+
+    Desired lengths `(n_springs,)` m, each within DESIRED_LENGTH_FACTOR of its rest length (above rest / factor, below
+    rest x factor), their RMS log strain at most DESIRED_STRAIN_RMS; InputError naming the worst spring (or the strain)
+    otherwise.
+    """
     rest = np.asarray(rest_lengths, dtype=np.float64)
     lengths = validate_array('spring_rest_lengths', lengths, rest.shape)
     with np.errstate(over='ignore', divide='ignore'):
@@ -115,9 +140,13 @@ def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.n
 
 def check_push(force: np.ndarray, torque: np.ndarray, region: str, regions: Sequence[str], duration: float,
                active_forces: Sequence[np.ndarray] = ()) -> np.ndarray:
-    """push: the force `(3,)` N of a push on `region` (one of `regions`, or 'all') lasting `duration` s, while
-    pushes of `active_forces` still act; InputError if non-finite, with a torque (not applied), on an unknown
-    region, above MAX_PUSH_FORCE (alone or with the active pushes) or above MAX_PUSH_IMPULSE."""
+    """
+    push.
+
+    The force `(3,)` N of a push on `region` (one of `regions`, or 'all') lasting `duration` s, while pushes of
+    `active_forces` still act; InputError if non-finite, with a torque (not applied), on an unknown region, above
+    MAX_PUSH_FORCE (alone or with the active pushes) or above MAX_PUSH_IMPULSE.
+    """
     force = validate_array('push force', force, (3,))
     torque = validate_array('push torque', torque, (3,))
     if np.any(torque != 0.0):
@@ -148,8 +177,12 @@ def check_root_pose(what: str, position: np.ndarray, orientation: np.ndarray, bo
 
 def check_bone_frames(what: str, positions: np.ndarray, rotations: np.ndarray, parents: np.ndarray,
                       offsets: np.ndarray, bound: float) -> tuple:
-    """reference_pose: world bone positions `(n_bones, 3)` within `bound` m, unit rotations `(n_bones, 4)`, each
-    bone as far from its parent as the skeleton's offset (within BONE_LENGTH_TOLERANCE); InputError otherwise."""
+    """
+    reference_pose.
+
+    World bone positions `(n_bones, 3)` within `bound` m, unit rotations `(n_bones, 4)`, each bone as far from its
+    parent as the skeleton's offset (within BONE_LENGTH_TOLERANCE); InputError otherwise.
+    """
     n = len(parents)
     positions = check_within(f'{what} positions', validate_array(f'{what} positions', positions, (n, 3)), bound)
     rotations = check_unit_quaternions(f'{what} orientations',
@@ -167,8 +200,12 @@ def check_bone_frames(what: str, positions: np.ndarray, rotations: np.ndarray, p
 
 def check_clip(translations: np.ndarray, rotations: np.ndarray, offsets: np.ndarray, bound: float,
                max_frames: int) -> tuple:
-    """motion_clip: translations `(n_frames, n_bones, 3)` (root first, then the skeleton's `offsets`) and unit
-    local rotations `(n_frames, n_bones, 4)`, 2..`max_frames` frames, root within `bound` m; InputError otherwise."""
+    """
+    motion_clip.
+
+    translations `(n_frames, n_bones, 3)` (root first, then the skeleton's `offsets`) and unit local rotations
+    `(n_frames, n_bones, 4)`, 2..`max_frames` frames, root within `bound` m; InputError otherwise.
+    """
     n_bones = len(offsets)
     translations = validate_array('motion_clip translations', translations, (None, n_bones, 3))
     rotations = validate_array('motion_clip rotations', rotations, (len(translations), n_bones, 4))

@@ -1,5 +1,22 @@
-"""Compile every numba kernel and build the default body model once, ahead of the first run (`iguana warm`,
-called by `make install`), so four node processes do not each spend tens of seconds compiling at start-up.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Compile every numba kernel and build the default body model once, ahead of the first run.
+
+(`iguana warm`, called by `make install`), so four node processes do not each spend tens of seconds compiling at
+start-up.
 
 numba compiles a kernel per argument-type signature; the warm-up drives the real code paths (the library frame
 loop over a terrain that needs adaptation, and one rendered frame) with the types a real run uses, so the
@@ -8,8 +25,8 @@ real run needs none beyond them.
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
+import time
 
 import numpy as np
 
@@ -31,8 +48,11 @@ class WarmReport:
 
 
 def kernel_signatures() -> dict[str, list[str]]:
-    """{'module.kernel': [signature, ...]} of every numba kernel of the package that has been compiled or
-    loaded in this process."""
+    """
+    {'module.kernel': [signature, ...]} of every numba kernel of the package.
+
+    that has been compiled or loaded in this process.
+    """
     import sys
 
     from numba.core.registry import CPUDispatcher

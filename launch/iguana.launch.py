@@ -1,4 +1,19 @@
-"""The four iguana_ros nodes for colcon users: `ros2 launch iguana_ros iguana.launch.py [scene:=hills]`.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The four iguana_ros nodes for colcon users: `ros2 launch iguana_ros iguana.launch.py [scene:=hills]`.
 
 Each node gets the params file `iguana run` gives it (share/iguana_ros/msg_configs/params/iguana.yaml), then the
 `scene` and `use_sim_time` launch arguments; the launch ends when the simulator finishes the scene, as `iguana run`

@@ -1,4 +1,19 @@
-"""Session set-up shared by every test: an isolated ROS 2 domain and rclpy fixtures.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Session set-up shared by every test: an isolated ROS 2 domain and rclpy fixtures.
 
 At session start ROS_DOMAIN_ID is set to a per-run value derived from the pid (1..200) unless
 IGUANA_TEST_DOMAIN_ID gives one ('keep' keeps an already-set ROS_DOMAIN_ID); discovery is
@@ -41,7 +56,7 @@ def pytest_collection_modifyitems(config, items) -> None:
 
 @pytest.fixture
 def ros_context():
-    """A fresh rclpy.Context, initialised for this test and shut down after it."""
+    """Yield a fresh rclpy.Context, initialised for this test and shut down after it."""
     rclpy = pytest.importorskip('rclpy')
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -51,7 +66,11 @@ def ros_context():
 
 @pytest.fixture
 def make_node(ros_context):
-    """Factory `make_node(name)` creating nodes on the test's context (destroyed afterwards)."""
+    """
+    Yield a factory `make_node` (call it with a node name) creating nodes on the test's context.
+
+    (destroyed afterwards).
+    """
     import rclpy
     nodes = []
 
@@ -66,7 +85,7 @@ def make_node(ros_context):
 
 @pytest.fixture
 def executor(ros_context):
-    """A SingleThreadedExecutor on the test's context (add nodes, then `spin_until(executor, …)`)."""
+    """Yield a SingleThreadedExecutor on the test's context (add nodes, then `spin_until(executor, …)`)."""
     from rclpy.executors import SingleThreadedExecutor
     ex = SingleThreadedExecutor(context=ros_context)
     yield ex

@@ -1,4 +1,19 @@
-"""The part of ROS 2 Jazzy's `launch` / `launch_ros` Python API that a launch file may use, as recording stand-ins.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The part of ROS 2 Jazzy's `launch` / `launch_ros` Python API that a launch file may use, as recording stand-ins.
 
 `launch` and `launch_ros` are not on PyPI, so a test cannot import them. JAZZY_EXPORTS lists the public names of
 the modules a launch file imports from (the `__all__` of launch 3.4 and launch_ros 0.26, the Jazzy releases);
@@ -8,10 +23,10 @@ file asked for. Substitutions resolve through `Resolver` (launch arguments, a pa
 """
 from __future__ import annotations
 
-import sys
-import types
 from dataclasses import dataclass, field
 from pathlib import Path
+import sys
+import types
 
 JAZZY_EXPORTS = {
     'launch': {'actions', 'conditions', 'descriptions', 'events', 'frontend', 'logging', 'substitutions', 'Action',
@@ -50,7 +65,7 @@ class Resolver:
     shares: dict[str, Path] = field(default_factory=dict)
 
     def text(self, value) -> str:
-        """A substitution, a list of them or plain text, as text."""
+        """Return a substitution, a list of them or plain text, as text."""
         if isinstance(value, (list, tuple)):
             return ''.join(self.text(v) for v in value)
         return value.perform(self) if hasattr(value, 'perform') else str(value)
@@ -93,7 +108,7 @@ class LaunchConfiguration:
         self.variable_name, self.default = variable_name, default
 
     def perform(self, resolver: Resolver) -> str:
-        """The argument's value (the launch file's default when not given)."""
+        """Return the argument's value (the launch file's default when not given)."""
         return resolver.arguments.get(self.variable_name, self.default)
 
 
@@ -104,7 +119,7 @@ class PathJoinSubstitution:
         self.substitutions = list(substitutions)
 
     def perform(self, resolver: Resolver) -> str:
-        """The parts joined as a path."""
+        """Return the parts joined as a path."""
         return str(Path(*(resolver.text(part) for part in self.substitutions)))
 
 
@@ -115,7 +130,7 @@ class FindPackageShare:
         self.package = package
 
     def perform(self, resolver: Resolver) -> str:
-        """The package's share directory."""
+        """Return the package's share directory."""
         return str(resolver.shares[resolver.text(self.package)])
 
 
@@ -126,7 +141,7 @@ class ParameterValue:
         self.value, self.value_type = value, value_type
 
     def perform(self, resolver: Resolver):
-        """The value coerced to `value_type` as launch_ros does (bool from 'true' / 'false')."""
+        """Return the value coerced to `value_type` as launch_ros does (bool from 'true' / 'false')."""
         text = resolver.text(self.value)
         if self.value_type is bool:
             if text.lower() not in ('true', 'false'):
@@ -152,11 +167,11 @@ class Node(_Action):
         Node.created.append(self)
 
     def parameter_files(self, resolver: Resolver) -> list[Path]:
-        """The params files given to the node, resolved."""
+        """Return the params files given to the node, resolved."""
         return [Path(resolver.text(p)) for p in self.parameters if not isinstance(p, dict)]
 
     def parameter_values(self, resolver: Resolver) -> dict:
-        """The parameters given as a dict, resolved."""
+        """Return the parameters given as a dict, resolved."""
         values: dict = {}
         for entry in self.parameters:
             if isinstance(entry, dict):

@@ -1,12 +1,26 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Node-level test helpers: spin until a condition, real node processes, dumps of serialized messages."""
 from __future__ import annotations
 
 import base64
+from collections.abc import Callable
 import json
+from pathlib import Path
 import sys
 import time
-from collections.abc import Callable
-from pathlib import Path
 
 from iguana_ros.supervisor.process import NodeProcess as _PackageNodeProcess
 from iguana_ros.supervisor.process import wait_for  # noqa: F401 (re-exported for tests)

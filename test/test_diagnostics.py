@@ -1,6 +1,23 @@
-"""Statics diagnostics (iguana_ros.diagnostics, `iguana bench statics`): support margins follow the geometry of
-the COM and the support line, springs' bending capacity is linear in their stiffness, a stiffer body sags less,
-the CLI reports every part as valid JSON and rejects bad arguments."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Statics diagnostics (iguana_ros.diagnostics, `iguana bench statics`).
+
+Support margins follow the geometry of the COM and the support line, springs' bending capacity is linear in their
+stiffness, a stiffer body sags less, the CLI reports every part as valid JSON and rejects bad arguments.
+"""
 import dataclasses
 import json
 import math
@@ -28,7 +45,7 @@ def forward():
 
 
 def _normal(row: dict) -> np.ndarray:
-    """Unit normal of a row's support line toward the swinging hind foot (behind the line: -x; hl is +y)."""
+    """Return unit normal of a row's support line toward the swinging hind foot (behind the line: -x; hl is +y)."""
     s, c = abs(math.sin(row['line_angle_rad'])), abs(math.cos(row['line_angle_rad']))
     return np.array([-s, c if row['stance'] == 'fl+hr' else -c])
 
@@ -38,7 +55,8 @@ def test_line_margin_and_triangle_geometry():
     assert margin['distance'] == pytest.approx(1.0) and margin['angle'] == pytest.approx(0.0)
     assert line_margin((0.0, 1.0), (0.0, 0.0), (2.0, 0.0), (5.0, -3.0))['distance'] == pytest.approx(-1.0)
     assert line_margin((1.0, 0.0), (0.0, 0.0), (-1.0, -1.0), (0.0, 1.0))['angle'] == pytest.approx(math.pi / 4)
-    assert inside_triangle((0.2, 0.2), (0, 0), (1, 0), (0, 1)) and not inside_triangle((0.8, 0.8), (0, 0), (1, 0), (0, 1))
+    assert (inside_triangle((0.2, 0.2), (0, 0), (1, 0), (0, 1))
+            and not inside_triangle((0.8, 0.8), (0, 0), (1, 0), (0, 1)))
 
 
 def test_support_margins_of_the_shipped_forward_clip(coarse, forward):
@@ -54,8 +72,12 @@ def test_support_margins_of_the_shipped_forward_clip(coarse, forward):
 
 
 def test_moving_the_mass_forward_moves_the_com_toward_the_line(coarse, forward):
-    """Mass re-weighted along x moves the COM ~1 cm forward: each frame's distance changes by
-    -Δx |sin(angle)| plus the lateral part n_y Δy (the posed tail swings sideways, so Δy is a few mm)."""
+    """
+    Mass re-weighted along x moves the COM ~1 cm forward.
+
+    Each frame's distance changes by -Δx |sin(angle)| plus the lateral part n_y Δy (the posed tail swings sideways, so
+    Δy is a few mm).
+    """
     x = coarse.rest_positions[:, 0]
     x_mean = coarse.node_mass @ x / coarse.node_mass.sum()
     shifted = dataclasses.replace(coarse, node_mass=coarse.node_mass * (1.0 + 0.8 * (x - x_mean)))
@@ -69,8 +91,12 @@ def test_moving_the_mass_forward_moves_the_com_toward_the_line(coarse, forward):
 
 
 def _made_up_body(skeleton, half_length=0.1, half_width=0.06, tail_x=-0.3, head_shift=0.0):
-    """A point-symmetric body of the real skeleton (every node skinned rigidly to the pelvis): four feet of 3
-    sole nodes at (±a, ±b), a tail node at (tail_x, 0) and a head node at (-tail_x + head_shift, 0), all 1 kg."""
+    """
+    Return a point-symmetric body of the real skeleton (every node skinned rigidly to the pelvis).
+
+    Four feet of 3 sole nodes at (±a, ±b), a tail node at (tail_x, 0) and a head node at (-tail_x + head_shift, 0), all
+    1 kg.
+    """
     feet = {}
     nodes = []
     for name, sx, sy in (('foot_fl', 1, 1), ('foot_fr', 1, -1), ('foot_hl', -1, 1), ('foot_hr', -1, -1)):
@@ -100,8 +126,12 @@ def test_symmetric_body_has_its_com_on_both_diagonals(coarse):
 
 @pytest.mark.parametrize('head_shift', [0.05, -0.05])
 def test_com_shift_changes_the_margin_by_dx_sin_angle_and_sets_the_tail_load(coarse, head_shift):
-    """Moving the head by h moves the COM by h / 14 along x: margin -Δx sin θ; the tail triangle needs W Δx / c
-    on the tail (moment about the diagonal, lever c sin θ), and holds the COM only when it moved backward."""
+    """
+    Moving the head by h moves the COM by h / 14 along x.
+
+    Margin -Δx sin θ; the tail triangle needs W Δx / c on the tail (moment about the diagonal, lever c sin θ), and holds
+    the COM only when it moved backward.
+    """
     model, clip = _made_up_body(coarse.skeleton, half_length=0.1, half_width=0.06, tail_x=-0.3,
                                 head_shift=head_shift)
     result = support_margins(model, clip)

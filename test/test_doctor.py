@@ -1,23 +1,40 @@
-"""`iguana doctor` passes on this machine, and fails with a named fix when the RMW is missing, when discovery is
-off, or when another participant is on the domain; `iguana run` stops at once with the doctor's line."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana doctor` passes on this machine, and fails with a named fix when the RMW is missing, when discovery is off.
+
+or when another participant is on the domain; `iguana run` stops at once with the doctor's line.
+"""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
-from ros_harness import IGUANA, REPO, NodeProcess
 
 from iguana_ros import doctor
+from ros_harness import IGUANA, NodeProcess, REPO
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
 
 CHECKS = ('Python', 'rclpy and RMW', 'DDS loopback on ROS_DOMAIN_ID', 'other participants on ROS_DOMAIN_ID',
           'kernel cache', 'model cache', 'bag folder', 'ffmpeg for MP4')
 
-FOREIGN = '''
+FOREIGN = """
 import time, rclpy
 rclpy.init()
 node = rclpy.create_node('foreign_participant')
@@ -25,7 +42,7 @@ print('ready', flush=True)
 end = time.monotonic() + 60
 while rclpy.ok() and time.monotonic() < end:
     rclpy.spin_once(node, timeout_sec=0.1)
-'''
+"""
 
 
 def iguana(*args, env: dict | None = None, cwd: Path = REPO) -> subprocess.CompletedProcess:
@@ -131,8 +148,12 @@ def test_kernel_cache_cold_then_warm(tmp_path):
 
 
 def test_iguana_run_that_hears_none_of_its_nodes_stops_with_the_loopback_line(tmp_path, monkeypatch):
-    """Discovery off: no node is ever heard; the run asks the doctor's loopback and stops with its line instead of
-    waiting for a lockstep or goal time-out (the silence and loopback limits shortened for the test)."""
+    """
+    Discovery off.
+
+    No node is ever heard; the run asks the doctor's loopback and stops with its line instead of waiting for a lockstep
+    or goal time-out (the silence and loopback limits shortened for the test).
+    """
     import yaml
 
     from iguana_ros.supervisor import run as supervisor

@@ -1,5 +1,22 @@
-"""The three scripts in examples/ run as a new user would run them (short scenes, coarse mesh): the library loop
-with metrics and a plot; driving a real `iguana run` with IguanaCommander; reading its bag with mcap."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The three scripts in examples/ run as a new user would run them (short scenes, coarse mesh).
+
+The library loop with metrics and a plot; driving a real `iguana run` with IguanaCommander; reading its bag with mcap.
+"""
 from __future__ import annotations
 
 import re
@@ -8,7 +25,8 @@ import sys
 
 import pytest
 import yaml
-from ros_harness import IGUANA, REPO, NodeProcess, wait_for
+
+from ros_harness import IGUANA, NodeProcess, REPO, wait_for
 
 EXAMPLES = REPO / 'examples'
 
@@ -35,8 +53,11 @@ def test_library_loop_prints_metrics_and_saves_a_plot(tmp_path):
 
 @pytest.fixture(scope='module')
 def driven(tmp_path_factory):
-    """A lockstep `iguana run` of a goal-less flat scene, driven by examples/drive_running_system.py; yields
-    (run output, example result, bag) once both have finished."""
+    """
+    Yield a lockstep `iguana run` of a goal-less flat scene, driven by examples/drive_running_system.py.
+
+    Yields (run output, example result, bag) once both have finished.
+    """
     folder = tmp_path_factory.mktemp('driven')
     scene = folder / 'driven.yaml'
     scene.write_text(yaml.safe_dump(DRIVEN_SCENE))
@@ -88,9 +109,13 @@ def test_read_bag_example_reads_the_driven_run(driven, tmp_path):
 @pytest.mark.ros
 @pytest.mark.slow
 def test_the_driven_run_named_its_phases_and_showed_its_progress(driven):
-    """`iguana run` with stdout not a terminal: each start-up phase as it begins and ends, then a progress line
-    every second (simulated time, realtime factor, distance to the goal the commander sent, clip), and the phases'
-    durations in the summary; all from messages (run_events, iguana_state, accepted_goals)."""
+    """
+    `iguana run` with stdout not a terminal.
+
+    Each start-up phase as it begins and ends, then a progress line every second (simulated time, realtime factor,
+    distance to the goal the commander sent, clip), and the phases' durations in the summary; all from messages
+    (run_events, iguana_state, accepted_goals).
+    """
     output, _drive, code, _bag = driven
     assert code == 0, output[-3000:]
     lines = output.splitlines()

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Quaternion helpers agree with scipy and with each other."""
 import numpy as np
 import pytest
@@ -79,8 +93,11 @@ def _rot_y(angle):
 
 
 def test_rigid_fit_recovers_a_rigid_transform_also_of_planar_sets():
-    """Exact data: the fit is the transform itself, also for 3 and 4 coplanar points, whose cross-covariance is
-    singular (det 0)."""
+    """
+    Exact data.
+
+    The fit is the transform itself, also for 3 and 4 coplanar points, whose cross-covariance is singular (det 0).
+    """
     rng = np.random.default_rng(0)
     rot = Rotation.random(random_state=1).as_matrix()
     for src in (rng.normal(size=(20, 3)), rng.normal(size=(3, 3)),
@@ -94,8 +111,11 @@ def test_rigid_fit_recovers_a_rigid_transform_also_of_planar_sets():
 
 
 def test_rigid_fit_never_reflects_and_weights_select_points():
-    """A set mirrored across its thinnest axis: the best proper rotation is the identity (analytic: the
-    cross-covariance is diag(c1, c2, -c3))."""
+    """
+    A set mirrored across its thinnest axis.
+
+    The best proper rotation is the identity (analytic: the cross-covariance is diag(c1, c2, -c3)).
+    """
     box = np.array([[sx * 0.3, sy * 0.2, sz * 0.1] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     r, t = g.rigid_fit(box, box * [1.0, 1.0, -1.0])
     np.testing.assert_allclose(r, np.eye(3), atol=1e-15)
@@ -107,8 +127,12 @@ def test_rigid_fit_never_reflects_and_weights_select_points():
 
 
 def test_rigid_fit_of_degenerate_sets():
-    """Collinear points: the smallest rotation taking the line onto the target line (here 0.2 rad about y, no
-    roll); coincident points: the identity and the offset; no positive weight: an error."""
+    """
+    Collinear points.
+
+    The smallest rotation taking the line onto the target line (here 0.2 rad about y, no roll); coincident points: the
+    identity and the offset; no positive weight: an error.
+    """
     line = np.outer([0.0, 0.1, 0.2, 0.3], [1.0, 0.0, 0.0])
     target = np.outer([0.0, 0.1, 0.2, 0.3], [np.cos(0.2), 0.0, np.sin(0.2)]) + [0.5, 0.0, 0.0]
     r, t = g.rigid_fit(line, target)

@@ -1,4 +1,19 @@
-"""The floors of the house, checked over the `ast` imports of every module of iguana_ros/ (function-level ones too).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The floors of the house, checked over the `ast` imports of every module of iguana_ros/ (function-level ones too).
 
 Each floor imports only from the floors below it (and, unless it is marked independent, from its own):
 
@@ -29,12 +44,12 @@ is tested on a synthetic tree with planted violations, so it cannot pass by find
 from __future__ import annotations
 
 import ast
-import importlib.metadata
-import importlib.util
-import textwrap
 from dataclasses import dataclass
 from functools import lru_cache
+import importlib.metadata
+import importlib.util
 from pathlib import Path
+import textwrap
 
 import iguana_ros
 
@@ -95,8 +110,11 @@ def module_name(root: Path, path: Path) -> str:
 
 
 def imports_of(root: Path, path: Path) -> list[Import]:
-    """Every import of the module at `path` (module level, in functions, under TYPE_CHECKING), relative ones
-    resolved; `from P import x` yields P.x (x may be a module or a name in P)."""
+    """
+    Every import of the module at `path` (module level, in functions, under TYPE_CHECKING), relative ones resolved.
+
+    `from P import x` yields P.x (x may be a module or a name in P).
+    """
     name = module_name(root, path)
     package = name if path.name == '__init__.py' else name.rpartition('.')[0]
     out = []
@@ -113,8 +131,12 @@ def imports_of(root: Path, path: Path) -> list[Import]:
 
 
 def unit_of(root: Path, module: str) -> str | None:
-    """The unit of a dotted path in the package at `root`: the module or subpackage right below the package, ''
-    for the package's own __init__ (a name defined there, such as `package_version`), None outside the package."""
+    """
+    Return the unit of a dotted path in the package at `root`.
+
+    The module or subpackage right below the package, '' for the package's own __init__ (a name defined there, such as
+    `package_version`), None outside the package.
+    """
     parts = module.split('.')
     if parts[0] != root.name:
         return None
@@ -133,8 +155,8 @@ def _ros_distribution_modules() -> frozenset:
 def is_ros(module: str) -> bool:
     """Whether a dotted module path belongs to ROS 2 (rclpy, rosidl, message and interface packages)."""
     top = module.split('.')[0]
-    return top not in NOT_MIDDLEWARE and (top in ROS_MODULES or top.endswith(('_msgs', '_interfaces')) or top.startswith('rosidl')
-            or top in _ros_distribution_modules())
+    return top not in NOT_MIDDLEWARE and (top in ROS_MODULES or top.endswith(('_msgs', '_interfaces'))
+                                          or top.startswith('rosidl') or top in _ros_distribution_modules())
 
 
 def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
@@ -170,8 +192,12 @@ def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
 
 
 def layer_violations(root: Path, layout: tuple[Floor, ...] = FLOORS, ros_floor: str = ROS_FLOOR) -> list[str]:
-    """Every breach of the floors by the package at `root`: units on no floor, upward imports, imports between
-    the units of an independent floor, ROS imports below `ros_floor`, cycles between units; one line each."""
+    """
+    Every breach of the floors by the package at `root`.
+
+    Units on no floor, upward imports, imports between the units of an independent floor, ROS imports below `ros_floor`,
+    cycles between units; one line each.
+    """
     level = {unit: k for k, floor in enumerate(layout) for unit in floor.units}
     level[''] = 0
     independent = {unit for floor in layout if floor.independent for unit in floor.units}
@@ -224,7 +250,7 @@ def test_every_imported_name_of_the_package_exists():
 
 
 def _plain_imports(path: Path) -> list[Import]:
-    """The absolute imports of a file outside the package (a test)."""
+    """Return the absolute imports of a file outside the package (a test)."""
     out = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
@@ -265,7 +291,7 @@ def test_every_floor_unit_is_declared_once():
 
 
 def _tree(tmp_path: Path, files: dict[str, str]) -> Path:
-    """A synthetic package `pkg` under `tmp_path` with the given module texts."""
+    """Return a synthetic package `pkg` under `tmp_path` with the given module texts."""
     root = tmp_path / 'pkg'
     for rel, text in {'__init__.py': '', **files}.items():
         path = root / rel

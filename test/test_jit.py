@@ -1,11 +1,25 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """numba cache invalidation: an edited kernel source removes the package's cached kernels, an unchanged one not."""
 from pathlib import Path
 
-from iguana_ros.jit import STAMP_NAME, invalidate_stale_kernels, kernel_sources_digest
+from iguana_ros.jit import invalidate_stale_kernels, kernel_sources_digest, STAMP_NAME
 
 
 def _package(tmp_path: Path) -> Path:
-    """A package with a kernel module calling a kernel of another module, and cached kernels of both."""
+    """Return a package with a kernel module calling a kernel of another module, and cached kernels of both."""
     pkg = tmp_path / 'pkg'
     (pkg / 'sub' / '__pycache__').mkdir(parents=True)
     (pkg / '__pycache__').mkdir()
@@ -39,8 +53,12 @@ def test_unwritable_cache_is_not_an_error(tmp_path):
 
 
 def test_invalidation_gives_every_kernel_module_a_new_stamp(tmp_path):
-    """After a source change every kernel module gets a newer mtime (so numba refuses cache entries a racing
-    process records later with the old stamps); unchanged sources are left alone."""
+    """
+    After a source change every kernel module gets a newer mtime.
+
+    (so numba refuses cache entries a racing process records later with the old stamps); unchanged sources are left
+    alone.
+    """
     pkg = _package(tmp_path)
     invalidate_stale_kernels(pkg)
     kernels = [pkg / 'callee.py', pkg / 'sub' / 'caller.py']

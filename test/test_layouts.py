@@ -1,19 +1,36 @@
-"""The shipped RViz2 config and Foxglove layout parse, name only topics, types and QoS that msg_configs/topics.yaml
-declares (every plotted field exists in its message type), send goals the planner accepts, and are installed
-under share/iguana_ros/."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The shipped RViz2 config and Foxglove layout parse, name only topics.
+
+types and QoS that msg_configs/topics.yaml declares (every plotted field exists in its message type), send goals the
+planner accepts, and are installed under share/iguana_ros/.
+"""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import re
 import runpy
-from pathlib import Path
 
 import pytest
 import yaml
-from ros_harness import REPO
 
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.topics import default_topics
+from ros_harness import REPO
 
 RVIZ = REPO / 'rviz' / 'iguana.rviz'
 FOXGLOVE = REPO / 'foxglove' / 'iguana_layout.json'
@@ -79,8 +96,11 @@ def message_class(type_name: str) -> type:
 
 
 def field_type(type_name: str, fields: list[str]) -> str:
-    """Type name of the field at `fields` (e.g. ['poses[0]', 'position', 'x']) of message type `type_name`;
-    AssertionError if a field does not exist or is indexed without being a sequence."""
+    """
+    Type name of the field at `fields` (e.g. ['poses[0]', 'position', 'x']) of message type `type_name`.
+
+    AssertionError if a field does not exist or is indexed without being a sequence.
+    """
     current = type_name
     for part in fields:
         name, index = re.fullmatch(r'(\w+)(?:\[(\d+)\])?', part).groups()

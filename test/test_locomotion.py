@@ -1,5 +1,23 @@
-"""Locomotion of the soft-body iguana (paper Sections V, VIII): it walks forward on flat ground, its stance feet
-hold, it stays upright, and it turns toward a goal on its left. Coarse mesh, a few simulated seconds each."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Locomotion of the soft-body iguana (paper Sections V, VIII).
+
+It walks forward on flat ground, its stance feet hold, it stays upright, and it turns toward a goal on its left. Coarse
+mesh, a few simulated seconds each.
+"""
 import dataclasses
 
 import numpy as np
@@ -42,16 +60,23 @@ def test_stands_up_and_does_not_fall(flat_run):
 
 
 def test_stance_feet_hold(flat_run):
-    """Foot slip per stride (4 feet summed) stays well under the 0.155 m a stride covers (measured 0.32 m for
-    4 feet, ~0.08 m per foot)."""
+    """
+    Foot slip per stride (4 feet summed) stays well under the 0.155 m a stride covers.
+
+    (measured 0.32 m for 4 feet, ~0.08 m per foot).
+    """
     _, result, metrics = flat_run
     assert metrics.foot_slip_per_stride < 0.5
     assert np.all(np.isfinite(result.node_positions))
 
 
 def test_turns_toward_a_goal_on_the_left():
-    """Goal 1.5 m to the left: the planner picks left turns and the body's stride-averaged heading follows
-    (measured ~8 deg per stride, the clip turns 15.7 deg; the pelvis also yaws +-12 deg within a stride)."""
+    """
+    Goal 1.5 m to the left.
+
+    The planner picks left turns and the body's stride-averaged heading follows (measured ~8 deg per stride, the clip
+    turns 15.7 deg; the pelvis also yaws +-12 deg within a stride).
+    """
     scene = _coarse('flat_walk', duration=3.0, goals=(GoalSpec(x=0.0, y=1.5),))
     result = run(scene)
     yaw = np.unwrap(yaw_of(result.root_orientations))

@@ -1,10 +1,24 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The randomized locomotion benchmark: its scenes, error rows, run order, summary figures and the CLI."""
 import dataclasses
 import json
 import math
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -49,7 +63,7 @@ def test_random_scenes_kinds_and_bad_arguments():
 
 
 def _missing_map_scene(name: str):
-    """A scene whose terrain file is missing: its run fails at once (no simulation)."""
+    """Return a scene whose terrain file is missing: its run fails at once (no simulation)."""
     scene = random_scenes(1, 0)[0]
     return dataclasses.replace(scene, name=name, terrain=TerrainSpec(kind='heightmap', file=f'/nonexistent/{name}.npy'))
 
@@ -67,7 +81,7 @@ def test_failing_runs_become_error_rows_in_a_fixed_order():
 
 
 def _row(scene, kind, adapt, reached, time, slip, speed, fell=False, stuck=False, **extra):
-    """A hand-made finished row."""
+    """Return a hand-made finished row."""
     return {'scene': scene, 'kind': kind, 'terrain': {'seed': 1}, 'goal': [3.0, 0.0], 'adaptation': adapt,
             'mode': 'adapt' if adapt else 'no_adapt', 'reached_goal': reached, 'time_to_goal': time,
             'foot_slip_per_stride': slip, 'speed_fraction': speed, 'fell': fell, 'stuck': stuck, **extra}

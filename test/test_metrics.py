@@ -1,6 +1,20 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Locomotion metrics on hand-made trajectories with known answers."""
-import json
 from dataclasses import asdict, fields
+import json
 
 import numpy as np
 import pytest
@@ -124,7 +138,7 @@ def test_rigid_fit_error_ignores_rigid_motion_and_measures_the_deformation():
 
 
 def _gait_case() -> dict:
-    """A hand-made 8-frame, 4-foot run and its reference; the expected figures are in the test."""
+    """Return a hand-made 8-frame, 4-foot run and its reference; the expected figures are in the test."""
     reference_contact = _flags('SwwwwSSS',   # fl: one swing 1..4, middle half 2..3
                                'SSwSSwSS',   # fr: one-frame swings at 2 and 5
                                'wwSSwwSS',   # hl: edge swing dropped; swing 4..5, all of it the middle
@@ -141,10 +155,10 @@ def _gait_case() -> dict:
     foot_contact[[0, 1], 3] = False
     foot_xy = np.zeros((8, 4, 2))
     foot_xy[:, 0, 0] = 0.01 * np.arange(8)               # fl slides 1 cm a frame; in contact 5->6->7
-    return dict(foot_contact=foot_contact, reference_contact=reference_contact, foot_height=height,
-                reference_foot_height=reference_height, foot_xy=foot_xy, n_strides=2,
-                stride_progress=np.array([0.2, 0.1]), stride_reference=np.array([0.2, 0.2]),
-                shape_errors=0.001 * np.arange(11))
+    return {'foot_contact': foot_contact, 'reference_contact': reference_contact, 'foot_height': height,
+            'reference_foot_height': reference_height, 'foot_xy': foot_xy, 'n_strides': 2,
+            'stride_progress': np.array([0.2, 0.1]), 'stride_reference': np.array([0.2, 0.2]),
+            'shape_errors': 0.001 * np.arange(11)}
 
 
 def test_gait_metrics_on_a_hand_made_run():

@@ -1,23 +1,40 @@
-"""Packaging and ROS 2 conventions: the launch file, a real colcon build, one version, one node list, the
-dependencies setup.py declares."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Packaging and ROS 2 conventions.
+
+The launch file, a real colcon build, one version, one node list, the dependencies setup.py declares.
+"""
 from __future__ import annotations
 
 import ast
 import importlib.metadata
 import os
+from pathlib import Path
 import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
-import launch_api
 import pytest
 import yaml
 
 import iguana_ros
 from iguana_ros.config import params_file
 from iguana_ros.executables import CLI_EXECUTABLE, NODE_EXECUTABLES
+import launch_api
 
 REPO = Path(__file__).resolve().parent.parent
 LAUNCH_FILE = REPO / 'launch' / 'iguana.launch.py'
@@ -28,7 +45,7 @@ ROS_MODULES = {'rclpy', 'rcl_interfaces', 'rosgraph_msgs', 'builtin_interfaces',
 
 
 def _setup_keyword(name: str):
-    """The literal value of keyword `name` of setup.py's setup() call."""
+    """Return the literal value of keyword `name` of setup.py's setup() call."""
     tree = ast.parse((REPO / 'setup.py').read_text())
     call = next(node for node in ast.walk(tree)
                 if isinstance(node, ast.Call) and getattr(node.func, 'id', '') == 'setup')

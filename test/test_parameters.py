@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Node parameter declarations (msg_configs/parameters.yaml) and the standard params file agree."""
 import pytest
 import yaml
@@ -5,7 +19,7 @@ import yaml
 from iguana_ros.config import config_path
 from iguana_ros.errors import InputError
 from iguana_ros.executables import NODE_EXECUTABLES
-from iguana_ros.parameters import ParamSpec, load_parameters, node_parameters
+from iguana_ros.parameters import load_parameters, node_parameters, ParamSpec
 
 
 def test_params_file_holds_every_declared_default():

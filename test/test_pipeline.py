@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The ROS-free frame loop: stages wire together, runs are deterministic, pushes and goals take effect."""
 import dataclasses
 from types import SimpleNamespace
@@ -8,7 +22,7 @@ import pytest
 from iguana_ros import pipeline, stages
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.geometry import quat_from_yaw, quat_identity
-from iguana_ros.scene import PushSpec, parse_scene
+from iguana_ros.scene import parse_scene, PushSpec
 
 
 def _synthetic_library(n=12):
@@ -72,8 +86,12 @@ def test_scene_goal_schedule(coarse_scene):
 
 
 def test_stride_lookahead_on_a_thread_equals_frames_computed_on_demand():
-    """Adapted poses of a stride computed ahead on the worker thread (while the body steps) are the numbers the
-    loop computes frame by frame without it: the same warm-start chain, over three strides with adaptation on."""
+    """
+    Adapted poses of a stride computed ahead on the worker thread.
+
+    (while the body steps) are the numbers the loop computes frame by frame without it: the same warm-start chain, over
+    three strides with adaptation on.
+    """
     scene = parse_scene({'terrain': {'kind': 'hills', 'amplitude': 0.08}, 'model': {'resolution': 'coarse'},
                          'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 1.0}, 'test')
     runs = []

@@ -1,5 +1,23 @@
-"""The progress display's parts without ROS: start-up milestones into phases, the active goal, the windowed
-realtime factor, the progress line, and the display on a pipe (lines) and on a terminal (a tqdm bar)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The progress display's parts without ROS.
+
+start-up milestones into phases, the active goal, the windowed realtime factor, the progress line, and the display on a
+pipe (lines) and on a terminal (a tqdm bar).
+"""
 from __future__ import annotations
 
 import io
@@ -7,8 +25,8 @@ import math
 
 import pytest
 
-from iguana_ros.progress import (EVENT_LOADED, EVENT_UP, PhaseTime, ProgressDisplay, RateWindow, RunEvent,
-                                 RunStatus, StartupClock, active_goal, startup_line)
+from iguana_ros.progress import (active_goal, EVENT_LOADED, EVENT_UP, PhaseTime, ProgressDisplay, RateWindow, RunEvent,
+                                 RunStatus, startup_line, StartupClock)
 
 NODES = ('planner_node', 'simulator_node')
 

@@ -1,12 +1,29 @@
-"""The foot probe and the gait figures of per-frame tracks (the pieces a node run's summary shares with
-`metrics_of_run`)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The foot probe and the gait figures of per-frame tracks.
+
+(the pieces a node run's summary shares with `metrics_of_run`).
+"""
 import math
 
 import numpy as np
 
 from iguana_ros.body.model import build_model
 from iguana_ros.metrics import gait_metrics
-from iguana_ros.run_metrics import (FootProbe, GaitTracks, Stride, foot_groups, foot_probe, stride_progress,
+from iguana_ros.run_metrics import (foot_groups, foot_probe, FootProbe, GaitTracks, Stride, stride_progress,
                                     tracks_gait_metrics)
 from iguana_ros.terrain.heightfield import HeightField
 

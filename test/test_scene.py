@@ -1,8 +1,22 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Scene files: the shipped scenes load, defaults fill gaps, bad fields give errors naming file and field."""
 import pytest
 
-from iguana_ros.scene import (MAX_DURATION, MAX_EXTENT, MAX_GOALS, MAX_NESTING, MAX_PUSH_FORCE, MAX_PUSHES, MAX_RELIEF,
-                              MAX_SCENE_BYTES, Scene, SceneError, available_scenes, load_scene, parse_scene)
+from iguana_ros.scene import (available_scenes, load_scene, MAX_DURATION, MAX_EXTENT, MAX_GOALS, MAX_NESTING,
+                              MAX_PUSH_FORCE, MAX_PUSHES, MAX_RELIEF, MAX_SCENE_BYTES, parse_scene, Scene, SceneError)
 from iguana_ros.terrain.heightfield import MAX_GRID_NODES
 
 REQUIRED = {'flat_walk', 'hills', 'hills_no_adaptation', 'push_normal', 'push_softer', 'goal_sequence'}
@@ -72,7 +86,7 @@ def _load_text(tmp_path, text, name='s.yaml'):
 
 
 def _one_line_error(tmp_path, text, name='s.yaml') -> str:
-    """The SceneError message of loading `text`; asserts it is one bounded line naming the file."""
+    """Return the SceneError message of loading `text`; asserts it is one bounded line naming the file."""
     with pytest.raises(SceneError) as info:
         _load_text(tmp_path, text, name)
     message = str(info.value)

@@ -1,7 +1,21 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The topic table in msg_configs/ parses, and bad tables give errors naming file and field."""
 import pytest
 
-from iguana_ros.topics import TopicConfigError, default_topics, load_topics, topic
+from iguana_ros.topics import default_topics, load_topics, topic, TopicConfigError
 
 DESIGN_KEYS = {'goal_pose', 'motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana_state',
                'mesh_marker', 'scene_markers', 'push', 'clock'}

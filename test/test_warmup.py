@@ -1,9 +1,27 @@
-"""`iguana warm` caches what a run asks for: a fresh process that runs the frame loop of a scene and renders a real
-bag uses no kernel signature that the warm-up did not compile (so `make install` leaves nothing to compile)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana warm` caches what a run asks for.
+
+A fresh process that runs the frame loop of a scene and renders a real bag uses no kernel signature that the warm-up did
+not compile (so `make install` leaves nothing to compile).
+"""
 import json
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 

@@ -1,4 +1,19 @@
-"""Bag -> `RecordedRun`: per-frame iguana surface triangles, root poses, terrain and goals as numpy arrays.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Bag -> `RecordedRun`: per-frame iguana surface triangles, root poses, terrain and goals as numpy arrays.
 
 Reads the topics `mesh_marker` (Marker TRIANGLE_LIST, fast CDR path), `iguana_state` (Odometry, optional) and
 `scene_markers` (MarkerArray: namespace 'terrain' TRIANGLE_LIST, namespace 'goal' spheres; optional) of
@@ -11,9 +26,9 @@ receive times when the stamps do not advance (an unstamped publisher). Frames ar
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+import math
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +37,7 @@ from iguana_ros.bag.storage import BagReader, BagSummary, summarize
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_normalize, quat_rotate, yaw_of
 from iguana_ros.render.run import GoalSet, RecordedRun
-from iguana_ros.ros.cdr import MarkerData, header_stamp_ns, marker_array_from_cdr, triangle_list_from_cdr
+from iguana_ros.ros.cdr import header_stamp_ns, marker_array_from_cdr, MarkerData, triangle_list_from_cdr
 from iguana_ros.topics import topic
 
 NS = 1_000_000_000
@@ -40,7 +55,7 @@ DEFAULT_MESH_RGBA = (0.36, 0.62, 0.30, 1.0)
 
 
 def match_topic(recorded: list[str], name: str) -> str | None:
-    """The recorded topic for table name `name`: its absolute form, else the first namespaced '.../name'."""
+    """Return the recorded topic for table name `name`: its absolute form, else the first namespaced '.../name'."""
     absolute = name if name.startswith('/') else '/' + name
     if absolute in recorded:
         return absolute
@@ -152,8 +167,11 @@ class _Collector:
 
 
 def _role_topics(path: str | Path) -> tuple[dict[str, str], BagSummary]:
-    """{recorded topic name: role} for mesh/state/scene, and the bag's summary (its chunks not yet verified);
-    errors name the bag."""
+    """
+    Return {recorded topic name: role} for mesh/state/scene, and the bag's summary (its chunks not yet verified).
+
+    Errors name the bag.
+    """
     summary = summarize(path, verify=False)
     recorded = {t.name: t.type for t in summary.topics}
     roles = {}
@@ -173,7 +191,8 @@ def _role_topics(path: str | Path) -> tuple[dict[str, str], BagSummary]:
 
 def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end: float = math.inf,
              at: float | None = None, progress: Callable[[int, int], None] | None = None) -> RecordedRun:
-    """Read the frames of a bag (see module docstring); `progress(n_read, n_total)` reports the messages read.
+    """
+    Read the frames of a bag (see module docstring); `progress(n_read, n_total)` reports the messages read.
 
     Every intact chunk is read; `RecordedRun.damage` holds the report line of a damaged or truncated bag (or of
     a bad metadata.yaml), '' for a sound one.
@@ -209,7 +228,7 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
 
 
 def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:
-    """RecordedRun from a finished collector; InputError when no frame was selected."""
+    """`RecordedRun` from a finished collector; InputError when no frame was selected."""
     sel = c.selection
     if c.mesh_count == 0:
         raise InputError(f'bag {path} has no {mesh_topic} messages; nothing to render')
@@ -235,7 +254,7 @@ def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:
 
 
 def _odometry(c: _Collector) -> tuple:
-    """(times, positions (k, 3), times, yaws (k,)) of the recorded odometry, or four Nones without any."""
+    """Return (times, positions (k, 3), times, yaws (k,)) of the recorded odometry, or four Nones without any."""
     if not c.odometry:
         return None, None, None, None
     from rclpy.serialization import deserialize_message
@@ -267,8 +286,12 @@ def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
 
 
 def scene_update(markers: list[MarkerData], t: float) -> tuple[tuple | None, list[GoalSet]]:
-    """What one scene_markers message received at `t` s changes: the terrain's (corners `(3n, 3)`, RGBA `(3n, 4)`)
-    or None, and the goal sets it starts (an empty one for a DELETEALL, then its goal spheres)."""
+    """
+    Return what one scene_markers message received at `t` s changes.
+
+    The terrain's (corners `(3n, 3)`, RGBA `(3n, 4)`) or None, and the goal sets it starts (an empty one for a
+    DELETEALL, then its goal spheres).
+    """
     terrain, goals = None, []
     if any(m.action == _DELETEALL for m in markers):
         goals.append(GoalSet(t, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))))
@@ -295,7 +318,7 @@ def marker_triangles(m: MarkerData) -> tuple[np.ndarray, np.ndarray]:
 
 
 def goal_set(t: float, markers: list[MarkerData]) -> GoalSet:
-    """GoalSet of goal markers (spheres of diameter scale.x at their pose)."""
+    """`GoalSet` of goal markers (spheres of diameter scale.x at their pose)."""
     pos = np.array([m.position for m in markers])
     radii = np.array([0.5 * max(float(m.scale[0]), 1e-3) for m in markers])
     return GoalSet(t, pos, radii, np.array([m.color for m in markers]))

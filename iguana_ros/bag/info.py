@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana bag info`: duration, topics, types and counts of a bag, laid out like `ros2 bag info` (ROS-free)."""
 from __future__ import annotations
 
@@ -44,8 +58,11 @@ def format_summary(summary: BagSummary) -> str:
 
 
 def bag_info(path: str | Path) -> tuple[str, BagSummary]:
-    """(printable text, summary) of the bag at `path` (directory or .mcap), every chunk checked; a damaged or
-    truncated bag's text starts with its report line (`BagSummary.report_line`). InputError if unreadable."""
+    """
+    (printable text, summary) of the bag at `path` (directory or .mcap), every chunk checked.
+
+    A damaged or truncated bag's text starts with its report line (`BagSummary.report_line`). InputError if unreadable.
+    """
     summary = summarize(path)
     text = format_summary(summary)
     if not summary.sound:

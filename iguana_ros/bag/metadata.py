@@ -1,4 +1,19 @@
-"""A bag directory's `metadata.yaml` (rosbag2_bagfile_information), read without trusting it (ROS-free).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A bag directory's `metadata.yaml` (rosbag2_bagfile_information), read without trusting it (ROS-free).
 
 Whatever the file holds -- binary bytes, broken or deeply nested YAML, the wrong structure, counts that
 contradict the MCAP -- the result is one phrase saying what is wrong, never an exception: the MCAP is read
@@ -6,8 +21,8 @@ on its own, and the phrase joins the bag's damage report.
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
+import re
 
 import yaml
 
@@ -26,7 +41,7 @@ _SAFE_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 
 
 def load_metadata(directory: str | Path) -> tuple[dict | None, str]:
-    """(the rosbag2_bagfile_information mapping, '') of DIR/metadata.yaml, or (None, what is wrong with it)."""
+    """Return (the rosbag2_bagfile_information mapping, '') of DIR/metadata.yaml, or (None, what is wrong with it)."""
     path = Path(directory) / METADATA_FILE
     if not path.is_file():
         return None, f'no {METADATA_FILE} (written when the recorder finishes; `ros2 bag reindex` rebuilds it)'
@@ -57,8 +72,11 @@ def load_metadata(directory: str | Path) -> tuple[dict | None, str]:
 
 
 def _too_deep(text: str) -> bool:
-    """Whether brackets nest deeper than MAX_FLOW_DEPTH or a line is indented more than MAX_INDENT (quoted text
-    counts too: a bag description has no such strings)."""
+    """
+    Whether brackets nest deeper than MAX_FLOW_DEPTH or a line is indented more than MAX_INDENT.
+
+    (quoted text counts too: a bag description has no such strings).
+    """
     depth = 0
     for bracket in _BRACKETS.findall(text):
         depth += 1 if bracket in '[{' else -1
@@ -75,7 +93,7 @@ def _yaml_reason(exc: yaml.YAMLError) -> str:
 
 
 def relative_files(info: dict | None) -> list[str]:
-    """The plain file names listed in relative_file_paths ([] when absent or malformed)."""
+    """Return the plain file names listed in relative_file_paths ([] when absent or malformed)."""
     files = info.get('relative_file_paths') if isinstance(info, dict) else None
     if not isinstance(files, list):
         return []
@@ -83,15 +101,18 @@ def relative_files(info: dict | None) -> list[str]:
 
 
 def _count(value) -> int | None:
-    """An integer count (not bool), else None."""
+    """Return an integer count (not bool), else None."""
     return value if isinstance(value, int) and not isinstance(value, bool) else None
 
 
 def check_metadata(info: dict, mcap_name: str, topic_counts: dict[str, int] | None,
                    message_count: int | None) -> list[str]:
-    """What in a loaded metadata mapping is malformed or contradicts the MCAP file `mcap_name`, whose full
-    per-topic and total message counts are given when known (None for a damaged MCAP without a trusted
-    summary: then the counts are not compared)."""
+    """
+    Return what in a loaded metadata mapping is malformed or contradicts the MCAP file `mcap_name`.
+
+    whose full per-topic and total message counts are given when known (None for a damaged MCAP without a trusted
+    summary: then the counts are not compared).
+    """
     problems = []
     if info.get('storage_identifier') != 'mcap':
         problems.append(f'storage_identifier is {info.get("storage_identifier")!r}, expected \'mcap\'')

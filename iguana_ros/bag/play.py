@@ -1,13 +1,27 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana bag play`: republish a bag's serialized messages with the recorded timing and QoS."""
 from __future__ import annotations
 
+from pathlib import Path
 import signal
 import sys
 import time
-from pathlib import Path
 
-import rclpy
 from builtin_interfaces.msg import Time
+import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import ReliabilityPolicy
@@ -16,7 +30,7 @@ from rosgraph_msgs.msg import Clock
 
 from iguana_ros.bag.qos import offer_profile
 from iguana_ros.bag.record import absolute_name
-from iguana_ros.bag.storage import BagReader, BagSummary, accept, parse_qos_profiles, summarize
+from iguana_ros.bag.storage import accept, BagReader, BagSummary, parse_qos_profiles, summarize
 from iguana_ros.errors import InputError
 from iguana_ros.ros.endpoints import message_class, resolve
 from iguana_ros.topics import default_topics
@@ -32,7 +46,7 @@ def _err(message: str) -> None:
 
 
 def select_topics(summary: BagSummary, wanted: list[str] | None) -> list:
-    """The bag's topics filtered by `wanted` names; InputError listing the bag's topics for unknown ones."""
+    """Return the bag's topics filtered by `wanted` names; InputError listing the bag's topics for unknown ones."""
     if not wanted:
         return list(summary.topics)
     names = [absolute_name(t) for t in wanted]
@@ -100,9 +114,12 @@ class _Pacer:
 
 def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[bool],
                warn_damage: bool = True) -> int:
-    """Stream the bag once through the publishers (every intact chunk); returns the number of messages
-    published. With `warn_damage`, damage that the check before playing did not see (the file changed) is
-    reported in one line."""
+    """
+    Stream the bag once through the publishers (every intact chunk).
+
+    Returns the number of messages published. With `warn_damage`, damage that the check before playing did not see (the
+    file changed) is reported in one line.
+    """
     reader = BagReader(path)
     pacer = _Pacer(rate, clock_pub)
     count = 0
@@ -124,7 +141,8 @@ def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[
 
 def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[str] | None = None,
          clock: bool = False, wait_for_subscribers_s: float = 0.5, allow_damaged: bool = False) -> int:
-    """Republish bag `path` (directory or .mcap) until its end (or forever with `loop`); returns count.
+    """
+    Republish bag `path` (directory or .mcap) until its end (or forever with `loop`); returns count.
 
     The bag is checked first: a damaged or truncated one raises DamagedBag (nothing is published) unless
     `allow_damaged`, and then the messages of every intact chunk are played after a warning line.

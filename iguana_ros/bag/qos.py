@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """rclpy QoS profiles <-> rosbag2's offered_qos_profiles dicts, and rosbag2's adaptation rules."""
 from __future__ import annotations
 
@@ -54,7 +68,8 @@ def request_profile(offered: list[QoSProfile]) -> QoSProfile:
 
 
 def offer_profile(recorded: list[dict], default_depth: int = 10) -> QoSProfile:
-    """Publisher QoS for replay from the recorded offers (rosbag2's adapt_offer_to_recorded_offers).
+    """
+    Return publisher QoS for replay from the recorded offers (rosbag2's adapt_offer_to_recorded_offers).
 
     Reliability and durability are kept when all recorded publishers agree (a latched topic stays
     latched); history is keep_last with the recorded depth, or `default_depth` where DDS did not
@@ -68,7 +83,7 @@ def offer_profile(recorded: list[dict], default_depth: int = 10) -> QoSProfile:
     known = {ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT}
     reliability = rel.pop() if len(rel) == 1 and rel <= known else ReliabilityPolicy.RELIABLE
     durability = (dur.pop() if len(dur) == 1 and dur <= {DurabilityPolicy.VOLATILE,
-                                                          DurabilityPolicy.TRANSIENT_LOCAL}
+                                                         DurabilityPolicy.TRANSIENT_LOCAL}
                   else DurabilityPolicy.VOLATILE)
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=reliability,
                       durability=durability, liveliness=LivelinessPolicy.AUTOMATIC)

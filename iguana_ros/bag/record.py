@@ -1,11 +1,25 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana bag record`: subscribe with raw (serialized) messages and write a rosbag2-compatible MCAP bag."""
 from __future__ import annotations
 
+from collections.abc import Callable
+from pathlib import Path
 import signal
 import sys
 import time
-from collections.abc import Callable
-from pathlib import Path
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
@@ -14,9 +28,9 @@ from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.bag.qos import profile_to_dict, request_profile
 from iguana_ros.bag.schema import message_definition
-from iguana_ros.bag.storage import CHUNK_AGE_S, BagWriter, qos_profiles_yaml
+from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
-from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, message_class
+from iguana_ros.ros.endpoints import message_class, RECORDER_NODE_NAME
 from iguana_ros.topics import default_topics
 
 DISCOVERY_PERIOD_S = 0.5
@@ -95,7 +109,8 @@ def _install_stop_handlers(stop: list[bool]) -> None:
 
 def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CHUNK_AGE_S,
            duration_s: float | None = None) -> int:
-    """Record `topics` (None = every discovered topic) into bag directory `output` until SIGINT/SIGTERM.
+    """
+    Record `topics` (None = every discovered topic) into bag directory `output` until SIGINT/SIGTERM.
 
     Returns the number of messages written. The bag is finalised (summary, footer, metadata.yaml)
     on every exit path except SIGKILL, after which every completed chunk remains readable.

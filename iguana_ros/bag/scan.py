@@ -1,4 +1,19 @@
-"""Damage-aware reading of an MCAP file (ROS-free): the records of every intact chunk, and what was wrong.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Damage-aware reading of an MCAP file (ROS-free): the records of every intact chunk, and what was wrong.
 
 The scan walks the data section record by record from the start of the file. A chunk is accepted when its
 record parses exactly, decompresses to its declared size and matches its CRC; its schemas, channels and
@@ -19,18 +34,18 @@ end is recovered. Truncation and damage both make the file unsound (`Health.soun
 from __future__ import annotations
 
 import bisect
-import os
-import struct
-import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from io import BytesIO
+import os
 from pathlib import Path
+import struct
+import zlib
 
-import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.records import Channel, ChunkIndex, Header, Message, Schema, Statistics
+import zstandard
 
 from iguana_ros.errors import InputError
 
@@ -98,7 +113,7 @@ class Health:
 
     @property
     def damaged(self) -> bool:
-        """Whether any region of the file is damaged (truncation alone is not damage)."""
+        """Whether any region of the file is damaged; truncation alone is not damage."""
         return bool(self.damage)
 
     def problems(self) -> list[str]:
@@ -116,8 +131,11 @@ class Health:
         return out
 
     def recovered(self) -> str:
-        """'recovered 59 of 60 messages (59 of 60 chunks)' or, without a trusted summary, 'recovered 48 messages
-        in 48 chunks'."""
+        """
+        'recovered 59 of 60 messages (59 of 60 chunks)' or, without a trusted summary.
+
+        'recovered 48 messages in 48 chunks'.
+        """
         if self.expected_messages is None:
             return f'recovered {self.messages} messages in {self.chunks} chunks'
         chunks = f' ({self.chunks} of {self.expected_chunks} chunks)' if self.expected_chunks is not None else ''
@@ -131,8 +149,11 @@ class Health:
 
 
 class _File:
-    """Positioned reads of a file (no shared file position, no memory map: a file shrinking under the reader
-    gives short reads, not a crash)."""
+    """
+    Positioned reads of a file.
+
+    (no shared file position, no memory map: a file shrinking under the reader gives short reads, not a crash).
+    """
 
     def __init__(self, path: Path) -> None:
         self.fd = os.open(path, os.O_RDONLY)
@@ -182,9 +203,11 @@ def looks_like_mcap(path: Path) -> bool:
 
 
 def _chunk_fields(body: bytes | memoryview, at: int = 0, length: int | None = None) -> tuple | None:
-    """(start_ns, end_ns, uncompressed_size, crc, compression, records_offset, records_length) of a chunk record
-    body at `at` whose record length is `length` (default: the rest of `body`), or None if it is not shaped
-    like one."""
+    """
+    (start_ns, end_ns, uncompressed_size, crc, compression, records_offset, records_length) of a chunk record body.
+
+    at `at` whose record length is `length` (default: the rest of `body`), or None if it is not shaped like one.
+    """
     length = len(body) - at if length is None else length
     if length < CHUNK_FIXED or len(body) < at + 32:
         return None
@@ -201,7 +224,7 @@ def _chunk_fields(body: bytes | memoryview, at: int = 0, length: int | None = No
 
 
 def _decompress(compression: str, data: bytes, size: int) -> bytes:
-    """The chunk's records; ValueError when they do not decompress to exactly `size` bytes."""
+    """Return the chunk's records; ValueError when they do not decompress to exactly `size` bytes."""
     if compression == '':
         out = data
     elif compression == 'zstd':
@@ -243,8 +266,11 @@ def _message(body: bytes) -> Message:
 
 
 def _chunk_records(records: bytes) -> list[tuple[int, object]]:
-    """(offset in the records, Schema | Channel | Message) of a chunk's decompressed records; ValueError if
-    they do not parse exactly."""
+    """
+    (offset in the records, Schema | Channel | Message) of a chunk's decompressed records.
+
+    ValueError if they do not parse exactly.
+    """
     out, pos = [], 0
     while pos < len(records):
         if len(records) - pos < RECORD_HEAD:
@@ -266,8 +292,12 @@ def _chunk_records(records: bytes) -> list[tuple[int, object]]:
 
 
 class Scan:
-    """One damage-aware pass over an MCAP file: iterate `records()`, then read `health`, `header`, `schemas`,
-    `channels`, `counts` (recovered messages per channel id), `statistics` (of a trusted summary)."""
+    """
+    One damage-aware pass over an MCAP file.
+
+    Iterate `records()`, then read `health`, `header`, `schemas`, `channels`, `counts` (recovered messages per channel
+    id), `statistics` (of a trusted summary).
+    """
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
@@ -349,8 +379,11 @@ class Scan:
                          'summary section fails its CRC' if not crc_ok else 'summary section does not parse')
 
     def _parse_summary(self, data: bytes, base: int) -> bool:
-        """Read the summary's schemas, channels, chunk indexes and statistics; False if a record is unreadable
-        (the chunk offsets read so far are kept as hints)."""
+        """
+        Read the summary's schemas, channels, chunk indexes and statistics.
+
+        False if a record is unreadable (the chunk offsets read so far are kept as hints).
+        """
         pos = 0
         try:
             while pos < len(data):
@@ -377,8 +410,11 @@ class Scan:
         return True
 
     def verified_by_crcs(self) -> bool:
-        """True when the summary CRC and a non-zero data-section CRC both match and nothing else was found wrong:
-        then every chunk is as written and the file is sound without decompressing one."""
+        """
+        Return True when the summary CRC and a non-zero data-section CRC both match and nothing else was found wrong.
+
+        Then every chunk is as written and the file is sound without decompressing one.
+        """
         if not (self._summary_ok and self.health.summary == 'verified' and not self.health.damage
                 and self._footer and self._footer[2] != 0):
             return False
@@ -405,8 +441,11 @@ class Scan:
     # -- the data section ---------------------------------------------------------------------------------------
 
     def records(self) -> Iterator[Schema | Channel | Message]:
-        """Schemas, channels and messages of every intact chunk (and top-level record) in file order; messages
-        only once their channel is known. `health` is complete when the iterator is exhausted."""
+        """
+        Schemas, channels and messages of every intact chunk (and top-level record) in file order.
+
+        Messages only once their channel is known. `health` is complete when the iterator is exhausted.
+        """
         try:
             yield from self._scan()
         finally:
@@ -457,8 +496,11 @@ class Scan:
         self._finish(pos)
 
     def _lost(self, pos: int, what: str, past_end: bool = False) -> int:
-        """Record the damaged region from `pos` to where reading resumes, and return that offset. In a file
-        without footer, a last record cut off with nothing readable after it is a truncation instead."""
+        """
+        Record the damaged region from `pos` to where reading resumes, and return that offset.
+
+        In a file without footer, a last record cut off with nothing readable after it is a truncation instead.
+        """
         resume = self._resync(pos)
         if past_end and resume >= self._limit and self._footer is None:
             self.health.truncated_at = pos
@@ -467,9 +509,12 @@ class Scan:
         return resume
 
     def _resync(self, pos: int) -> int:
-        """Offset of the next chunk (or DataEnd) after a damaged record at `pos`. With a trusted summary: the next
-        indexed chunk, else DataEnd. Otherwise the next bytes shaped like a chunk or the next offset of an
-        untrusted index, whichever comes first; the end of the data section if none."""
+        """
+        Offset of the next chunk (or DataEnd) after a damaged record at `pos`.
+
+        With a trusted summary: the next indexed chunk, else DataEnd. Otherwise the next bytes shaped like a chunk or
+        the next offset of an untrusted index, whichever comes first; the end of the data section if none.
+        """
         k = bisect.bisect_right(self._hints, pos)
         hint = self._hints[k] if k < len(self._hints) and self._hints[k] < self._limit else None
         if self._summary_ok:
@@ -501,8 +546,11 @@ class Scan:
         return None
 
     def _chunk(self, pos: int, length: int):
-        """Verify the chunk record at `pos` and yield its records; returns '' or, for a damaged chunk, what is
-        wrong with it (then nothing was yielded)."""
+        """
+        Verify the chunk record at `pos` and yield its records.
+
+        Returns '' or, for a damaged chunk, what is wrong with it (then nothing was yielded).
+        """
         body = self._file.read(pos + RECORD_HEAD, length)
         fields = _chunk_fields(body)
         if fields is None:
@@ -558,7 +606,7 @@ class Scan:
             self._damage(pos, pos + RECORD_HEAD + len(body), 'message index does not match its chunk')
 
     def _top_level(self, op: int, body: bytes):
-        """A Schema, Channel or Message record outside a chunk (unchunked files), or the Header."""
+        """Return a Schema, Channel or Message record outside a chunk (unchunked files), or the Header."""
         if op == OP_HEADER:
             self.header = _parse_exact(Header, body)
             return None
@@ -567,8 +615,11 @@ class Scan:
         return self._take(_parse_exact(Schema if op == OP_SCHEMA else Channel, body))
 
     def _take(self, record):
-        """Register a schema/channel (the first record of an id wins); count a message. Returns the record to
-        yield, or None (a message whose channel is unknown)."""
+        """
+        Register a schema/channel (the first record of an id wins).
+
+        Count a message. Returns the record to yield, or None (a message whose channel is unknown).
+        """
         if isinstance(record, Message):
             if record.channel_id not in self.channels:
                 self.health.unattributed += 1

@@ -1,15 +1,30 @@
-"""ros2msg schema text of a message type with every dependency appended, as rosbag2 writes it.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+ros2msg schema text of a message type with every dependency appended, as rosbag2 writes it.
 
 The .msg files are looked up under `<prefix>/share/<package>/msg/` for each prefix of
 AMENT_PREFIX_PATH, then `sys.prefix` (pip-installed ROS wheels). ROS-free.
 """
 from __future__ import annotations
 
+from functools import lru_cache
 import os
+from pathlib import Path
 import re
 import sys
-from functools import lru_cache
-from pathlib import Path
 
 from iguana_ros.errors import InputError
 
@@ -65,13 +80,13 @@ def field_types(text: str, package: str) -> list[str]:
 
 
 def _is_constant(code: str) -> bool:
-    """True for a constant line 'type NAME=value' (a primitive type with '=' after the name)."""
+    """Return True for a constant line 'type NAME=value' (a primitive type with '=' after the name)."""
     parts = code.split(None, 1)
     return len(parts) == 2 and '=' in parts[1] and parts[1].split('=', 1)[0].strip().isidentifier()
 
 
 def message_definition(type_name: str) -> str:
-    """The ros2msg schema: the .msg text, then each dependency after a '====…\\nMSG: pkg/Type\\n' line."""
+    r"""Return the ros2msg schema: the .msg text, then each dependency after a '====…\nMSG: pkg/Type\n' line."""
     package, name = split_type(type_name)
     text = msg_file_text(type_name)
     order, queue = [], field_types(text, package)

@@ -1,4 +1,19 @@
-"""rosbag2-compatible MCAP storage: a crash-safe writer and a reader that survives damage (ROS-free).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+rosbag2-compatible MCAP storage: a crash-safe writer and a reader that survives damage (ROS-free).
 
 Layout of a bag: `DIR/DIR.mcap` plus `DIR/metadata.yaml` (rosbag2_bagfile_information, version 9).
 MCAP conventions of rosbag2's mcap storage plugin: profile `ros2`, schemas `ros2msg` named
@@ -9,17 +24,17 @@ every intact chunk is recovered, and what was damaged or missing is reported, ne
 """
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+import time
 
-import yaml
 from mcap.records import Channel, Header, Message, Schema
 from mcap.writer import CompressionType, Writer
+import yaml
 
 from iguana_ros.bag.metadata import check_metadata, load_metadata, relative_files
-from iguana_ros.bag.scan import Health, Scan, looks_like_mcap
+from iguana_ros.bag.scan import Health, looks_like_mcap, Scan
 from iguana_ros.errors import InputError
 
 PROFILE = 'ros2'
@@ -53,7 +68,7 @@ def qos_profiles_yaml(profiles: list[dict]) -> str:
 
 
 def parse_qos_profiles(text: str) -> list[dict]:
-    """QoS dicts from an `offered_qos_profiles` YAML text ('' or unreadable -> [])."""
+    """`QoS` dicts from an `offered_qos_profiles` YAML text ('' or unreadable -> [])."""
     try:
         data = yaml.safe_load(text) if text else []
     except yaml.YAMLError:
@@ -66,7 +81,7 @@ class TopicInfo:
     """One recorded topic: name, type, QoS YAML, type hash and message count."""
 
     name: str
-    type: str
+    type: str  # noqa: A003 - rosbag2 metadata.yaml's topic_metadata.type
     offered_qos_profiles: str = ''
     type_hash: str = ''
     message_count: int = 0
@@ -84,7 +99,8 @@ class BagMessage:
 
 
 def resolve_bag_file(path: str | Path) -> Path:
-    """The .mcap file of a bag given as its directory or the file itself; InputError if there is none.
+    """
+    Return the .mcap file of a bag given as its directory or the file itself; InputError if there is none.
 
     For a directory: `DIR/DIR.mcap`, else the file its metadata.yaml names (when readable), else its one .mcap.
     """
@@ -106,7 +122,8 @@ def resolve_bag_file(path: str | Path) -> Path:
 
 
 class BagWriter:
-    """Writes `DIR/DIR.mcap` with zstd chunks bounded in size and age; `close()` adds summary + metadata.
+    """
+    Writes `DIR/DIR.mcap` with zstd chunks bounded in size and age; `close()` adds summary + metadata.
 
     Every chunk after the first starts with the schema and channel records registered so far (a preamble), and
     DataEnd carries the CRC of the data section: a reader can name the messages of any intact chunk even when
@@ -179,8 +196,11 @@ class BagWriter:
             self.close_chunk()
 
     def close_chunk(self) -> None:
-        """Write the open chunk (if any) and flush it to the OS, so it survives a killed process; the next chunk
-        starts with the preamble of schema and channel records."""
+        """
+        Write the open chunk (if any) and flush it to the OS, so it survives a killed process.
+
+        The next chunk starts with the preamble of schema and channel records.
+        """
         builder = self._writer._Writer__chunk_builder     # mcap keeps the chunk machinery private
         written = builder.num_messages > 0
         self._writer._Writer__finalize_chunk()
@@ -192,7 +212,7 @@ class BagWriter:
 
     @property
     def topics(self) -> list[TopicInfo]:
-        """Registered topics with their message counts so far."""
+        """Return registered topics with their message counts so far."""
         return list(self._channels.values())
 
     def close(self) -> None:
@@ -206,7 +226,8 @@ class BagWriter:
             self.metadata(), sort_keys=False, default_flow_style=False))
 
     def metadata(self) -> dict:
-        """metadata.yaml contents in rosbag2's `rosbag2_bagfile_information` format (version 9).
+        """
+        metadata.yaml contents in rosbag2's `rosbag2_bagfile_information` format (version 9).
 
         From version 9 on, rosbag2 stores offered_qos_profiles here as a YAML list (in the MCAP
         channel metadata it stays a YAML string).
@@ -233,7 +254,8 @@ class BagWriter:
 
 @dataclass
 class BagSummary:
-    """What `bag info` prints: file, header, topics with recovered counts, time range, and what is wrong.
+    """
+    What `bag info` prints: file, header, topics with recovered counts, time range, and what is wrong.
 
     `health` is the MCAP scan's (iguana_ros.bag.scan.Health); `metadata_problems` name what is wrong with the
     directory's metadata.yaml. `truncated` (the MCAP is not sound) and `problem` (why) summarise the scan.
@@ -281,7 +303,7 @@ def accept(summary: BagSummary, allow_damaged: bool) -> str:
 
 
 def _topic_from_channel(channel: Channel, schemas: dict[int, Schema]) -> TopicInfo:
-    """TopicInfo of an MCAP channel record."""
+    """`TopicInfo` of an MCAP channel record."""
     schema = schemas.get(channel.schema_id)
     return TopicInfo(channel.topic, schema.name if schema else '',
                      channel.metadata.get('offered_qos_profiles', ''),
@@ -289,7 +311,8 @@ def _topic_from_channel(channel: Channel, schemas: dict[int, Schema]) -> TopicIn
 
 
 class BagReader:
-    """Streams the messages of every intact chunk of a bag in file order (see iguana_ros.bag.scan).
+    """
+    Streams the messages of every intact chunk of a bag in file order (see iguana_ros.bag.scan).
 
     After iterating, `health` says what was damaged or cut off, `truncated` whether the stream is incomplete
     (the file is truncated or damaged) and `problem` why. InputError at once for a missing or non-MCAP file.
@@ -318,11 +341,11 @@ class BagReader:
 
     @property
     def problem(self) -> str:
-        """What the last pass found wrong, in one line ('' if the file is sound)."""
+        """Return what the last pass found wrong, in one line ('' if the file is sound)."""
         return self.health.describe() if self.truncated else ''
 
     def topic(self, channel_id: int) -> TopicInfo:
-        """TopicInfo of a channel seen so far."""
+        """`TopicInfo` of a channel seen so far."""
         return _topic_from_channel(self.channels[channel_id], self.schemas)
 
     def messages(self) -> Iterator[BagMessage]:
@@ -337,7 +360,8 @@ class BagReader:
 
 
 def summarize(path: str | Path, verify: bool = True) -> BagSummary:
-    """BagSummary of the bag at `path` (directory or .mcap), its metadata.yaml checked for a directory.
+    """
+    `BagSummary` of the bag at `path` (directory or .mcap), its metadata.yaml checked for a directory.
 
     With `verify` the file is checked in full: by the data-section and summary CRCs when both are there,
     else by reading every chunk. Without it a trusted summary is taken as it is (the chunks are checked when
@@ -376,7 +400,7 @@ def summarize(path: str | Path, verify: bool = True) -> BagSummary:
 
 
 def _metadata_problems(directory: Path, mcap: Path, scan: Scan) -> list[str]:
-    """What is wrong with DIR/metadata.yaml, against the MCAP's counts where they are known in full."""
+    """Return what is wrong with DIR/metadata.yaml, against the MCAP's counts where they are known in full."""
     info, problem = load_metadata(directory)
     if info is None:
         unfinished = scan.health.truncated_at is not None and not (directory / 'metadata.yaml').exists()

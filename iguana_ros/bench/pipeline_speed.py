@@ -1,14 +1,28 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana bench pipeline`: realtime factor of the four-process lockstep run next to the library run."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 import tempfile
 import time
-from pathlib import Path
 
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.scene import load_scene
-from iguana_ros.supervisor.run import RunOptions, run_scene
+from iguana_ros.supervisor.run import run_scene, RunOptions
 
 
 def bench_pipeline(scene_name: str = 'hills', duration: float = 5.0, single_process: bool = False) -> dict:

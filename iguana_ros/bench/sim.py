@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Simulator benchmarks: speed of the gait scene, where a step's time goes, and the speed–accuracy trade."""
 from __future__ import annotations
 
@@ -16,7 +30,7 @@ from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
 
-HILLS = dict(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
+HILLS = {'amplitude': 0.03, 'wavelength': 0.6, 'seed': 0, 'extent': 3.0}
 """The benchmark terrain: ±3 cm hills of ~0.6 m wavelength."""
 
 START_CLEARANCE = 1e-3
@@ -24,7 +38,7 @@ START_CLEARANCE = 1e-3
 
 
 def cpu_model() -> str:
-    """The CPU model name from /proc/cpuinfo (or the platform's processor string)."""
+    """Return the CPU model name from /proc/cpuinfo (or the platform's processor string)."""
     try:
         with open('/proc/cpuinfo', encoding='utf-8') as fh:
             for line in fh:
@@ -41,7 +55,7 @@ def peak_rss_mb() -> float:
 
 
 def make_scene(resolution: str = 'medium', preset='balanced', **overrides) -> tuple:
-    """(simulator placed on the benchmark hills, gait, model name, model build seconds)."""
+    """Return (simulator placed on the benchmark hills, gait, model name, model build seconds)."""
     t0 = time.perf_counter()
     model, name = bench_model(resolution)
     build_s = time.perf_counter() - t0
@@ -155,16 +169,17 @@ def _time_us(fn, repeats: int) -> float:
 
 TRADEOFF_SETTINGS = (
     # (group, label, overrides of the balanced preset); each compared with the finest run of the same mesh
-    [('dt', f'dt=1/{n}', dict(dt=1.0 / n)) for n in (4800, 2400, 1200, 600, 300, 120)]
-    + [('cg_tol', f'cg_tol={tol:g}', dict(cg_tol=tol)) for tol in (1e-2, 1e-3, 1e-4, 1e-6)]
-    + [('solver', 'direct', dict(solver='direct')),
-       ('solver', 'ssor', dict(preconditioner='ssor'))]
-    + [('jacobian_every', f'jacobian_every={k}', dict(jacobian_every=k)) for k in (1, 2, 4)]
-    + [('factor_every', f'factor_every={k}', dict(factor_every=k)) for k in (1, 2, 4, 8, 16)]
-    + [('polar_iters', f'polar_iters={k}', dict(polar_iters=k)) for k in (1, 2, 8)]
-    + [('preset', name, dict(preset=name)) for name in ('fast', 'balanced', 'accurate')]
+    [('dt', f'dt=1/{n}', {'dt': 1.0 / n}) for n in (4800, 2400, 1200, 600, 300, 120)]
+    + [('cg_tol', f'cg_tol={tol:g}', {'cg_tol': tol}) for tol in (1e-2, 1e-3, 1e-4, 1e-6)]
+    + [('solver', 'direct', {'solver': 'direct'}),
+       ('solver', 'ssor', {'preconditioner': 'ssor'})]
+    + [('jacobian_every', f'jacobian_every={k}', {'jacobian_every': k}) for k in (1, 2, 4)]
+    + [('factor_every', f'factor_every={k}', {'factor_every': k}) for k in (1, 2, 4, 8, 16)]
+    + [('polar_iters', f'polar_iters={k}', {'polar_iters': k}) for k in (1, 2, 8)]
+    + [('preset', name, {'preset': name}) for name in ('fast', 'balanced', 'accurate')]
 )
-REFERENCE = dict(dt=1.0 / 4800.0, cg_tol=1e-8, cg_max_iter=1000, jacobian_every=1, factor_every=1, polar_iters=20)
+REFERENCE = {'dt': 1.0 / 4800.0, 'cg_tol': 1e-8, 'cg_max_iter': 1000, 'jacobian_every': 1, 'factor_every': 1,
+             'polar_iters': 20}
 """The finest run every other run is compared with."""
 
 
@@ -176,8 +191,12 @@ TRADEOFF_GROUPS = tuple(dict.fromkeys(group for group, _, _ in TRADEOFF_SETTINGS
 
 
 class TradeoffRun(NamedTuple):
-    """One run of the speed-accuracy table: its `group`, `label`, `mesh` and fidelity `settings` (with an optional
-    'preset'), and `reference`, the index of the run it is compared with (None: it is a reference)."""
+    """
+    One run of the speed-accuracy table.
+
+    Its `group`, `label`, `mesh` and fidelity `settings` (with an optional 'preset'), and `reference`, the index of the
+    run it is compared with (None: it is a reference).
+    """
 
     group: str
     label: str
@@ -188,9 +207,12 @@ class TradeoffRun(NamedTuple):
 
 def tradeoff_runs(resolution: str = 'medium', meshes: tuple = TRADEOFF_MESHES,
                   groups: tuple | None = None) -> list[TradeoffRun]:
-    """The runs of the table in order: REFERENCE on `resolution`, every TRADEOFF_SETTINGS entry (of `groups`, default
-    all) against it, MESH_REFERENCE on the finest of `meshes`, each mesh with `balanced` (against that, centre of
-    mass only; no meshes: no mesh rows)."""
+    """
+    Return the runs of the table in order.
+
+    REFERENCE on `resolution`, every TRADEOFF_SETTINGS entry (of `groups`, default all) against it, MESH_REFERENCE on
+    the finest of `meshes`, each mesh with `balanced` (against that, centre of mass only; no meshes: no mesh rows).
+    """
     runs = [TradeoffRun('reference', 'reference', resolution, dict(REFERENCE), None)]
     runs += [TradeoffRun(group, label, resolution, dict(settings), 0) for group, label, settings in TRADEOFF_SETTINGS
              if groups is None or group in groups]
@@ -203,8 +225,11 @@ def tradeoff_runs(resolution: str = 'medium', meshes: tuple = TRADEOFF_MESHES,
 
 
 def gait_run(resolution: str, seconds: float, settings: dict) -> dict:
-    """One gait-scene run: final node positions `(n, 3)` and centre of mass `(3,)` as lists (JSON), speed, or the
-    divergence."""
+    """
+    One gait-scene run.
+
+    Final node positions `(n, 3)` and centre of mass `(3,)` as lists (JSON), speed, or the divergence.
+    """
     settings = dict(settings)
     preset = settings.pop('preset', 'balanced')
     sim, gait, _, _ = make_scene(resolution, preset, **settings)
@@ -224,9 +249,12 @@ def gait_run(resolution: str, seconds: float, settings: dict) -> dict:
 
 
 def tradeoff_rows(runs: list[TradeoffRun], results: list) -> list[dict]:
-    """The table rows of the non-reference runs among the first len(`results`) `runs` (results of `gait_run` in
-    run order, or error rows): speed and error (node RMS, COM difference) against the run's reference. Raises
-    SimulationDiverged if a reference diverged, IguanaError if it failed."""
+    """
+    Return the table rows of the non-reference runs among the first len(`results`) `runs`.
+
+    (results of `gait_run` in run order, or error rows): speed and error (node RMS, COM difference) against the run's
+    reference. Raises SimulationDiverged if a reference diverged, IguanaError if it failed.
+    """
     rows = []
     for run, result in zip(runs, results):
         if run.reference is None:
@@ -241,7 +269,11 @@ def tradeoff_rows(runs: list[TradeoffRun], results: list) -> list[dict]:
 
 
 def _row(group: str, label: str, mesh: str, run: dict, ref: dict, nodes_comparable: bool = True) -> dict:
-    """A table row; errors are None when the run diverged or failed (`error`: why), node RMS when meshes differ."""
+    """
+    Return a table row.
+
+    Errors are None when the run diverged or failed (`error`: why), node RMS when meshes differ.
+    """
     row = {'group': group, 'label': label, 'mesh': mesh, 'diverged': run.get('diverged')}
     if row['diverged'] or 'error' in run:
         failed = {'error': run['error'], 'error_type': run.get('error_type')} if 'error' in run else {}

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Stability at the extremes: scenarios that must stay finite and bounded or stop with `SimulationDiverged`."""
 from __future__ import annotations
 
@@ -18,28 +32,28 @@ REST_DEPTH_LIMIT = 0.01
 
 SCENARIOS = {
     'baseline': {},
-    'springs x0.01': dict(spring_scale=0.01),
-    'springs x100': dict(spring_scale=100.0),
-    'E 1e3 Pa': dict(youngs=1e3),
-    'E 1e8 Pa': dict(youngs=1e8),
-    'dt 1/4800': dict(dt=1 / 4800),
-    'dt 1/60': dict(dt=1 / 60),
-    'push 1000 N': dict(push=1000.0),
-    'drop 1 m': dict(drop=1.0),
-    'slope 45 deg': dict(slope=45.0),
-    'inverted start': dict(inverted=True),
-    'springs x100, dt 1/60': dict(spring_scale=100.0, dt=1 / 60),
-    'E 1e8 Pa, dt 1/60': dict(youngs=1e8, dt=1 / 60),
-    'E 1e3 Pa, springs x0.01, drop 1 m': dict(youngs=1e3, spring_scale=0.01, drop=1.0),
-    'push 1000 N, dt 1/60': dict(push=1000.0, dt=1 / 60),
-    'E 1e8 Pa, springs x100, slope 45 deg': dict(youngs=1e8, spring_scale=100.0, slope=45.0),
+    'springs x0.01': {'spring_scale': 0.01},
+    'springs x100': {'spring_scale': 100.0},
+    'E 1e3 Pa': {'youngs': 1e3},
+    'E 1e8 Pa': {'youngs': 1e8},
+    'dt 1/4800': {'dt': 1 / 4800},
+    'dt 1/60': {'dt': 1 / 60},
+    'push 1000 N': {'push': 1000.0},
+    'drop 1 m': {'drop': 1.0},
+    'slope 45 deg': {'slope': 45.0},
+    'inverted start': {'inverted': True},
+    'springs x100, dt 1/60': {'spring_scale': 100.0, 'dt': 1 / 60},
+    'E 1e8 Pa, dt 1/60': {'youngs': 1e8, 'dt': 1 / 60},
+    'E 1e3 Pa, springs x0.01, drop 1 m': {'youngs': 1e3, 'spring_scale': 0.01, 'drop': 1.0},
+    'push 1000 N, dt 1/60': {'push': 1000.0, 'dt': 1 / 60},
+    'E 1e8 Pa, springs x100, slope 45 deg': {'youngs': 1e8, 'spring_scale': 100.0, 'slope': 45.0},
 }
 """Named scenarios: spring stiffness ×0.01…×100, E 1e3…1e8 Pa, dt 1/4800…1/60, 1 kN push, 1 m drop,
 45° slope, inverted elements at the start, and combinations of the extremes."""
 
 
 def with_material(model, spring_scale: float = 1.0, youngs: float | None = None) -> SoftBodyMesh:
-    """A copy of `model` with spring stiffness × `spring_scale` and (if given) a uniform Young's modulus."""
+    """Return a copy of `model` with spring stiffness × `spring_scale` and (if given) a uniform Young's modulus."""
     values = {f.name: getattr(model, f.name) for f in fields(SoftBodyMesh)}
     values['spring_stiffness'] = np.asarray(model.spring_stiffness, dtype=float) * spring_scale
     if youngs is not None:

@@ -1,8 +1,22 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Benchmark scenes for the simulator: the iguana (or a stand-in) on hills, driven by a lateral-bend gait."""
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
+import time
 
 import numpy as np
 
@@ -15,8 +29,11 @@ STAND_IN_CELLS = {'coarse': (16, 2, 2), 'medium': (44, 2, 2), 'fine': (48, 4, 4)
 
 
 def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
-    """The iguana model at `resolution`, or a 0.85 m box stand-in of similar node count if the body model is
-    not installed. Returns `(model, name)`."""
+    """
+    Return the iguana model at `resolution`.
+
+    or a 0.85 m box stand-in of similar node count if the body model is not installed. Returns `(model, name)`.
+    """
     if resolution not in STAND_IN_CELLS:
         raise InputError(f'mesh resolution must be one of {sorted(STAND_IN_CELLS)}, got {resolution!r}')
     try:
@@ -31,7 +48,8 @@ def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
 
 @dataclass
 class LateralBendGait:
-    """Desired spring lengths of a travelling lateral bend: l_d = l_0 (1 − κ(t, x) y u_x²).
+    """
+    Desired spring lengths of a travelling lateral bend: l_d = l_0 (1 − κ(t, x) y u_x²).
 
     κ(t, x) = `curvature` sin(2π (`frequency` t − x / `wavelength`)) (1/m); x, y are a spring's rest midpoint
     (forward, left) and u_x its rest direction's forward component: the axial strain of a bent beam.
@@ -59,7 +77,7 @@ class LateralBendGait:
 
 
 def gait_for(model, **kwargs) -> LateralBendGait:
-    """A `LateralBendGait` for `model`."""
+    """Return a `LateralBendGait` for `model`."""
     return LateralBendGait(np.asarray(model.rest_positions), np.asarray(model.springs),
                            np.asarray(model.spring_rest_lengths), **kwargs)
 

@@ -1,4 +1,19 @@
-"""Dual-quaternion skinning (Kavan et al. 2008) and linear blend skinning of the reference mesh (Section VII).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Dual-quaternion skinning (Kavan et al. 2008) and linear blend skinning of the reference mesh (Section VII).
 
 A set of bone transforms is a pair `(rotations (n_bones, 4) xyzw, translations (n_bones, 3))`: the world
 frame of each bone. The skeleton's forward kinematics gives exactly this for a pose (joint rotations and
@@ -31,7 +46,7 @@ def skinning_transforms(bone_rest_transforms: tuple, bone_pose_transforms: tuple
 
 
 def to_dual_quaternions(transforms: tuple) -> tuple:
-    """Unit dual quaternions of rigid transforms: real parts `(n, 4)` and dual parts `(n, 4)` (xyzw)."""
+    """Return unit dual quaternions of rigid transforms: real parts `(n, 4)` and dual parts `(n, 4)` (xyzw)."""
     q, t = (np.asarray(a, dtype=float) for a in transforms)
     t_quat = np.concatenate([t, np.zeros(t.shape[:-1] + (1,))], axis=-1)
     return q, 0.5 * quat_mul(t_quat, q)
@@ -53,7 +68,8 @@ def _check_binding(rest_positions: np.ndarray, skin_bones: np.ndarray, skin_weig
 
 def dual_quaternion_skinning(rest_positions: np.ndarray, skin_bones: np.ndarray, skin_weights: np.ndarray,
                              bone_rest_transforms: tuple, bone_pose_transforms: tuple) -> np.ndarray:
-    """Skinned node positions `(n_nodes, 3)` by dual-quaternion blending (antipodality fixed per node).
+    """
+    Skinned node positions `(n_nodes, 3)` by dual-quaternion blending (antipodality fixed per node).
 
     `rest_positions (n_nodes, 3)`, `skin_bones (n_nodes, k)` int, `skin_weights (n_nodes, k)` (rows sum to
     1), bone transforms as `(rotations (n_bones, 4), translations (n_bones, 3))`.

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Picture of the iguana model: surface mesh, skeleton and markers seen from the side and from above."""
 from __future__ import annotations
 
@@ -50,7 +64,7 @@ def render_model(model, path: str | Path, dpi: int = 110) -> Path:
     s = model.summary()
     fig.suptitle(f"iguana model '{model.resolution}': {s['nodes']} nodes, {s['tets']} tets, "
                  f"{s['springs']} springs, min dihedral {s['min_dihedral_deg']:.1f} deg  "
-                 f"(red: markers, brown: skeleton, blue: sole nodes)", fontsize=9)
+                 f'(red: markers, brown: skeleton, blue: sole nodes)', fontsize=9)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)

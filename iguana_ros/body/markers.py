@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The 15-marker motion-capture set of the paper's Figure 3, each fixed to a bone with an offset."""
 from __future__ import annotations
 
@@ -6,7 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from iguana_ros.body.skeleton import Skeleton, forward_kinematics, iguana_skeleton
+from iguana_ros.body.skeleton import forward_kinematics, iguana_skeleton, Skeleton
 from iguana_ros.geometry import quat_rotate
 
 # label, bone, offset in the bone frame (m). 4 feet, 3 tail, 1 head, 7 body (3 dorsal + 2 left + 2 right).
@@ -47,7 +61,7 @@ class MarkerSet:
 
 @lru_cache(maxsize=1)
 def iguana_markers() -> MarkerSet:
-    """The paper's 15 markers on the iguana skeleton."""
+    """Return the paper's 15 markers on the iguana skeleton."""
     skeleton = iguana_skeleton()
     bones = skeleton.indices([row[1] for row in MARKER_TABLE])
     offsets = np.array([row[2] for row in MARKER_TABLE], dtype=float)

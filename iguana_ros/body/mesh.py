@@ -1,4 +1,19 @@
-"""Tetrahedral mesh of the iguana body: radius-adapted node sampling, Delaunay, carving, sliver repair.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Tetrahedral mesh of the iguana body: radius-adapted node sampling, Delaunay, carving, sliver repair.
 
 Nodes are rings of surface points on cross-sections along the main body (snout to tail tip) and along
 each limb, spaced in proportion to the local body radius, with one axis node half-way between
@@ -17,10 +32,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, cKDTree
+from scipy.spatial import cKDTree, Delaunay
 
-from iguana_ros.body.shape import (BodyShape, body_field, main_cross_section, project_to_surface,
-                                   segment_frames)
+from iguana_ros.body.shape import body_field, BodyShape, main_cross_section, project_to_surface, segment_frames
 
 PART_MAIN = 0
 """Part code of nodes generated on the main body (head, trunk, tail)."""
@@ -81,7 +95,7 @@ def _ring(n: int, phase: float) -> np.ndarray:
 
 
 def _main_stations(shape: BodyShape, prm: MeshParams) -> np.ndarray:
-    """x `(n,)` of the main-body cross-sections, from the snout back to the tail tip."""
+    """`x` `(n,)` of the main-body cross-sections, from the snout back to the tail tip."""
     x0, x1 = shape.x_range
     xs = [x1]
     while True:
@@ -123,8 +137,11 @@ def main_samples(shape: BodyShape, prm: MeshParams) -> Samples:
 
 
 def _inner_points(x: float, zc: float, ry: float, rz: float, h: float, inner_ring: float) -> np.ndarray:
-    """Interior candidate nodes `(n, 3)` at mid-station x: the axis node, plus a half-radius ring of
-    spacing ~h where the section is wider than `inner_ring` * h (0: never)."""
+    """
+    Interior candidate nodes `(n, 3)` at mid-station x.
+
+    The axis node, plus a half-radius ring of spacing ~h where the section is wider than `inner_ring` * h (0: never).
+    """
     axis = np.array([[x, 0.0, zc]])
     if inner_ring <= 0.0 or np.sqrt(ry * rz) <= inner_ring * h:
         return axis
@@ -168,7 +185,7 @@ def limb_samples(shape: BodyShape, prm: MeshParams, index: int) -> Samples:
 
 
 def _smooth_tangents(s: np.ndarray, s_joint: np.ndarray, joints: np.ndarray) -> np.ndarray:
-    """Unit tangents `(n, 3)` of a polyline at arclengths `s`, blended near its corners."""
+    """Return unit tangents `(n, 3)` of a polyline at arclengths `s`, blended near its corners."""
     seg = np.diff(joints, axis=0)
     seg /= np.linalg.norm(seg, axis=1, keepdims=True)
     idx = np.clip(np.searchsorted(s_joint, s, side='right') - 1, 0, len(seg) - 1)
@@ -215,7 +232,7 @@ def tet_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
 
 
 def dihedral_angles(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """The six interior dihedral angles `(n_tets, 6)` of each tet, radians (edge order TET_EDGES)."""
+    """Return the six interior dihedral angles `(n_tets, 6)` of each tet, radians (edge order TET_EDGES)."""
     p = points[tets]                                            # (n, 4, 3)
     faces = p[:, TET_FACES]                                     # (n, 4, 3, 3)
     normals = np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0])
@@ -251,7 +268,8 @@ def orient_positive(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
 
 
 def face_adjacency(tets: np.ndarray) -> tuple:
-    """Interior face pairs: tet indices `(n_pairs, 2)` and local face indices `(n_pairs, 2)`.
+    """
+    Interior face pairs: tet indices `(n_pairs, 2)` and local face indices `(n_pairs, 2)`.
 
     Also returns the boundary faces as (tet index `(n_b,)`, local face `(n_b,)`).
     """
@@ -298,14 +316,15 @@ def surface_topology(tets: np.ndarray) -> dict:
 
 
 def is_sphere_surface(tets: np.ndarray) -> bool:
-    """True if the boundary of connected `tets` is one closed 2-manifold of genus 0 without pinches."""
+    """Return True if the boundary of connected `tets` is one closed 2-manifold of genus 0 without pinches."""
     topo = surface_topology(tets)
     return topo['nonmanifold_edges'] == 0 and topo['euler'] == 2
 
 
 def carve(shape: BodyShape, points: np.ndarray, chord_tolerance: float = 0.15,
           fill_rounds: int = 0) -> np.ndarray:
-    """Delaunay tets `(n_tets, 4)` (positive) inside the body, largest face-connected piece.
+    """
+    Delaunay tets `(n_tets, 4)` (positive) inside the body, largest face-connected piece.
 
     A tet is kept when its centroid is inside and no edge midpoint is outside by more than
     `chord_tolerance` times that edge's length (so tets bridging concave gaps are dropped). Carved tets
@@ -397,7 +416,8 @@ def _coords_quality(coords: np.ndarray) -> np.ndarray:
 
 
 def tet_quality(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Angle `(n_tets,)` rad by which each tet's dihedral angles stay off 0 and pi; -1 if not positive.
+    """
+    Angle `(n_tets,)` rad by which each tet's dihedral angles stay off 0 and pi; -1 if not positive.
 
     Small for slivers, caps and wedges alike (a tet with quality q has all dihedral angles in [q, pi - q]).
     """
@@ -451,7 +471,8 @@ def _flip_23(points: np.ndarray, tets: np.ndarray, i: int) -> np.ndarray | None:
 
 
 def flip_bad_tets(points: np.ndarray, tets: np.ndarray, threshold: float) -> tuple:
-    """(tets, flips done): 3-2 and 2-3 flips around tets below `threshold` rad that raise the local worst angle.
+    """
+    (tets, flips done): 3-2 and 2-3 flips around tets below `threshold` rad that raise the local worst angle.
 
     Flips keep the boundary triangles, so the surface is unchanged.
     """
@@ -473,8 +494,11 @@ def flip_bad_tets(points: np.ndarray, tets: np.ndarray, threshold: float) -> tup
 def smooth_bad_nodes(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sliding: np.ndarray,
                      threshold: float, rng: np.random.Generator, n_trials: int = 32,
                      step: float = 0.25) -> tuple:
-    """(points, nodes moved): each node of a tet below `threshold` rad goes to the best of `n_trials` random
-    positions (~`step` x its shortest edge away) if that raises the worst quality of its tets.
+    """
+    (points, nodes moved).
+
+    Each node of a tet below `threshold` rad goes to the best of `n_trials` random positions (~`step` x its shortest
+    edge away) if that raises the worst quality of its tets.
 
     Boundary nodes slide on the body surface if `sliding` `(n_nodes,)` marks them, else stay; interior nodes
     stay inside the body.
@@ -511,8 +535,11 @@ def smooth_bad_nodes(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sli
 
 def improve_mesh(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sliding: np.ndarray,
                  threshold: float, rounds: int, peel_threshold: float, seed: int = 0) -> tuple:
-    """(points, tets): rounds of peeling boundary slivers (least dihedral < `peel_threshold` rad), flips and
-    node smoothing until every tet's `tet_quality` reaches `threshold` rad (or `rounds` are done).
+    """
+    (points, tets).
+
+    rounds of peeling boundary slivers (least dihedral < `peel_threshold` rad), flips and node smoothing until every
+    tet's `tet_quality` reaches `threshold` rad (or `rounds` are done).
 
     Flips and moves keep the surface closed and its nodes on the body surface (`sliding` nodes slide on it).
     """
@@ -568,7 +595,8 @@ def tetrahedralize(shape: BodyShape, samples: Samples, chord_tolerance: float = 
                    threshold_deg: float = 10.0,
                    max_iterations: int = 25, seed: int = 0, improve_rounds: int = 0,
                    improve_deg: float = 12.0) -> TetMesh:
-    """Carved Delaunay mesh of the sampled nodes with slivers repaired by peeling and perturbation.
+    """
+    Carved Delaunay mesh of the sampled nodes with slivers repaired by peeling and perturbation.
 
     With `improve_rounds` > 0 the perturbation only repairs the topology (no node lost, closed genus-0
     surface) and `improve_mesh` then raises every tet's least dihedral angle towards `improve_deg`.

@@ -1,4 +1,19 @@
-"""The soft-body iguana model: mesh, masses, springs, stiffness, surface, tags, skin weights; cached on disk.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The soft-body iguana model: mesh, masses, springs, stiffness, surface, tags, skin weights; cached on disk.
 
 `build_model(resolution, stiffness)` returns a frozen `IguanaModel` of read-only arrays. The geometry of a
 resolution is cached as `.npz` under `$IGUANA_CACHE_DIR`, else `$XDG_CACHE_HOME/iguana_ros`, else
@@ -8,23 +23,22 @@ The stiffness preset is applied on load (it is cheap).
 """
 from __future__ import annotations
 
-import hashlib
-import os
-import time
-import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
+import hashlib
+import os
 from pathlib import Path
+import time
+import warnings
 
 import numpy as np
 
 from iguana_ros.body import mesh as mesh_mod
-from iguana_ros.body.markers import MarkerSet, iguana_markers
-from iguana_ros.body.mesh import (PART_LIMB0, PART_MAIN, RESOLUTIONS, boundary_triangles,
-                                  candidate_nodes, dihedral_angles, radius_ratios, tet_volumes,
-                                  tetrahedralize)
+from iguana_ros.body.markers import iguana_markers, MarkerSet
+from iguana_ros.body.mesh import (boundary_triangles, candidate_nodes, dihedral_angles, PART_LIMB0, PART_MAIN,
+                                  radius_ratios, RESOLUTIONS, tet_volumes, tetrahedralize)
 from iguana_ros.body.shape import BodyShape, iguana_shape, main_cross_section
-from iguana_ros.body.skeleton import Skeleton, rest_joint_positions
+from iguana_ros.body.skeleton import rest_joint_positions, Skeleton
 from iguana_ros.body.skinning_weights import skin_weights
 from iguana_ros.body.springs import spring_lengths, tet_springs
 from iguana_ros.body.stiffness import (PRESETS, spring_stiffness, stiffness_preset, youngs_moduli)
@@ -48,7 +62,8 @@ LIMB_TAGS = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 
 @dataclass(frozen=True)
 class IguanaModel:
-    """Tetrahedral soft-body iguana in the rest pose (SI units, read-only arrays; see module docstring).
+    """
+    Tetrahedral soft-body iguana in the rest pose (SI units, read-only arrays; see module docstring).
 
     rest_positions `(n_nodes, 3)` m; tets `(n_tets, 4)`; node_mass `(n_nodes,)` kg; springs `(n_springs, 2)`;
     spring_rest_lengths, spring_stiffness `(n_springs,)` m, N/m; youngs_modulus `(n_tets,)` Pa;
@@ -80,11 +95,11 @@ class IguanaModel:
 
     @property
     def n_nodes(self) -> int:
-        """Number of mesh nodes."""
+        """Return number of mesh nodes."""
         return len(self.rest_positions)
 
     def summary(self) -> dict:
-        """Counts, worst element quality, mass, size and build time of the model."""
+        """Return counts, worst element quality, mass, size and build time of the model."""
         p, t = self.rest_positions, self.tets
         dih = np.degrees(dihedral_angles(p, t))
         extent = p.max(axis=0) - p.min(axis=0)
@@ -104,7 +119,8 @@ class IguanaModel:
 
 
 def build_model(resolution: str = 'medium', stiffness: str = 'normal', cache: bool = True) -> IguanaModel:
-    """The iguana model at `resolution` (coarse|medium|fine) with stiffness preset `stiffness` (normal|softer).
+    """
+    Return the iguana model at `resolution` (coarse|medium|fine) with stiffness preset `stiffness` (normal|softer).
 
     Cached in memory and on disk unless `cache` is False (then always rebuilt, nothing written).
     """
@@ -233,7 +249,8 @@ def node_tags(shape: BodyShape, points: np.ndarray, part: np.ndarray, surface: n
 
 
 def sole_pad_offsets(rest_positions: np.ndarray, sole: np.ndarray) -> np.ndarray:
-    """Contact offsets `(n_nodes,)` m: each sole node's rest height above z = 0, zero elsewhere.
+    """
+    Contact offsets `(n_nodes,)` m: each sole node's rest height above z = 0, zero elsewhere.
 
     A foot pad: every sole node touches the ground at the sole plane. The mesh puts only 2-3 of a foot's 7-10
     sole nodes on z = 0 and the rest 2-4 mm above, so without it a loaded foot stands on two or three points.
@@ -248,8 +265,8 @@ def _assemble(g: dict, resolution: str, stiffness: str, from_cache: bool) -> Igu
     preset = PRESETS[stiffness]
     legs = g['node_part'] >= PART_LIMB0
     arrays = {k: np.array(g[k]) for k in ('rest_positions', 'tets', 'node_mass', 'springs',
-                                           'spring_rest_lengths', 'surface_triangles', 'skin_bones',
-                                           'skin_weights', 'node_part')}
+                                          'spring_rest_lengths', 'surface_triangles', 'skin_bones',
+                                          'skin_weights', 'node_part')}
     arrays['spring_stiffness'] = spring_stiffness(preset, arrays['spring_rest_lengths'], arrays['springs'], legs)
     arrays['youngs_modulus'] = youngs_moduli(preset, arrays['tets'], legs)
     tags = {str(k): np.array(m, dtype=bool) for k, m in zip(g['tag_names'], g['tag_masks'])}

@@ -1,4 +1,19 @@
-"""The root (pelvis) frame of the simulated soft body, from a rigid fit of the pelvis-region nodes.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The root (pelvis) frame of the simulated soft body, from a rigid fit of the pelvis-region nodes.
 
 The paper synchronises the motion graph's root with the simulated iguana (end of Section VII); the soft body
 has no skeleton, so its root is the best rigid transform of the nodes skinned mostly to the pelvis and the
@@ -15,8 +30,12 @@ ROOT_REGION_BONES = ('pelvis', 'spine_1', 'spine_2', 'hip_hl', 'hip_hr', 'tail_1
 
 
 def rigid_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarray) -> tuple:
-    """Linear `(3,)` and angular `(3,)` velocity of a node group `(n, 3)` with masses `(n,)`: the mass-weighted mean
-    velocity and the ω whose rigid rotation about the group's centre has the group's angular momentum."""
+    """
+    Linear `(3,)` and angular `(3,)` velocity of a node group `(n, 3)` with masses `(n,)`.
+
+    The mass-weighted mean velocity and the ω whose rigid rotation about the group's centre has the group's angular
+    momentum.
+    """
     m = mass / mass.sum()
     com, vcom = m @ positions, m @ velocities
     r, v = positions - com, velocities - vcom
@@ -48,8 +67,11 @@ class RootTracker:
         return rot @ self.rest_root + trans, matrix_to_quat(rot)
 
     def root_twist(self, positions: np.ndarray, velocities: np.ndarray) -> tuple:
-        """(linear `(3,)` m/s, angular `(3,)` rad/s) velocity of the root region for node positions and velocities
-        `(n_nodes, 3)`: its centre of mass's, and the angular velocity of its momentum about that centre."""
+        """
+        (linear `(3,)` m/s, angular `(3,)` rad/s) velocity of the root region for node positions.
+
+        and velocities `(n_nodes, 3)`: its centre of mass's, and the angular velocity of its momentum about that centre.
+        """
         return rigid_velocity(np.asarray(positions, float)[self.nodes], np.asarray(velocities, float)[self.nodes],
                               self.weights)
 

@@ -1,4 +1,19 @@
-"""Implicit body surface of the iguana around its rest skeleton: trunk, wedge head, tapering tail, four limbs.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Implicit body surface of the iguana around its rest skeleton: trunk, wedge head, tapering tail, four limbs.
 
 The body is the set `{p : body_field(p) < 0}` with `body_field` an approximate signed distance (m): the
 smooth union of a main generalised cylinder (snout to tail tip along the spine, elliptic cross-sections from
@@ -14,7 +29,7 @@ from functools import lru_cache
 import numba
 import numpy as np
 
-from iguana_ros.body.skeleton import Skeleton, iguana_skeleton, rest_joint_positions
+from iguana_ros.body.skeleton import iguana_skeleton, rest_joint_positions, Skeleton
 
 # Main body profile: (x station m, half-width ry m, half-height rz m, centre height above the spine line m).
 # Fitted to the marker offsets: BACK_1..3 on the dorsal midline, SIDE_* on the flanks, HEAD on the crown,
@@ -82,7 +97,7 @@ class BodyShape:
 
 @lru_cache(maxsize=1)
 def iguana_shape() -> BodyShape:
-    """The iguana body shape around the rest skeleton."""
+    """Return the iguana body shape around the rest skeleton."""
     skeleton = iguana_skeleton()
     joints = rest_joint_positions(skeleton)
     profile = np.array(MAIN_PROFILE[::-1])  # ascending x for np.interp
@@ -128,7 +143,7 @@ def main_field(shape: BodyShape, p: np.ndarray) -> np.ndarray:
 
 
 def segment_frames(a: np.ndarray, b: np.ndarray) -> tuple:
-    """Unit axis, lateral and up vectors `(n, 3)` each of segments a -> b `(n, 3)`."""
+    """Return unit axis, lateral and up vectors `(n, 3)` each of segments a -> b `(n, 3)`."""
     d = b - a
     d = d / np.linalg.norm(d, axis=-1, keepdims=True)
     ref = np.where(np.abs(d[:, 2:3]) > 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]))

@@ -1,4 +1,19 @@
-"""Skeleton of an adult green iguana (0.85 m snout to tail tip) and vectorised forward kinematics.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Skeleton of an adult green iguana (0.85 m snout to tail tip) and vectorised forward kinematics.
 
 Axes: x forward (snout), y left, z up (REP 103). At rest every bone frame is aligned with the world axes,
 so a bone's rest offset is the vector from its parent's joint to its own joint in world axes. Joint rotations
@@ -103,7 +118,7 @@ class Skeleton:
 
     @property
     def n_bones(self) -> int:
-        """Number of bones (joints), end sites included."""
+        """Return number of bones (joints), end sites included."""
         return len(self.names)
 
     def index(self, name: str) -> int:
@@ -114,7 +129,7 @@ class Skeleton:
             raise KeyError(f'no bone {name!r}; bones: {", ".join(self.names)}') from None
 
     def indices(self, names: list) -> np.ndarray:
-        """Indices `(len(names),)` of several bones."""
+        """Return indices `(len(names),)` of several bones."""
         return np.array([self.index(n) for n in names], dtype=np.int64)
 
     def rest_pose(self) -> tuple:
@@ -122,13 +137,13 @@ class Skeleton:
         return self.offsets[0].copy(), quat_identity((self.n_bones,))
 
     def children(self, bone: int) -> np.ndarray:
-        """Indices of the direct children of `bone`."""
+        """Return indices of the direct children of `bone`."""
         return np.flatnonzero(self.parents == bone)
 
 
 @lru_cache(maxsize=1)
 def iguana_skeleton() -> Skeleton:
-    """The adult green iguana skeleton: trunk of 5, neck, head, tail of 8, four 4-bone legs."""
+    """Return the adult green iguana skeleton: trunk of 5, neck, head, tail of 8, four 4-bone legs."""
     rows = _bone_rows()
     names = tuple(r[0] for r in rows)
     parents = np.array([names.index(r[1]) if r[1] else -1 for r in rows], dtype=np.int64)
@@ -141,7 +156,8 @@ def iguana_skeleton() -> Skeleton:
 
 def forward_kinematics(skeleton: Skeleton, root_position: np.ndarray,
                        local_rotations: np.ndarray) -> tuple:
-    """World joint positions `(..., n_bones, 3)` and rotations `(..., n_bones, 4)` of poses.
+    """
+    World joint positions `(..., n_bones, 3)` and rotations `(..., n_bones, 4)` of poses.
 
     `root_position (..., 3)`, `local_rotations (..., n_bones, 4)`; leading axes (frames) broadcast.
     """

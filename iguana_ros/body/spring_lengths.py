@@ -1,4 +1,19 @@
-"""Desired spring lengths from the skinned reference mesh (Section VII).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Desired spring lengths from the skinned reference mesh (Section VII).
 
 The reference mesh is the soft body's own rest mesh, skinned to the terrain-adapted pose by dual-quaternion
 skinning; the desired length `l_d` of every spring (Equation 2) is the distance between its two skinned nodes.
@@ -7,8 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from iguana_ros.body.dqs import RigidTransforms, dual_quaternion_skinning
-from iguana_ros.body.skeleton import Skeleton, forward_kinematics
+from iguana_ros.body.dqs import dual_quaternion_skinning, RigidTransforms
+from iguana_ros.body.skeleton import forward_kinematics, Skeleton
 from iguana_ros.errors import IguanaError, InputError
 
 
@@ -33,7 +48,8 @@ def rest_bone_transforms(skeleton: Skeleton) -> RigidTransforms:
 
 
 class SpringLengthComputer:
-    """Binds a soft-body model so that each frame's pose -> desired spring lengths is one vectorised pass.
+    """
+    Binds a soft-body model so that each frame's pose -> desired spring lengths is one vectorised pass.
 
     The model needs `rest_positions (n_nodes, 3)`, `springs (n_springs, 2)`, `skin_bones (n_nodes, k)`,
     `skin_weights (n_nodes, k)` and `skeleton`; the bind pose is the skeleton's rest pose.
@@ -49,7 +65,7 @@ class SpringLengthComputer:
 
     @property
     def n_springs(self) -> int:
-        """Number of springs (length of each output vector)."""
+        """Return number of springs (length of each output vector)."""
         return len(self.springs)
 
     def skin_bones_to(self, bone_rotations: np.ndarray, bone_positions: np.ndarray) -> np.ndarray:

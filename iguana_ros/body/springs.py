@@ -1,13 +1,28 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Internal springs of the soft body (Section V): every node pair within a tet and across adjacent tets."""
 from __future__ import annotations
 
 import numpy as np
 
-from iguana_ros.body.mesh import TET_EDGES, face_adjacency
+from iguana_ros.body.mesh import face_adjacency, TET_EDGES
 
 
 def tet_springs(tets: np.ndarray, n_nodes: int | None = None) -> np.ndarray:
-    """Unique node pairs `(n_springs, 2)` (i < j, sorted lexicographically) of a tet mesh `(n_tets, 4)`.
+    """
+    Return unique node pairs `(n_springs, 2)` (i < j, sorted lexicographically) of a tet mesh `(n_tets, 4)`.
 
     The pairs are the six edges of every tet plus, for every two tets sharing a face, the pair of their
     vertices opposite that face, so every pair of nodes of two adjacent cells is connected.

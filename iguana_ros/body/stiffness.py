@@ -1,4 +1,19 @@
-"""Stiffness presets of the soft body: spring scale `a`, leg factor, Young's modulus, Poisson ratio.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Stiffness presets of the soft body: spring scale `a`, leg factor, Young's modulus, Poisson ratio.
 
 `normal` is the moderate model used in every experiment of the paper and `softer` the Section VIII-D
 model with softer springs that absorb a push better. Springs follow f_s = a (l_d - l) per spring; `a` is
@@ -55,7 +70,7 @@ PRESETS = {
 
 
 def stiffness_preset(name: str) -> StiffnessPreset:
-    """The preset called `name`; InputError lists the choices."""
+    """Return the preset called `name`; InputError lists the choices."""
     if name not in PRESETS:
         raise InputError(f'unknown stiffness preset {name!r}; expected one of: {", ".join(PRESETS)}')
     return PRESETS[name]

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """argparse value types shared by the `iguana` sub-commands: counts and positive numbers, one error line each."""
 from __future__ import annotations
 
@@ -6,7 +20,7 @@ import math
 
 
 def count(minimum: int):
-    """argparse type: an integer >= `minimum`."""
+    """`argparse` type: an integer >= `minimum`."""
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -19,7 +33,7 @@ def count(minimum: int):
 
 
 def positive(what: str):
-    """argparse type: a positive, finite number called `what` in the error."""
+    """`argparse` type: a positive, finite number called `what` in the error."""
     def parse(text: str) -> float:
         try:
             value = float(text)

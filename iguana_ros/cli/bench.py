@@ -1,19 +1,36 @@
-"""`iguana bench sim|tradeoff|stability|pipeline|locomotion|statics|pushes`: simulator speed, speed–accuracy trade,
-stability at the extremes, the node pipeline's realtime factor next to the library loop, the randomized
-locomotion benchmark (its handler in cli/bench_locomotion.py) and the statics diagnostics of a model variant
-(cli/bench_statics.py)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench sim|tradeoff|stability|pipeline|locomotion|statics|pushes`.
+
+Simulator speed, speed–accuracy trade, stability at the extremes, the node pipeline's realtime factor next to the
+library loop, the randomized locomotion benchmark (its handler in cli/bench_locomotion.py) and the statics diagnostics
+of a model variant (cli/bench_statics.py).
+"""
 from __future__ import annotations
 
 import argparse
-import json
 from fractions import Fraction
+import json
 
 from iguana_ros.cli import bench_faults, bench_locomotion, bench_pushes, bench_statics
 from iguana_ros.cli.argtypes import count
 
 
 def _time_step(text: str) -> float:
-    """A time step given as seconds or a fraction such as 1/1200."""
+    """Return a time step given as seconds or a fraction such as 1/1200."""
     try:
         value = float(Fraction(text))
     except (ValueError, ZeroDivisionError):

@@ -1,5 +1,22 @@
-"""`iguana bench faults SUITE`: the fault-injection suites, one module each (listed in SUITES) adding its
-sub-command to the `faults` group."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench faults SUITE`.
+
+The fault-injection suites, one module each (listed in SUITES) adding its sub-command to the `faults` group.
+"""
 from __future__ import annotations
 
 import argparse
@@ -19,7 +36,7 @@ SUITES = (
 
 
 def add_run_options(parser: argparse.ArgumentParser, runs: str = 'runs') -> None:
-    """The options of a suite that starts ROS processes: --domain, --keep DIR, --json."""
+    """Add the options of a suite that starts ROS processes: --domain, --keep DIR, --json."""
     parser.add_argument('--domain', type=count(0), default=None, metavar='ID',
                         help=f'ROS_DOMAIN_ID of the {runs} (default: 1 + pid %% 200, discovery on localhost)')
     parser.add_argument('--keep', type=Path, default=None, metavar='DIR',
@@ -28,14 +45,17 @@ def add_run_options(parser: argparse.ArgumentParser, runs: str = 'runs') -> None
 
 
 def suite_domain(args: argparse.Namespace) -> str:
-    """The ROS_DOMAIN_ID of a suite's runs (--domain, else one from the pid), discovery kept on localhost."""
+    """Return the ROS_DOMAIN_ID of a suite's runs (--domain, else one from the pid), discovery kept on localhost."""
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     return str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
 
 
 def faults_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:
-    """The sub-command action of `iguana bench faults` under the bench sub-commands `sub`, created on first use
-    (an existing `faults` group is reused, so suites registered from elsewhere join it)."""
+    """
+    Return the sub-command action of `iguana bench faults` under the bench sub-commands `sub`, created on first use.
+
+    (an existing `faults` group is reused, so suites registered from elsewhere join it).
+    """
     parser = sub.choices.get('faults')
     if parser is None:
         parser = sub.add_parser('faults', help='fault-injection suites: bad scenes, damaged bags, killed processes, '

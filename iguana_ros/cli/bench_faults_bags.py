@@ -1,11 +1,29 @@
-"""`iguana bench faults bags`: seeded random truncations and byte corruptions of a recorded bag's MCAP and damaged
-metadata.yaml variants, each checked against mcap's own reader of the undamaged bag (iguana_ros.faults.bag_files)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench faults bags`.
+
+Seeded random truncations and byte corruptions of a recorded bag's MCAP and damaged metadata.yaml variants, each checked
+against mcap's own reader of the undamaged bag (iguana_ros.faults.bag_files).
+"""
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
+import sys
 
 from iguana_ros.cli.argtypes import count, positive
 
@@ -75,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def format_figures(f: dict) -> str:
-    """The suite's figures as a few lines of text."""
+    """Return the suite's figures as a few lines of text."""
     lines = [f"bag faults on {f['bag']} ({f['bytes']} bytes, {f['chunks']} chunks, {f['messages']} messages, "
              f"data-section CRC {f['data_crc']}; seed {f['seed']})"]
     for kind in ('truncate', 'bytes', 'flip', 'metadata'):

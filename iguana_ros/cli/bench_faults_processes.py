@@ -1,6 +1,24 @@
-"""`iguana bench faults processes`: kill `iguana run` or one of its children (SIGKILL, SIGTERM, SIGINT) at seeded
-random moments; every trial must leave no process behind, a readable bag with every message recorded before the
-fault, and one clear line (iguana_ros/faults/processes.py)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench faults processes`.
+
+Kill `iguana run` or one of its children (SIGKILL, SIGTERM, SIGINT) at seeded random moments; every trial must leave no
+process behind, a readable bag with every message recorded before the fault, and one clear line
+(iguana_ros/faults/processes.py).
+"""
 from __future__ import annotations
 
 import argparse

@@ -1,6 +1,24 @@
-"""`iguana bench faults scenes`: seeded random mutations of the shipped scenes, each loaded (valid Scene or one
-SceneError line naming file and field, quickly, in bounded memory) and a sample run through `iguana simulate` in
-subprocesses (exit 1 with one line for an invalid scene, no traceback, peak RSS measured)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench faults scenes`.
+
+Seeded random mutations of the shipped scenes, each loaded (valid Scene or one SceneError line naming file and field,
+quickly, in bounded memory) and a sample run through `iguana simulate` in subprocesses (exit 1 with one line for an
+invalid scene, no traceback, peak RSS measured).
+"""
 from __future__ import annotations
 
 import argparse

@@ -1,4 +1,19 @@
-"""`iguana bench locomotion`: the randomized locomotion benchmark (iguana_ros.locomotion_bench) on all cores.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench locomotion`: the randomized locomotion benchmark (iguana_ros.locomotion_bench) on all cores.
 
 A progress line per finished run goes to stderr; then a table per mode and terrain kind with the
 with/without-adaptation ratios, or with --json one object {config, summary, rows, wall_s} on stdout.
@@ -18,7 +33,7 @@ MODES = {'both': (True, False), 'adapt': (True,), 'no-adapt': (False,)}
 
 
 def _kinds(text: str) -> tuple:
-    """argparse type: a comma-separated list of terrain kinds."""
+    """`argparse` type: a comma-separated list of terrain kinds."""
     kinds = tuple(k.strip() for k in text.split(',') if k.strip())
     bad = [k for k in kinds if k not in KINDS]
     if bad or not kinds:
@@ -72,7 +87,7 @@ def run_locomotion(args: argparse.Namespace) -> int:
 
 
 def _open_output(path: str | None):
-    """The rows file opened for writing (None without -o); InputError (one line) if it cannot be."""
+    """Return the rows file opened for writing (None without -o); InputError (one line) if it cannot be."""
     from iguana_ros.errors import InputError
 
     if path is None:
@@ -103,7 +118,7 @@ def _num(value, fmt: str, width: int = 0) -> str:
 
 
 def format_summary(summary: dict) -> str:
-    """The readable table of `summarize`'s result: one line per mode and kind, then the ratios."""
+    """Return the readable table of `summarize`'s result: one line per mode and kind, then the ratios."""
     lines = [f"{'mode':9s} {'terrain':8s} {'runs':>4s} {'reached':>12s} {'time s':>7s} {'slip med':>9s} "
              f"{'slip mean':>9s} {'speed':>7s} {'fell':>4s} {'stuck':>5s} {'errors':>6s}",
              f"{'':9s} {'':8s} {'':4s} {'':12s} {'(med)':>7s} {'m/stride':>9s} {'m/stride':>9s} "

@@ -1,4 +1,19 @@
-"""`iguana bench statics`: why a model variant does or does not trot (iguana_ros.diagnostics), measured.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana bench statics`: why a model variant does or does not trot (iguana_ros.diagnostics), measured.
 
 Support margins of the forward clip, standing sag (idle pose and a held two-foot pose), spring bending
 capacity, planted feet in `flat_walk`; a readable report, or with --json one object (non-finite numbers as
@@ -68,7 +83,7 @@ def _num(value: float, fmt: str, width: int) -> str:
 
 
 def format_report(report: dict) -> str:
-    """The readable text of a `diagnostics.statics_report`."""
+    """Return the readable text of a `diagnostics.statics_report`."""
     m = report['model']
     lines = [f"{m['resolution']} mesh ({m['nodes']} nodes, {m['springs']} springs), preset {m['stiffness']}: "
              f"A = {m['spring_a_n_per_m'] / 1e3:g} kN/m at 2 cm, leg factor x{m['leg_factor']:g}, "
@@ -88,7 +103,7 @@ def _support_lines(s: dict) -> list:
         f"Support margins, clip {s['clip']!r} ({s['diagonal_frames']} of {s['frames']} frames in a diagonal "
         f"two-foot phase): the COM lies {_mm(s['distance_mean_m'], 0)} mm (min {_mm(s['distance_min_m'], 0)}, "
         f"max {_mm(s['distance_max_m'], 0)}) outside the line between the stance feet, toward the swinging hind "
-        f"foot (+ = the body rolls onto it).",
+        f'foot (+ = the body rolls onto it).',
         f"  inside the triangle of the stance feet and the tail's lowest point in "
         f"{_num(100 * s['inside_tail_triangle_fraction'], '.0f', 0)} % of those frames; tail load needed for "
         f"balance {_num(load, '.1f', 0)} N median ({_num(100 * load / s['weight_n'], '.0f', 0)} % of the "
@@ -101,16 +116,16 @@ def _support_lines(s: dict) -> list:
 def _sag_lines(idle: dict, diagonal: dict) -> list:
     """Standing-sag lines: both runs side by side."""
     stance = '+'.join(n for n, on in zip(('fl', 'fr', 'hl', 'hr'), diagonal['stance']) if on)
-    lines = [f"Standing sag: vertical offset from the reference mesh of the held pose (mm, - = lower), mean over "
+    lines = [f'Standing sag: vertical offset from the reference mesh of the held pose (mm, - = lower), mean over '
              f"the last {idle['window_s']:.2f} s of {idle['seconds']:.1f} s",
              f"  {'region':12s} {'idle, 4 feet':>13s} {diagonal['clip'] + ' frame ' + str(diagonal['frame']):>17s}"
-             f" ({stance} stance)"]
+             f' ({stance} stance)']
     for region, value in idle['offset_m'].items():
         lines.append(f"  {region:12s} {_mm(value, 13)} {_mm(diagonal['offset_m'][region], 17)}")
     lines.append(f"  {'ground load N':16s}" + ''.join(f"{name.replace('foot_', ''):>7s}"
-                                                       for name in idle['ground_load_n']))
+                                                      for name in idle['ground_load_n']))
     for label, run in (('idle', idle), ('diagonal', diagonal)):
-        lines.append(f"  {label:16s}" + ''.join(f'{v:7.1f}' for v in run['ground_load_n'].values()))
+        lines.append(f'  {label:16s}' + ''.join(f'{v:7.1f}' for v in run['ground_load_n'].values()))
     return lines
 
 
@@ -131,7 +146,7 @@ def _spring_lines(rows: list) -> list:
 def _planted_lines(p: dict) -> list:
     """Planted-feet lines."""
     lines = [f"Planted feet, {p['scene']} {p['seconds']:.1f} s ({p['frames']} frames after {p['settle_s']:.1f} s), "
-             "in the frames the clip says stance:",
+             'in the frames the clip says stance:',
              f"  {'foot':4s} {'stance':>6s} {'soles in contact':>16s} {'none':>5s} {'F_n mean N':>10s} {'F_n CV':>6s} "
              f"{'at friction limit':>17s} {'load in swing N':>15s}"]
     for foot, f in p['feet'].items():

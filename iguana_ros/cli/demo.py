@@ -1,10 +1,24 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana demo`: run the default scene with the four nodes, record a bag, render it, say where it all is."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 import subprocess
 import sys
-from pathlib import Path
 
 from iguana_ros.cli.run import add_progress_option
 
@@ -20,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def next_commands(bag: Path, scene: str) -> list[str]:
-    """The three commands to try after the demo: watch or render its bag, send a goal, run another scene."""
+    """Return the three commands to try after the demo: watch or render its bag, send a goal, run another scene."""
     from iguana_ros.scene import available_scenes
     other = next((name for name in ('goal_sequence', 'push_normal', *available_scenes()) if name != scene), scene)
     return [f'iguana view {bag}                # watch the recorded run in a browser (or: iguana render {bag} '
@@ -30,7 +44,7 @@ def next_commands(bag: Path, scene: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """iguana run SCENE, then iguana render BAG -o BAG.gif; prints the outputs."""
+    """`iguana` run SCENE, then iguana render BAG -o BAG.gif; prints the outputs."""
     from iguana_ros.cli.run import progress_display, run_and_report
     from iguana_ros.errors import IguanaError
     from iguana_ros.supervisor.run import RunOptions

@@ -1,5 +1,23 @@
-"""`iguana doctor`: is this machine ready to run iguana_ros? One ✓/✗ line per check, the fix under each ✗, exit
-status 1 if anything a run needs is missing."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana doctor`.
+
+Is this machine ready to run iguana_ros? One ✓/✗ line per check, the fix under each ✗, exit status 1 if anything a run
+needs is missing.
+"""
 from __future__ import annotations
 
 import argparse

@@ -1,8 +1,23 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana goal X Y`: publish one PoseStamped on the goal topic and wait until the planner has accepted it."""
 from __future__ import annotations
 
 import argparse
 import math
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `goal` sub-command."""
@@ -20,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _check_finite(args: argparse.Namespace) -> None:
-    """InputError naming the first non-finite number."""
+    """`InputError` naming the first non-finite number."""
     from iguana_ros.errors import InputError
     for name in ('x', 'y', 'yaw', 'at'):
         value = getattr(args, name)
@@ -33,8 +48,11 @@ def _check_finite(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Publish the goal once the planner listens, wait until it lists the goal on accepted_goals; exit 1 if it
-    does not (no planner, or the goal rejected) within the timeout."""
+    """
+    Publish the goal once the planner listens, wait until it lists the goal on accepted_goals.
+
+    Exit 1 if it does not (no planner, or the goal rejected) within the timeout.
+    """
     _check_finite(args)
     from iguana_ros.constants import WORLD_FRAME
     from iguana_ros.nodes.goal_sender import goal_message, send_goals

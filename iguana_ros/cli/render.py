@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana render BAG -o FILE.gif|.mp4|.png`: headless rendering of a recorded run (mesh, terrain, goal, trail)."""
 from __future__ import annotations
 
@@ -49,7 +63,7 @@ def parse_size(text: str, even: bool = False) -> tuple[int, int]:
 
 
 def _check_times(args: argparse.Namespace) -> None:
-    """InputError for a non-finite or non-positive --fps, or a bad --start/--end/--frame."""
+    """`InputError` for a non-finite or non-positive --fps, or a bad --start/--end/--frame."""
     from iguana_ros.errors import InputError
 
     if not (math.isfinite(args.fps) and args.fps > 0):
@@ -61,7 +75,7 @@ def _check_times(args: argparse.Namespace) -> None:
 
 
 def _progress_bar(desc: str, quiet: bool, total: int | None = None, unit: str = 'frame'):
-    """A tqdm bar on stderr (disabled when quiet or when stderr is not a terminal)."""
+    """Return a tqdm bar on stderr (disabled when quiet or when stderr is not a terminal)."""
     from tqdm import tqdm
     return tqdm(total=total, desc=desc, unit=unit, disable=True if quiet else None, leave=False,
                 dynamic_ncols=True)
@@ -91,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _read(args: argparse.Namespace, kind: str):
-    """The RecordedRun of the bag for the requested output."""
+    """Return the RecordedRun of the bag for the requested output."""
     import sys
 
     from iguana_ros.bag.frames import read_run
@@ -118,7 +132,7 @@ def _read(args: argparse.Namespace, kind: str):
 
 
 def _render(args: argparse.Namespace, recorded, size: tuple[int, int]):
-    """(generator of uint8 frames with a progress bar, frames per second of the output)."""
+    """Yield (generator of uint8 frames with a progress bar, frames per second of the output)."""
     from iguana_ros.render.camera import preset_cameras
     from iguana_ros.render.renderer import Renderer
 

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana run [SCENE]`: the four nodes as processes, the scene's goals, every topic recorded to MCAP."""
 from __future__ import annotations
 
@@ -38,7 +52,7 @@ def add_progress_option(parser: argparse.ArgumentParser) -> None:
 
 
 def progress_display(every_s: float):
-    """The ProgressDisplay on stdout for --progress-every `every_s` (None for 0); InputError if negative."""
+    """Return the ProgressDisplay on stdout for --progress-every `every_s` (None for 0); InputError if negative."""
     import math
     import sys
 
@@ -50,10 +64,13 @@ def progress_display(every_s: float):
 
 
 def run_and_report(options, prog: str, display=None) -> tuple:
-    """Run a scene (RunOptions `options`) after `iguana doctor`'s quick checks (CheckFailed: the failed check's
-    line), print its summary and, unless it completed, one line on stderr headed
-    `prog`; returns (the RunSummary or None if nothing was started, the exit status: 0 completed, 1 failed,
-    128 + n stopped by signal n, e.g. 143 for SIGTERM); `display` shows the phases and progress meanwhile."""
+    """
+    Run a scene (RunOptions `options`) after `iguana doctor`'s quick checks (CheckFailed: the failed check's line).
+
+    print its summary and, unless it completed, one line on stderr headed `prog`; returns (the RunSummary or None if
+    nothing was started, the exit status: 0 completed, 1 failed, 128 + n stopped by signal n, e.g. 143 for SIGTERM);
+    `display` shows the phases and progress meanwhile.
+    """
     import sys
 
     from iguana_ros.doctor import quick_checks, require

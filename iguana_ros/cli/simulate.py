@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana simulate SCENE`: the ROS-free frame loop (pipeline.run) with a progress bar, trajectories to .npz."""
 from __future__ import annotations
 
@@ -19,8 +33,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run, print locomotion metrics, optionally save trajectories; a bad scene or --duration is one error line
-    (the scene is read before the simulator is loaded)."""
+    """
+    Run, print locomotion metrics, optionally save trajectories.
+
+    A bad scene or --duration is one error line (the scene is read before the simulator is loaded).
+    """
     from iguana_ros.scene import load_scene, with_duration
 
     scene = load_scene(args.scene)

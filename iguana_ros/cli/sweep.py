@@ -1,4 +1,19 @@
-"""`iguana sweep SPEC`: every task of a sweep spec (iguana_ros.sweep.spec) on a Dask cluster, one results table.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana sweep SPEC`: every task of a sweep spec (iguana_ros.sweep.spec) on a Dask cluster, one results table.
 
 A local cluster of `--workers` processes by default, or the workers of `--scheduler ADDRESS`. A progress bar with
 the ETA goes to stderr; each finished task is logged in OUT/rows.jsonl at once, so `--resume` runs only what is
@@ -7,9 +22,9 @@ missing; at the end OUT/results.csv, OUT/results.json and the spec's plots are w
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 import sys
 import time
-from pathlib import Path
 
 from iguana_ros.cli.argtypes import count
 
@@ -80,7 +95,7 @@ def _memory_limit(text: str):
 
 
 def write_outputs(spec, rows: list[dict], out: Path) -> list[Path]:
-    """The results table, the spec's summary (printed too) and plots, and the tradeoff figure; their paths."""
+    """Return the results table, the spec's summary (printed too) and plots, and the tradeoff figure; their paths."""
     from iguana_ros.sweep.results import check_plot_columns, plot_columns, plot_path, write_table
 
     meta = {'sweep': spec.name, 'kind': spec.kind, 'spec': spec.source, 'timing_columns': list(spec.plan.timing)}

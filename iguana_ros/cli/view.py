@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """`iguana view [BAG]`: the iguana in a web browser, live from the running nodes (default) or from a bag."""
 from __future__ import annotations
 
@@ -34,7 +48,7 @@ def view(args: argparse.Namespace) -> int:
 
 
 def _defaults() -> tuple[dict, float]:
-    """(the clip library, to name the planner's clips; the simulator's push duration, s)."""
+    """Return (the clip library, to name the planner's clips; the simulator's push duration, s)."""
     from iguana_ros.motion.clips import load_clip_library
     from iguana_ros.parameters import node_parameters
     return load_clip_library(), float(node_parameters('simulator_node')['push_duration'].default)

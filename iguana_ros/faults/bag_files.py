@@ -1,5 +1,22 @@
-"""Fault injection on a recorded bag (ROS-free): seeded random truncations and byte corruptions of its MCAP file
-and damaged metadata.yaml variants, each checked against an independent reader of the undamaged bag.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Fault injection on a recorded bag (ROS-free).
+
+Seeded random truncations and byte corruptions of its MCAP file and damaged metadata.yaml variants, each checked against
+an independent reader of the undamaged bag.
 
 The reference is mcap's own reader on the undamaged file: its summary's chunk index gives each chunk's byte
 range, and `mcap.stream_reader.breakup_chunk` (CRC-checked) its messages; mcap-ros2-support's decoder
@@ -16,9 +33,14 @@ on the floor above), so a trial costs a few scans of the file.
 """
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
+from dataclasses import dataclass, field
 import hashlib
 import io
 import os
+from pathlib import Path
 import random
 import shutil
 import signal
@@ -26,11 +48,6 @@ import struct
 import tempfile
 import time
 import traceback
-from collections import Counter
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager, redirect_stderr, redirect_stdout
-from dataclasses import dataclass, field
-from pathlib import Path
 
 from iguana_ros.bag.metadata import METADATA_FILE
 from iguana_ros.bag.storage import BagReader, resolve_bag_file, summarize
@@ -94,8 +111,11 @@ class Reference:
 
 
 def reference(bag: str | Path) -> Reference:
-    """Reference of the undamaged bag, read with mcap's reader and decoded with mcap-ros2-support; IguanaError
-    if the bag is not a finished, sound MCAP file (the faults must be the only damage)."""
+    """
+    Return reference of the undamaged bag, read with mcap's reader and decoded with mcap-ros2-support.
+
+    IguanaError if the bag is not a finished, sound MCAP file (the faults must be the only damage).
+    """
     from mcap.data_stream import ReadDataStream
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
@@ -148,9 +168,13 @@ def reference(bag: str | Path) -> Reference:
 
 @dataclass(frozen=True)
 class Fault:
-    """One fault: cut the MCAP at `offset` ('truncate'), write `data` at `offset` ('bytes'), XOR the byte at
-    `offset` with the mask `data` ('flip'), or replace metadata.yaml by `data` ('metadata'; `data` None: delete
-    it). `label` names the variant or the region aimed at."""
+    """
+    One fault.
+
+    Cut the MCAP at `offset` ('truncate'), write `data` at `offset` ('bytes'), XOR the byte at `offset` with the mask
+    `data` ('flip'), or replace metadata.yaml by `data` ('metadata'; `data` None: delete it). `label` names the variant
+    or the region aimed at.
+    """
 
     kind: str
     offset: int = 0
@@ -193,8 +217,12 @@ class Fault:
 
 
 def corruption_faults(ref: Reference, truncations: int, corruptions: int, seed: int) -> list[Fault]:
-    """Seeded random faults of the MCAP: `truncations` cuts anywhere in the file, `corruptions` alternating
-    64-byte overwrites and flipped bytes (every STRUCTURAL_SHARE-th aimed at a region outside the chunks)."""
+    """
+    Seeded random faults of the MCAP.
+
+    `truncations` cuts anywhere in the file, `corruptions` alternating 64-byte overwrites and flipped bytes (every
+    STRUCTURAL_SHARE-th aimed at a region outside the chunks).
+    """
     rng = random.Random(seed)
     faults = [Fault('truncate', rng.randrange(ref.size)) for _ in range(truncations)]
     regions = [(name, r) for name, ranges in ref.regions.items() for r in ranges]
@@ -217,8 +245,12 @@ def corruption_faults(ref: Reference, truncations: int, corruptions: int, seed: 
 
 
 def metadata_faults(text: str, seed: int) -> list[Fault]:
-    """Damaged variants of a bag's metadata.yaml `text`: binary, empty, cut, invalid or deeply nested YAML,
-    wrong structure, wrong counts or file name, another encoding, a NUL byte, an alias bomb, too large, absent."""
+    """
+    Damaged variants of a bag's metadata.yaml `text`.
+
+    Binary, empty, cut, invalid or deeply nested YAML, wrong structure, wrong counts or file name, another encoding, a
+    NUL byte, an alias bomb, too large, absent.
+    """
     rng = random.Random(seed)
     raw = text.encode()
     count_line = next((line for line in text.splitlines() if line.startswith('  message_count:')), None)
@@ -346,8 +378,11 @@ def run_trial(bag: Path, fault: Fault, ref: Reference, workdir: Path, timeout_s:
 def run_suite(bag: str | Path, truncations: int = 100, corruptions: int = 100, seed: int = 0,
               timeout_s: float = TRIAL_TIMEOUT_S, metadata: bool = True,
               progress: Callable[[dict, int, int], None] | None = None, *, iguana: Iguana) -> dict:
-    """Every fault on the bag directory `bag`, one after the other, its commands run through `iguana` (the CLI's
-    main); the figures and the failed trials."""
+    """
+    Every fault on the bag directory `bag`, one after the other, its commands run through `iguana` (the CLI's main).
+
+    The figures and the failed trials.
+    """
     bag = Path(bag)
     if not bag.is_dir():
         raise IguanaError(f'{bag}: the fault suite needs a bag directory (its .mcap and metadata.yaml)')
@@ -367,8 +402,12 @@ def run_suite(bag: str | Path, truncations: int = 100, corruptions: int = 100, s
 
 
 def summarize_trials(bag: Path, ref: Reference, rows: list[dict], seed: int, wall_s: float) -> dict:
-    """Figures of a suite run: trials and survivors per kind, exits 0 on damage, tracebacks, hangs, messages of
-    intact chunks recovered and lost, wrong messages, and the failed trials."""
+    """
+    Figures of a suite run.
+
+    Trials and survivors per kind, exits 0 on damage, tracebacks, hangs, messages of intact chunks recovered and lost,
+    wrong messages, and the failed trials.
+    """
     kinds = Counter(r['kind'] for r in rows)
     survived = Counter(r['kind'] for r in rows if not r['problems'])
     return {

@@ -1,7 +1,23 @@
-"""Process fault injection: kill `iguana run` or one of its children (SIGKILL, SIGTERM, SIGINT) at a seeded random
-moment, and check what a user would: no process of the run is left, the bag is readable, every message recorded
-before the fault is still in it, and `iguana run` ended with one clear line (or, killed by SIGKILL, said
-nothing).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Process fault injection.
+
+Kill `iguana run` or one of its children (SIGKILL, SIGTERM, SIGINT) at a seeded random moment, and check what a user
+would: no process of the run is left, the bag is readable, every message recorded before the fault is still in it, and
+`iguana run` ended with one clear line (or, killed by SIGKILL, said nothing).
 
 A trial runs the real `iguana run` CLI on a small scene (coarse mesh, flat ground) on the caller's ROS domain.
 Just before the fault the growing bag is read (its complete chunks); after the run those messages must still be
@@ -10,20 +26,20 @@ environment, which everything started under the trial's `iguana run` inherits.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
 import json
 import os
+from pathlib import Path
 import random
 import shutil
 import signal
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import yaml
 
-from iguana_ros.supervisor.process import NodeProcess, ProcessInfo, processes_with_env, wait_for
+from iguana_ros.supervisor.process import NodeProcess, processes_with_env, ProcessInfo, wait_for
 
 TARGETS = ('iguana run', 'recorder', 'planner_node', 'terrain_adaptation_node', 'spring_length_node',
            'simulator_node')
@@ -143,9 +159,13 @@ def _kill_leftovers(procs: list[ProcessInfo]) -> None:
 
 def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path, domain_id: str | None = None,
               under_way: bool = False, before_fault: Callable[[Path], None] | None = None) -> Trial:
-    """Launch `iguana run` on the trial scene, send `sig` to `target` `moment_s` wall seconds after launch (or,
-    `under_way`, after the bag holds the iguana_state of a simulated frame, not only the initial one), and check the aftermath. A target that is not alive at
-    that moment is killed as soon as it is. `before_fault(trial folder)` is called just before the fault."""
+    """
+    Launch `iguana run` on the trial scene, send `sig` to `target` `moment_s` wall seconds after launch.
+
+    (or, `under_way`, after the bag holds the iguana_state of a simulated frame, not only the initial one), and check
+    the aftermath. A target that is not alive at that moment is killed as soon as it is. `before_fault(trial folder)` is
+    called just before the fault.
+    """
     domain_id = domain_id or os.environ.get('ROS_DOMAIN_ID', '0')
     trial = Trial(index, target, signal.Signals(sig).name, moment_s, 'under way' if under_way else 'start-up')
     folder = workdir / f'trial_{index:02d}'
@@ -222,7 +242,7 @@ def _completed(text: str) -> bool:
 
 
 def _check_bag(trial: Trial, bag: Path, before: dict[str, list[int]]) -> None:
-    """The bag readable, finalised unless its recorder was SIGKILLed, every message read before the fault kept."""
+    """Check the bag readable, finalised unless its recorder was SIGKILLed, every message read before the fault kept."""
     from iguana_ros.bag.storage import BagReader
     from iguana_ros.errors import IguanaError
 
@@ -251,9 +271,12 @@ def _check_bag(trial: Trial, bag: Path, before: dict[str, list[int]]) -> None:
 
 
 def plan_trials(n: int, seed: int) -> list[tuple[str, int, float, bool]]:
-    """`n` seeded (target, signal, moment, under way) plans: every target x signal in turn, each once during
-    start-up (moment uniform in [0.2 s, LATEST_START_UP_FAULT_S] after launch) and once under way (uniform in
-    [0, LATEST_RUNNING_FAULT_S] after the first iguana_state is recorded)."""
+    """
+    `n` seeded (target, signal, moment, under way) plans.
+
+    Every target x signal in turn, each once during start-up (moment uniform in [0.2 s, LATEST_START_UP_FAULT_S] after
+    launch) and once under way (uniform in [0, LATEST_RUNNING_FAULT_S] after the first iguana_state is recorded).
+    """
     rng = random.Random(seed)
     plans = [(t, s, w) for t in TARGETS for s in SIGNALS for w in (False, True)]
     rng.shuffle(plans)
@@ -264,8 +287,12 @@ def plan_trials(n: int, seed: int) -> list[tuple[str, int, float, bool]]:
 
 def fault_suite(trials: int = 20, seed: int = 12, workdir: Path | None = None, domain_id: str | None = None,
                 progress=None) -> dict:
-    """Run `trials` seeded process-fault trials; return the figures ({trials, survived, hit, lost, orphans,
-    wall_s, rows}). `progress(trial)` is called after each one."""
+    """
+    Run `trials` seeded process-fault trials.
+
+    Return the figures ({trials, survived, hit, lost, orphans, wall_s, rows}). `progress(trial)` is called after each
+    one.
+    """
     import tempfile
     own = workdir is None
     workdir = Path(workdir or tempfile.mkdtemp(prefix='iguana_faults_'))
@@ -289,7 +316,7 @@ def fault_suite(trials: int = 20, seed: int = 12, workdir: Path | None = None, d
 
 
 def suite_line(result: dict) -> str:
-    """The figures of a fault_suite result in one line."""
+    """Return the figures of a fault_suite result in one line."""
     return (f"processes: {result['survived']}/{result['trials']} trials survived ({result['hit']} faults landed, "
             f"{result['under_way']} while the run was under way), {result['orphans']} processes left behind, "
             f"{result['lost_messages']} of {result['messages_before_faults']} messages recorded before the faults "
@@ -297,5 +324,5 @@ def suite_line(result: dict) -> str:
 
 
 def to_json(result: dict) -> str:
-    """The result as indented JSON."""
+    """Return the result as indented JSON."""
     return json.dumps(result, indent=1)

@@ -1,4 +1,19 @@
-"""Scene fault injection: seeded random mutations of the shipped scenes and the checks every one must pass.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Scene fault injection: seeded random mutations of the shipped scenes and the checks every one must pass.
 
 Each mutation is the bytes of a scene file damaged one way (wrong types, out-of-range and non-finite numbers,
 unknown fields, deep nesting, huge lists and sizes, wrong encodings and binary bytes, duplicate keys, YAML alias
@@ -10,10 +25,13 @@ leaves a traceback, and the peak RSS is measured.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass, field
 import datetime
 import json
 import math
 import os
+from pathlib import Path
 import random
 import re
 import signal
@@ -21,15 +39,12 @@ import subprocess
 import sys
 import time
 import tracemalloc
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import yaml
 
 from iguana_ros.config import config_path
-from iguana_ros.scene import (MAX_DURATION, MAX_EXTENT, MAX_GOALS, MAX_NESTING, MAX_PUSHES, MAX_SCENE_BYTES,
-                              MAX_TEXT, MAX_YAML_NODES, Scene, SceneError, load_scene)
+from iguana_ros.scene import (load_scene, MAX_DURATION, MAX_EXTENT, MAX_GOALS, MAX_NESTING, MAX_PUSHES, MAX_SCENE_BYTES,
+                              MAX_TEXT, MAX_YAML_NODES, Scene, SceneError)
 
 LOAD_SECONDS_LIMIT = 2.0
 """Longest a single `load_scene` of a mutated file may take, s."""
@@ -51,8 +66,12 @@ _FIELD = re.compile(r"field '([^']*)'")
 
 @dataclass(frozen=True)
 class Mutation:
-    """One damaged scene file: its bytes, the kind of damage, the shipped scene it came from, the field it damaged
-    ('' = the file as a whole), whether it must be rejected, and a note of what was done."""
+    """
+    One damaged scene file.
+
+    Its bytes, the kind of damage, the shipped scene it came from, the field it damaged ('' = the file as a whole),
+    whether it must be rejected, and a note of what was done.
+    """
 
     kind: str
     base: str
@@ -114,7 +133,7 @@ def _mappings(node, prefix: str = '') -> list[tuple[str, tuple]]:
 
 
 def _get(node, keys: tuple):
-    """The value at `keys` in nested dicts/lists."""
+    """Return the value at `keys` in nested dicts/lists."""
     for key in keys:
         node = node[key]
     return node
@@ -126,17 +145,17 @@ def _set(node, keys: tuple, value) -> None:
 
 
 def _dump(raw) -> bytes:
-    """A parsed scene as YAML bytes (block style, lists of scalars in flow style)."""
+    """Return a parsed scene as YAML bytes (block style, lists of scalars in flow style)."""
     return yaml.safe_dump(raw, sort_keys=False, default_flow_style=None, width=1 << 20).encode('utf-8')
 
 
 def _without(raw: dict, key: str) -> str:
-    """A parsed scene without top-level field `key`, as YAML text ending in a newline."""
+    """Return a parsed scene without top-level field `key`, as YAML text ending in a newline."""
     return _dump({k: v for k, v in raw.items() if k != key}).decode('utf-8')
 
 
 def _copy(raw):
-    """A deep copy of a parsed scene (plain dicts, lists, scalars)."""
+    """Return a deep copy of a parsed scene (plain dicts, lists, scalars)."""
     if isinstance(raw, dict):
         return {k: _copy(v) for k, v in raw.items()}
     if isinstance(raw, list):
@@ -145,7 +164,7 @@ def _copy(raw):
 
 
 def _wrong_type(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A leaf replaced by a value of another type (a string for a number, a list for a string, ...)."""
+    """Return a leaf replaced by a value of another type (a string for a number, a list for a string, ...)."""
     path, keys = rng.choice(_leaves(raw))
     old = _get(raw, keys)
     if isinstance(old, bool):
@@ -162,7 +181,7 @@ def _wrong_type(rng: random.Random, name: str, text: str, raw: dict) -> Mutation
 
 
 def _numeric_leaves(raw: dict) -> list[tuple[str, tuple]]:
-    """The numeric leaves (numbers and the items of number lists) of a parsed scene."""
+    """Return the numeric leaves (numbers and the items of number lists) of a parsed scene."""
     out = []
     for path, keys in _leaves(raw):
         value = _get(raw, keys)
@@ -174,7 +193,7 @@ def _numeric_leaves(raw: dict) -> list[tuple[str, tuple]]:
 
 
 def _out_of_range(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A number replaced by an extreme one: negative, zero, tiny, huge, beyond float range as an integer."""
+    """Return a number replaced by an extreme one: negative, zero, tiny, huge, beyond float range as an integer."""
     path, keys = rng.choice(_numeric_leaves(raw))
     value = rng.choice([-1.0, 0.0, -1e-9, 1e-300, 5e-324, 1e-306, 1e12, -1e12, 1e308, -1e308, 10 ** 30, 10 ** 400,
                         -(10 ** 400), 2 ** 64, MAX_DURATION * 10, MAX_EXTENT * 1.5, 123456789.0])
@@ -184,7 +203,7 @@ def _out_of_range(rng: random.Random, name: str, text: str, raw: dict) -> Mutati
 
 
 def _non_finite(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A number replaced by NaN or an infinity."""
+    """Return a number replaced by NaN or an infinity."""
     path, keys = rng.choice(_numeric_leaves(raw))
     value = rng.choice([math.nan, math.inf, -math.inf])
     new = _copy(raw)
@@ -193,7 +212,7 @@ def _non_finite(rng: random.Random, name: str, text: str, raw: dict) -> Mutation
 
 
 def _unknown_field(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A field that the schema does not know, at the top level or in a nested mapping (often a typo)."""
+    """Return a field that the schema does not know, at the top level or in a nested mapping (often a typo)."""
     path, keys = rng.choice(_mappings(raw))
     mapping = _get(raw, keys)
     known = set(mapping)
@@ -213,7 +232,7 @@ def _unknown_field(rng: random.Random, name: str, text: str, raw: dict) -> Mutat
 
 
 def _nested(depth: int, flow: bool, mapping: bool) -> str:
-    """A YAML value nested `depth` collections deep (flow or block style)."""
+    """Return a YAML value nested `depth` collections deep (flow or block style)."""
     if flow:
         return ('{a: ' * depth + '1' + '}' * depth) if mapping else ('[' * depth + '1' + ']' * depth)
     if mapping:
@@ -222,7 +241,7 @@ def _nested(depth: int, flow: bool, mapping: bool) -> str:
 
 
 def _deep_nesting(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A top-level field's value nested far deeper than MAX_NESTING (17 to 50000 levels)."""
+    """Return a top-level field's value nested far deeper than MAX_NESTING (17 to 50000 levels)."""
     depth = rng.choice([MAX_NESTING + 1, 30, 100, 1000, 5000, 50000])
     flow = rng.random() < 0.6 or depth > 1000
     key = rng.choice(sorted(raw))
@@ -233,7 +252,7 @@ def _deep_nesting(rng: random.Random, name: str, text: str, raw: dict) -> Mutati
 
 
 def _huge(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A list, string, count or terrain grid far beyond its limit (or beyond the file-size limit)."""
+    """Return a list, string, count or terrain grid far beyond its limit (or beyond the file-size limit)."""
     new = _copy(raw)
     choice = rng.choice(['goals', 'pushes', 'description', 'duration', 'grid', 'hills', 'topics', 'bytes'])
     if choice in ('goals', 'pushes'):
@@ -266,7 +285,7 @@ def _huge(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
 
 
 def _encoding(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """The text in another encoding, with binary bytes, or cut inside a multi-byte character."""
+    """Return the text in another encoding, with binary bytes, or cut inside a multi-byte character."""
     accented = text.replace('description:', 'description: Iguana verde \u00e1rbol \u2014', 1)
     choice = rng.choice(['utf16_bom', 'utf16_no_bom', 'utf32', 'latin1', 'binary_insert', 'random_bytes',
                          'nul', 'cut_utf8', 'cp1252_quotes'])
@@ -297,7 +316,7 @@ def _encoding(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
 
 
 def _duplicate_keys(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A key given twice: a top-level line repeated later, or a key repeated inside a flow mapping."""
+    """Return a key given twice: a top-level line repeated later, or a key repeated inside a flow mapping."""
     lines = text.splitlines()
     flows = [(i, m) for i, line in enumerate(lines) for m in re.finditer(r'\{(\w+): ([^,}]+)', line)]
     if flows and rng.random() < 0.5:
@@ -314,7 +333,7 @@ def _duplicate_keys(rng: random.Random, name: str, text: str, raw: dict) -> Muta
 
 
 def _flow_parent(lines: list[str], i: int) -> str:
-    """The field path of the flow mapping on line `i` of a shipped scene ('terrain' or 'goals[k]')."""
+    """Return the field path of the flow mapping on line `i` of a shipped scene ('terrain' or 'goals[k]')."""
     own = re.match(r'^(\w+):', lines[i])
     if own:
         return own.group(1)
@@ -326,7 +345,7 @@ def _flow_parent(lines: list[str], i: int) -> str:
 
 
 def _alias_bomb(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A 'billion laughs': anchors each aliasing the previous one `width` times, used by a field."""
+    """Return a 'billion laughs': anchors each aliasing the previous one `width` times, used by a field."""
     width = rng.choice([2, 5, 10])
     levels = rng.choice([5, 9, 20]) if width > 2 else rng.choice([17, 30, 60])
     lines = ['lol0: &lol0 [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]']
@@ -351,14 +370,14 @@ def _anchors(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
 
 
 def _empty(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """An empty file, only whitespace, only comments, an empty document, null, or a BOM alone."""
+    """Return an empty file, only whitespace, only comments, an empty document, null, or a BOM alone."""
     data = rng.choice([b'', b'\n', b' \t \n\n', b'\n' * 5000, b'# nothing here\n# at all\n', b'---\n',
                        b'--- \n...\n', b'~\n', b'null\n', b'\xef\xbb\xbf', b'\xef\xbb\xbf\n  \n'])
     return Mutation('empty', name, data, '', True, f'{data[:12]!r}')
 
 
 def _truncation(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """The file cut at a random byte."""
+    """Return the file cut at a random byte."""
     data = text.encode('utf-8')
     at = rng.randrange(1, len(data))
     return Mutation('truncation', name, data[:at], '', False, f'cut at byte {at} of {len(data)}')
@@ -386,7 +405,11 @@ def _tags(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
 
 
 def _npy(array=None, shape=None, descr: str = '<f8', cut: int = 0) -> bytes:
-    """The bytes of a .npy file of `array`, or a header alone promising `shape` of `descr`; `cut` bytes dropped."""
+    """
+    Return the bytes of a .npy file of `array`, or a header alone promising `shape` of `descr`.
+
+    `cut` bytes dropped.
+    """
     import io
 
     import numpy as np
@@ -401,7 +424,7 @@ def _npy(array=None, shape=None, descr: str = '<f8', cut: int = 0) -> bytes:
 
 
 def _png(width: int, height: int, valid: bool = True) -> bytes:
-    """A 16-bit grey PNG (valid) or only a PNG signature and an IHDR chunk claiming `width` x `height`."""
+    """Return a 16-bit grey PNG (valid) or only a PNG signature and an IHDR chunk claiming `width` x `height`."""
     import zlib
 
     if not valid:
@@ -416,8 +439,12 @@ def _png(width: int, height: int, valid: bool = True) -> bytes:
 
 
 def _heightmap(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
-    """A heightmap terrain naming a file beside the scene: sound, promising too many values in its header, too big,
-    cut short, NaN-filled, pickled, not an array, missing, of another type, or scaled beyond MAX_RELIEF."""
+    """
+    Return a heightmap terrain naming a file beside the scene.
+
+    Sound, promising too many values in its header, too big, cut short, NaN-filled, pickled, not an array, missing, of
+    another type, or scaled beyond MAX_RELIEF.
+    """
     import numpy as np
 
     from iguana_ros.terrain.heightfield import MAX_GRID_NODES, MAX_HEIGHTMAP_BYTES
@@ -529,8 +556,11 @@ def load_trial(index: int, mutation: Mutation, directory: Path) -> Trial:
 
 
 def _message_problems(trial: Trial, path: str) -> list[str]:
-    """What is wrong with the outcome of a trial: a crash, a bad scene accepted, an error that is not one line
-    naming the file (and, for a field's fault, a field)."""
+    """
+    Return what is wrong with the outcome of a trial.
+
+    A crash, a bad scene accepted, an error that is not one line naming the file (and, for a field's fault, a field).
+    """
     if trial.outcome == 'crashed':
         return [f'crashed: {trial.message}']
     if trial.outcome == 'valid':
@@ -567,9 +597,12 @@ def _limit_memory(limit: int) -> None:
 
 
 def cli_trial(trial: Trial, timeout: float = CLI_TIMEOUT, memory_limit: int = CLI_MEMORY_LIMIT) -> dict:
-    """Run `iguana simulate FILE --duration 0.1 --json` on a trial's file in a subprocess (own process group,
-    RLIMIT_AS `memory_limit`, killed with its group after `timeout` s); {exit code, stderr lines, peak RSS, wall s,
-    problems}."""
+    """
+    Run `iguana simulate FILE --duration 0.1 --json` on a trial's file in a subprocess.
+
+    (own process group, RLIMIT_AS `memory_limit`, killed with its group after `timeout` s); {exit code, stderr lines,
+    peak RSS, wall s, problems}.
+    """
     command = [sys.executable, '-m', 'iguana_ros.cli', 'simulate', trial.file, '--duration', str(CLI_DURATION),
                '--json']
     out_path, err_path = Path(trial.file + '.out'), Path(trial.file + '.err')
@@ -607,8 +640,11 @@ def cli_trial(trial: Trial, timeout: float = CLI_TIMEOUT, memory_limit: int = CL
 
 
 def _wait_with_rusage(proc: subprocess.Popen, timeout: float) -> tuple:
-    """(exit status, rusage, timed out) of a child started in its own session; after `timeout` s its process group
-    is killed. The child is reaped here (wait4), so its peak RSS is its own."""
+    """
+    (exit status, rusage, timed out) of a child started in its own session.
+
+    After `timeout` s its process group is killed. The child is reaped here (wait4), so its peak RSS is its own.
+    """
     import threading
 
     expired = threading.Event()
@@ -632,8 +668,12 @@ def _wait_with_rusage(proc: subprocess.Popen, timeout: float) -> tuple:
 # -------------------------------------------------------------------------------------------------- a suite
 def run_suite(trials: int = 300, seed: int = 12, cli_sample: int = 12, workers: int = 2,
               directory: Path | None = None, progress=None) -> dict:
-    """Load `trials` seeded mutations; run `cli_sample` of them (rejected ones from every kind, plus a few valid
-    ones; -1 = every one) through `iguana simulate`; the figures and every problem found, as plain data."""
+    """
+    Load `trials` seeded mutations.
+
+    Run `cli_sample` of them (rejected ones from every kind, plus a few valid ones; -1 = every one) through
+    `iguana simulate`; the figures and every problem found, as plain data.
+    """
     import tempfile
 
     import importlib

@@ -1,4 +1,19 @@
-"""Topic fault injection: seeded bad messages on every topic a node subscribes to, while a real lockstep run goes on.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Topic fault injection: seeded bad messages on every topic a node subscribes to, while a real lockstep run goes on.
 
 Each fuzz message is a valid message of its topic with one fault: NaN, Inf, a huge value, a negative length or
 stamp, a wrong length, a wrong frame_id, a non-unit quaternion, a torque, or a stale or future stamp (content
@@ -10,12 +25,12 @@ other message is scanned, and the root trajectory is compared with `pipeline.run
 """
 from __future__ import annotations
 
-import math
-import sys
-import time
 from collections import Counter
 from dataclasses import dataclass, field
+import math
 from pathlib import Path
+import sys
+import time
 
 import numpy as np
 
@@ -59,15 +74,18 @@ class FuzzContext:
         from iguana_ros.terrain.adaptation import pose_kinematics
         model = build_model(scene.model.resolution, scene.model.stiffness)
         clip = motion_graph().align('forward', np.array([scene.start.x, scene.start.y]),
-                                                      math.radians(scene.start.yaw_deg))
+                                    math.radians(scene.start.yaw_deg))
         joints, rotations = pose_kinematics(model.skeleton, clip.root_positions[0], clip.local_rotations[0])
         return cls(np.asarray(model.spring_rest_lengths, float), model.skeleton, clip, joints, rotations,
                    scene.terrain.extent / 2.0)
 
 
 def _stamp_frame(kind: str, ctx: FuzzContext, rng: np.random.Generator) -> int:
-    """The frame a fuzz message is stamped with: stale, future, or (any other fault) the next frame, where a
-    message with valid content would be used."""
+    """
+    Return the frame a fuzz message is stamped with.
+
+    Stale, future, or (any other fault) the next frame, where a message with valid content would be used.
+    """
     if kind == 'stale':
         return ctx.frame - STALE_FRAMES - int(rng.integers(0, 100))
     if kind == 'future':
@@ -230,8 +248,11 @@ FRAME_STAMPED = ('motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana
 
 
 def prepared_fault(key: str, kind: str, ctx: FuzzContext, rng: np.random.Generator) -> tuple[bytes, int | None]:
-    """(serialized bytes, stamp offset in frames from the frame it goes out at, or None to keep its stamp) of one
-    fault: built ahead, so that publishing it during the run costs a byte copy (see `restamped`)."""
+    """
+    Return (serialized bytes, stamp offset in frames from the frame it goes out at, or None to keep its stamp).
+
+    of one fault: built ahead, so that publishing it during the run costs a byte copy (see `restamped`).
+    """
     from rclpy.serialization import serialize_message
     at = ctx.frame
     ctx.frame = 0
@@ -248,7 +269,7 @@ def prepared_fault(key: str, kind: str, ctx: FuzzContext, rng: np.random.Generat
 
 
 def restamped(data: bytes, frame: int) -> bytes:
-    """`data` (a serialized message whose first field is a std_msgs/Header) with its stamp set to `frame`."""
+    """Return `data` (a serialized message whose first field is a std_msgs/Header) with its stamp set to `frame`."""
     import struct
     ns = int(round(frame / FRAME_RATE * 1e9))
     out = bytearray(data)
@@ -257,16 +278,22 @@ def restamped(data: bytes, frame: int) -> bytes:
 
 
 def fuzzed_readers() -> dict[str, int]:
-    """Subscriptions each fuzzed topic has in a run: the nodes the topic table names as its subscribers, and the
-    bag recorder."""
+    """
+    Subscriptions each fuzzed topic has in a run.
+
+    The nodes the topic table names as its subscribers, and the bag recorder.
+    """
     from iguana_ros.supervisor.run import NODE_KINDS
     from iguana_ros.topics import topic
     return {key: 1 + sum(1 for who in topic(key).subscribers if who.split()[0] in NODE_KINDS) for key in FUZZ_KINDS}
 
 
 def fault_plan(n_messages: int, rng: np.random.Generator) -> list[tuple[str, str]]:
-    """`n_messages` (topic key, fault kind) pairs: every pair of FUZZ_KINDS once (in random order) before any
-    repeats, then random pairs."""
+    """
+    `n_messages` (topic key, fault kind) pairs.
+
+    Every pair of FUZZ_KINDS once (in random order) before any repeats, then random pairs.
+    """
     pairs = [(key, kind) for key, kinds in FUZZ_KINDS.items() for kind in kinds]
     order = [pairs[i] for i in rng.permutation(len(pairs))]
     extra = [pairs[i] for i in rng.integers(0, len(pairs), max(0, n_messages - len(pairs)))]
@@ -274,10 +301,14 @@ def fault_plan(n_messages: int, rng: np.random.Generator) -> list[tuple[str, str
 
 
 class TopicFuzzer:
-    """Publishes the faults of a plan as the run advances: `before` faults once its publishers are matched with
-    every node that reads them (and the recorder) and the simulator's /clock is heard, then `per_frame` more for
-    each frame /clock reports, each stamped relative to that frame. Run in a process of its own (`main`), as a
-    foreign publisher would be; it keeps the serialized bytes of everything it sent."""
+    """
+    Publishes the faults of a plan as the run advances.
+
+    `before` faults once its publishers are matched with every node that reads them (and the recorder) and the
+    simulator's /clock is heard, then `per_frame` more for each frame /clock reports, each stamped relative to that
+    frame. Run in a process of its own (`main`), as a foreign publisher would be; it keeps the serialized bytes of
+    everything it sent.
+    """
 
     def __init__(self, ctx: FuzzContext, plan: list[tuple[str, str]], seed: int, per_frame: int = 1,
                  before: int = 0) -> None:
@@ -339,9 +370,12 @@ class TopicFuzzer:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m iguana_ros.faults.topic_fuzz SCENE DUMP --seed S --messages N --per-frame K --before B`: fuzz a
-    run of SCENE; prints 'fuzzer matched' when every reader is matched and writes what it sent to DUMP (JSON) when
-    the plan is done or on SIGINT / SIGTERM."""
+    """
+    `python -m iguana_ros.faults.topic_fuzz SCENE DUMP --seed S --messages N --per-frame K --before B`.
+
+    Fuzz a run of SCENE; prints 'fuzzer matched' when every reader is matched and writes what it sent to DUMP (JSON)
+    when the plan is done or on SIGINT / SIGTERM.
+    """
     import argparse
     import base64
     import json
@@ -390,8 +424,11 @@ def read_fuzz_dump(path: Path) -> tuple[list[tuple[str, bytes]], Counter]:
 # ------------------------------------------------------------------------------------------ the recorded bag
 
 def count_non_finite(msg) -> int:
-    """Number of non-finite float values anywhere in a deserialized ROS message (nested messages, sequences,
-    arrays)."""
+    """
+    Return number of non-finite float values anywhere in a deserialized ROS message.
+
+    (nested messages, sequences, arrays).
+    """
     if isinstance(msg, float):
         return 0 if math.isfinite(msg) else 1
     if isinstance(msg, (np.ndarray,)) or type(msg).__name__ == 'array':
@@ -418,9 +455,12 @@ class BagScan:
 
 
 def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
-    """Every recorded message that is not one of `sent` (topic, bytes), deserialized and scanned for non-finite
-    floats; the iguana_state messages are kept for the trajectory; the recorded faults are counted, and those the
-    recorder received between the first and the last /clock message (while the simulator ran)."""
+    """
+    Every recorded message that is not one of `sent` (topic, bytes), deserialized and scanned for non-finite floats.
+
+    The iguana_state messages are kept for the trajectory; the recorded faults are counted, and those the recorder
+    received between the first and the last /clock message (while the simulator ran).
+    """
     from rclpy.serialization import deserialize_message
 
     from iguana_ros.bag.storage import BagReader
@@ -463,12 +503,15 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
 
 def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int, timeout: float = 300.0,
              compare: bool = True) -> dict:
-    """Run `scene_path` as four lockstep node processes recording to `bag` while `n_messages` faults (seeded by
-    `seed`, a tenth before frame 0, the rest spread over the first 80 % of the frames) go to every subscribed
-    topic; one plain row: the faults sent per topic, the run's exit status, whether every child lived to the end,
-    the non-finite floats and undecodable messages found in what the nodes published, how many lines the nodes
-    logged about bad input, and (with `compare`) whether the root trajectory equals `pipeline.run` of the scene bit
-    for bit (nothing bad was simulated)."""
+    """
+    Run `scene_path` as four lockstep node processes recording to `bag` while `n_messages` faults.
+
+    (seeded by `seed`, a tenth before frame 0, the rest spread over the first 80 % of the frames) go to every subscribed
+    topic; one plain row: the faults sent per topic, the run's exit status, whether every child lived to the end, the
+    non-finite floats and undecodable messages found in what the nodes published, how many lines the nodes logged about
+    bad input, and (with `compare`) whether the root trajectory equals `pipeline.run` of the scene bit for bit (nothing
+    bad was simulated).
+    """
     from iguana_ros.bag.trajectory import root_trajectory
     from iguana_ros.errors import IguanaError
     from iguana_ros.scene import load_scene
@@ -491,7 +534,7 @@ def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int
         run.start()
         fuzzer.start()
         if not wait_for(lambda: 'fuzzer matched' in fuzzer.output or not fuzzer.running, 120.0):
-            raise IguanaError('the topic fuzzer was not matched with the run\'s nodes within 120 s')
+            raise IguanaError("the topic fuzzer was not matched with the run's nodes within 120 s")
         if not fuzzer.running:
             raise IguanaError(f'the topic fuzzer exited: {fuzzer.tail()}')
         run.send_goals()
@@ -513,7 +556,7 @@ def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int
     logs = '\n'.join(p.read_text(errors='replace') for p in sorted(Path(run.logs).glob('*.out')))
     row = {'scene': scene.name, 'seed': seed, 'frames': frames, 'faults_sent': len(sent),
            'faults_during_run': scan.fuzz_during_run, 'faults_per_topic': dict(Counter(k for (k, _), n in counts.items()
-                                                                         for _ in range(n))),
+                                                                                       for _ in range(n))),
            'exit_code': code, 'failure': failure, 'nodes_survived': not failure and code == 0,
            'rejected_lines': logs.count('rejected '), 'ignored_lines': logs.count('ignored '),
            'tracebacks': logs.count('Traceback'), 'non_finite': scan.non_finite, 'undecodable': scan.undecodable,
@@ -540,7 +583,7 @@ TERRAINS = ({'kind': 'hills', 'amplitude': 0.03, 'wavelength': 1.0}, {'kind': 'f
 
 
 def trial_scene(index: int, seed: int, seconds: float, resolution: str) -> dict:
-    """The scene of trial `index`: a terrain of TERRAINS, a goal 1.5 m away in a seeded direction."""
+    """Return the scene of trial `index`: a terrain of TERRAINS, a goal 1.5 m away in a seeded direction."""
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index,)))
     terrain = dict(TERRAINS[index % len(TERRAINS)])
     if terrain['kind'] in ('hills', 'noise'):
@@ -553,9 +596,12 @@ def trial_scene(index: int, seed: int, seconds: float, resolution: str) -> dict:
 
 def topic_fault_suite(trials: int, seed: int, n_messages: int, seconds: float, resolution: str, workdir: Path,
                       progress=None) -> dict:
-    """`trials` fuzzed lockstep runs (`fuzz_run`, trial i seeded `seed + i`) under `workdir`; the rows and the
-    figures: trials, survived, faults sent, node log lines about them, non-finite floats and undecodable messages
-    found, runs equal to the library run, wall time. `progress(row)` is called after each trial."""
+    """
+    `trials` fuzzed lockstep runs (`fuzz_run`, trial i seeded `seed + i`) under `workdir`.
+
+    The rows and the figures: trials, survived, faults sent, node log lines about them, non-finite floats and
+    undecodable messages found, runs equal to the library run, wall time. `progress(row)` is called after each trial.
+    """
     import yaml
     rows = []
     started = time.monotonic()
@@ -579,7 +625,8 @@ def topic_fault_suite(trials: int, seed: int, n_messages: int, seconds: float, r
             'non_finite_floats': sum(sum(r['non_finite'].values()) for r in rows),
             'undecodable': sum(sum(r['undecodable'].values()) for r in rows),
             'equal_to_library': sum(bool(r.get('equal_to_library')) for r in rows),
-            'rejected_lines': sum(r['rejected_lines'] for r in rows), 'ignored_lines': sum(r['ignored_lines'] for r in rows),
+            'rejected_lines': sum(r['rejected_lines'] for r in rows),
+            'ignored_lines': sum(r['ignored_lines'] for r in rows),
             'messages_scanned': sum(r['messages_scanned'] for r in rows),
             'wall_s': round(time.monotonic() - started, 1), 'rows': rows}
 
@@ -598,7 +645,7 @@ def trial_line(row: dict) -> str:
 
 
 def suite_line(result: dict) -> str:
-    """The figures in one line."""
+    """Return the figures in one line."""
     return (f'topic faults: {result["survived"]}/{result["trials"]} runs survived; {result["faults_sent"]} faults '
             f'sent ({result["faults_during_run"]} during the runs), {result["nodes_died_or_failed"]} runs with a '
             f'dead or failed node, {result["non_finite_floats"]} non-finite floats and {result["undecodable"]} '

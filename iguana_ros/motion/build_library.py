@@ -1,5 +1,23 @@
-"""Build the motion data deterministically from a seed: synthetic takes -> degraded C3D captures -> full-body
-IK -> contacts and stride boundaries -> the clip library (`iguana motion build`)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Build the motion data deterministically from a seed.
+
+Synthetic takes -> degraded C3D captures -> full-body IK -> contacts and stride boundaries -> the clip library
+(`iguana motion build`).
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,7 +32,7 @@ from iguana_ros.motion.c3d_io import read_capture, write_c3d
 from iguana_ros.motion.capture import CaptureQuality, synthesize_capture
 from iguana_ros.motion.clips import cut_clip, save_clip_library
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model
-from iguana_ros.motion.gait import SYNTHETIC_TAKES, GaitParameters, generate_take
+from iguana_ros.motion.gait import GaitParameters, generate_take, SYNTHETIC_TAKES
 from iguana_ros.motion.ik import IKResult, IKSettings, solve_ik
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
 
@@ -80,7 +98,7 @@ def middle_stride(result: TakeResult, nominal: int) -> tuple:
 
 
 def cut_library(results: dict, model: BodyModel | None = None) -> dict:
-    """The clip library (name -> Clip) cut from processed takes (name -> TakeResult)."""
+    """Return the clip library (name -> Clip) cut from processed takes (name -> TakeResult)."""
     model = model or iguana_body_model()
     clips = {}
     for name, take_name in CLIP_SOURCES.items():

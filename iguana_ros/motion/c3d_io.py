@@ -1,17 +1,32 @@
-"""C3D marker files (the motion-capture field's standard format) through the `c3d` package.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+C3D marker files (the motion-capture field's standard format) through the `c3d` package.
 
 In the file positions are millimetres (float32) and a missing sample has residual -1; in the code they are
 metres with NaN for a missing sample. `read_capture` checks the labels against the iguana's 15 markers.
 """
 from __future__ import annotations
 
+from pathlib import Path
 import struct
 import warnings
-from pathlib import Path
 
 import numpy as np
 
-from iguana_ros.body.markers import MarkerSet, iguana_markers
+from iguana_ros.body.markers import iguana_markers, MarkerSet
 from iguana_ros.errors import InputError
 
 MM = 1000.0

@@ -1,6 +1,23 @@
-"""Footskate cleanup of a stride clip (after Kovar, Schreiner and Gleicher 2002, "Footskate cleanup for
-motion capture editing"): every stance foot planted at one place on the capture floor with its sole flat,
-swings re-joined to the planted ends and lifted to a minimum clearance, legs re-solved by IK.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Footskate cleanup of a stride clip.
+
+(after Kovar, Schreiner and Gleicher 2002, "Footskate cleanup for motion capture editing"): every stance foot planted at
+one place on the capture floor with its sole flat, swings re-joined to the planted ends and lifted to a minimum
+clearance, legs re-solved by IK.
 
 Planting works on the foot's pivot, the wrist or ankle joint: the leg IK (three DOFs per leg) puts the pivot
 on its planted target, and `flat_soles` then turns the wrist/ankle bone so the sole lies flat with one fixed
@@ -22,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from iguana_ros.body.skeleton import FOOT_PIVOTS, Skeleton, forward_kinematics
+from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics, Skeleton
 from iguana_ros.geometry import (quat_conjugate, quat_from_rotvec, quat_from_yaw, quat_mul, quat_normalize,
                                  quat_to_rotvec, yaw_of)
 from iguana_ros.motion.dofs import BodyModel
@@ -70,7 +87,7 @@ class StrideTransform:
 
 
 def stride_transform(theta: np.ndarray, dofs) -> StrideTransform:
-    """The stride motion of a cyclic clip `theta (N+1, n_dof)` (frame N = frame 0 moved by it)."""
+    """Return the stride motion of a cyclic clip `theta (N+1, n_dof)` (frame N = frame 0 moved by it)."""
     ix, iy, iyaw = dofs.index('root_x'), dofs.index('root_y'), dofs.index('root_yaw')
     return StrideTransform(origin=theta[0, [ix, iy]].astype(float), target=theta[-1, [ix, iy]].astype(float),
                            turn=float(theta[-1, iyaw] - theta[0, iyaw]))
@@ -89,7 +106,9 @@ def _smoothstep(s: np.ndarray) -> np.ndarray:
 
 def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarray, stride: StrideTransform,
                          min_clearance: float = MIN_SWING_CLEARANCE) -> np.ndarray:
-    """Cleaned foot-marker targets `(N+1, n_feet, 3)` of a cyclic clip from its foot markers `(N+1, n_feet, 3)`,
+    """
+    Return cleaned foot-marker targets `(N+1, n_feet, 3)` of a cyclic clip from its foot markers `(N+1, n_feet, 3)`.
+
     stance flags `(N+1, n_feet)` and each foot's marker height on the floor `(n_feet,)` m.
 
     Each stance is planted at its mean horizontal position, at floor height; each swing keeps its shape,
@@ -146,8 +165,11 @@ def floor_pivot_heights(model: BodyModel) -> np.ndarray:
 
 def clean_footskate(theta: np.ndarray, contacts: np.ndarray, model: BodyModel,
                     min_clearance: float = MIN_SWING_CLEARANCE) -> tuple:
-    """(poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the cyclic clip `theta (N+1, n_dof)` with its legs
-    re-solved so that the foot pivots follow `planted_foot_targets` of `contacts (N+1, 4)`; trunk unchanged.
+    """
+    (poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the cyclic clip `theta (N+1, n_dof)`.
+
+    with its legs re-solved so that the foot pivots follow `planted_foot_targets` of `contacts (N+1, 4)`; trunk
+    unchanged.
 
     A stance frame at the start or end of a stance in which the leg cannot reach the planted point (a leg
     stretched to lift-off: the captured foot rolled there) becomes a swing frame, up to TRIM_ROUNDS times.
@@ -171,7 +193,7 @@ def clean_footskate(theta: np.ndarray, contacts: np.ndarray, model: BodyModel,
 
 
 def _stance_ends(contacts: np.ndarray) -> np.ndarray:
-    """Flags `(N+1, n_feet)` of the first and last frame of every stance of a cyclic clip (seam-aware)."""
+    """Return flags `(N+1, n_feet)` of the first and last frame of every stance of a cyclic clip (seam-aware)."""
     body = contacts[:-1]
     before = np.roll(body, 1, axis=0)
     after = np.roll(body, -1, axis=0)
@@ -181,8 +203,11 @@ def _stance_ends(contacts: np.ndarray) -> np.ndarray:
 
 def support_tail(theta: np.ndarray, model: BodyModel, tip_height: float = TAIL_TIP_HEIGHT,
                  iterations: int = 8) -> np.ndarray:
-    """Poses `(F, n_dof)` with `tail_pitch_base` set per frame so the tail-tip joint is at `tip_height` m
-    (secant iterations on the one DOF; the tail's sway and the rest of the pose are unchanged)."""
+    """
+    Poses `(F, n_dof)` with `tail_pitch_base` set per frame so the tail-tip joint is at `tip_height` m.
+
+    (secant iterations on the one DOF; the tail's sway and the rest of the pose are unchanged).
+    """
     theta = np.array(theta, dtype=float, copy=True)
     dof, tip = model.dofs.index('tail_pitch_base'), model.skeleton.index('tail_tip')
 
@@ -208,10 +233,13 @@ def _slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float) -> np.ndarray:
-    """World rotations `(N+1, 4)` of one foot's pivot bone in a cyclic clip: flat (heading only, the stance's
-    mean heading) in stance, and in swing the original rotations `world (N+1, 4)` corrected by a rotation
-    eased from the lift-off correction to the touch-down one. `contacts (N+1,)`, `turn` the stride's heading
-    change (rad)."""
+    """
+    World rotations `(N+1, 4)` of one foot's pivot bone in a cyclic clip.
+
+    Flat (heading only, the stance's mean heading) in stance, and in swing the original rotations `world (N+1, 4)`
+    corrected by a rotation eased from the lift-off correction to the touch-down one. `contacts (N+1,)`, `turn` the
+    stride's heading change (rad).
+    """
     n = len(world) - 1
     spin = [quat_from_yaw(np.full(n, k * turn)) for k in (-1, 0, 1)]
     ext = np.concatenate([quat_mul(spin[k], world[:n]) for k in range(3)])
@@ -234,8 +262,11 @@ def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float) ->
 
 def flat_soles(skeleton: Skeleton, root_positions: np.ndarray, local_rotations: np.ndarray,
                contacts: np.ndarray, turn: float) -> np.ndarray:
-    """Local rotations `(N+1, n_bones, 4)` of a cyclic clip with every stance sole flat on the floor (see
-    `flat_sole_rotations`); only the FOOT_PIVOTS bones change, so no joint position moves but the feet's."""
+    """
+    Local rotations `(N+1, n_bones, 4)` of a cyclic clip with every stance sole flat on the floor.
+
+    (see `flat_sole_rotations`); only the FOOT_PIVOTS bones change, so no joint position moves but the feet's.
+    """
     local = np.array(local_rotations, dtype=float, copy=True)
     contacts = np.asarray(contacts, dtype=bool)
     _, world = forward_kinematics(skeleton, root_positions, local)

@@ -1,4 +1,19 @@
-"""Stride-long motion clips (Section IV) and the clip library the planner uses.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Stride-long motion clips (Section IV) and the clip library the planner uses.
 
 A clip of a stride of N frames holds N + 1 poses: frame 0 is the touchdown of the FL+HR diagonal pair that
 starts the stride, frame N the next such touchdown, which is the pose the following clip's frame 0 is aligned
@@ -31,10 +46,15 @@ FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 
 @dataclass(frozen=True)
 class Clip:
-    """One stride: root positions `(N+1, 3)`, local rotations `(N+1, n_bones, 4)` (root entry = world root
-    orientation; the wrist/ankle entries keep stance soles flat, `motion.cleanup.flat_soles`), contacts `(N+1, 4)`, per-stride `root_displacement (2,)` (m, start heading frame) and
-    `heading_change` (rad), `residual_heights` {'feet': `(N+1, 4)`, 'tail_tip': `(N+1,)`} (m above the
-    capture floor, Section VI-A), `duty_factor`, `stride_length` (m), active DOFs `theta (N+1, n_dof)`."""
+    """
+    One stride.
+
+    Root positions `(N+1, 3)`, local rotations `(N+1, n_bones, 4)` (root entry = world root orientation; the wrist/ankle
+    entries keep stance soles flat, `motion.cleanup.flat_soles`), contacts `(N+1, 4)`, per-stride
+    `root_displacement (2,)` (m, start heading frame) and `heading_change` (rad), `residual_heights` {'feet':
+    `(N+1, 4)`, 'tail_tip': `(N+1,)`} (m above the capture floor, Section VI-A), `duty_factor`, `stride_length` (m),
+    active DOFs `theta (N+1, n_dof)`.
+    """
 
     name: str
     frame_rate: float
@@ -75,8 +95,12 @@ def planar_transform(theta: np.ndarray, origin: np.ndarray, target: np.ndarray, 
 
 
 def make_cyclic(theta: np.ndarray, start: int, end: int, dofs, blend: int | None = None) -> np.ndarray:
-    """Poses `(end-start+1, n_dof)` of take frames start..end with the last `blend` frames bent so that frame
-    `end` is frame `start` moved by the stride and frame `end-1` is frame `start-1` moved likewise."""
+    """
+    Poses `(end-start+1, n_dof)` of take frames start..end.
+
+    with the last `blend` frames bent so that frame `end` is frame `start` moved by the stride and frame `end-1` is
+    frame `start-1` moved likewise.
+    """
     segment = np.array(theta[start:end + 1], dtype=float, copy=True)
     n = end - start
     blend = max(2, min(n, blend or n // 2))
@@ -99,7 +123,7 @@ def canonical(theta: np.ndarray, dofs) -> np.ndarray:
 
 def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_rate: float = FRAME_RATE,
                     source: str = '', model: BodyModel | None = None, metadata: dict | None = None) -> Clip:
-    """A Clip from canonical cyclic poses `theta (N+1, n_dof)` and contacts `(N+1, 4)`."""
+    """Return a Clip from canonical cyclic poses `theta (N+1, n_dof)` and contacts `(N+1, 4)`."""
     model = model or iguana_body_model()
     d = model.dofs
     theta = np.asarray(theta, dtype=float)
@@ -129,9 +153,12 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
 def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end: int,
              frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None,
              clean: bool = True) -> Clip:
-    """The cyclic-ready, canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`);
-    with `clean`, its tail rests on the floor and its stance feet are planted on it with swings lifted
-    (`motion.cleanup`)."""
+    """
+    Return the cyclic-ready, canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`).
+
+    With `clean`, its tail rests on the floor and its stance feet are planted on it with swings lifted
+    (`motion.cleanup`).
+    """
     model = model or iguana_body_model()
     if not 0 <= start < end < len(theta):
         raise InputError(f'clip {name!r}: frames {start}..{end} are outside the take (0..{len(theta) - 1})')
@@ -145,8 +172,11 @@ def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end
 
 
 def repeated_clip(clip: Clip, repeat: int) -> tuple:
-    """(root positions `(n*N+1, 3)`, local rotations `(n*N+1, n_bones, 4)`) of `clip` played `repeat` = n times
-    in a row, each stride moved by the clip's own stride motion (the poses the planner would play)."""
+    """
+    (root positions `(n*N+1, 3)`, local rotations `(n*N+1, n_bones, 4)`) of `clip` played `repeat` = n times in a row.
+
+    each stride moved by the clip's own stride motion (the poses the planner would play).
+    """
     dofs = iguana_body_model().dofs
     stride = stride_transform(clip.theta, dofs)
     roots, rotations = [clip.root_positions], [clip.local_rotations]
@@ -168,7 +198,7 @@ def save_clip_library(path: str | Path, clips: dict, extra: dict | None = None) 
         arrays[f'clip/{name}/frame_rate'] = np.array(clip.frame_rate)
         arrays[f'clip/{name}/source'] = np.array(clip.source)
         arrays[f'clip/{name}/frames'] = np.array([clip.metadata.get('start_frame', -1),
-                                                   clip.metadata.get('end_frame', -1)])
+                                                  clip.metadata.get('end_frame', -1)])
     arrays.update(extra or {})
     np.savez_compressed(path, **arrays)
 
@@ -179,7 +209,7 @@ def default_library_path() -> Path:
 
 
 def load_clip_library(path: str | Path | None = None) -> dict:
-    """The clip library: name -> Clip (at least forward, turn_left, turn_right, idle)."""
+    """Return the clip library: name -> Clip (at least forward, turn_left, turn_right, idle)."""
     path = Path(path) if path is not None else default_library_path()
     if not path.is_file():
         raise InputError(f'clip library {path} does not exist (run `iguana motion build`)')

@@ -1,5 +1,22 @@
-"""Active degrees of freedom of the iguana skeleton: the reduced joint parametrisation that the synthetic
-gait drives and the full-body IK solves for, with matrix forward kinematics and analytic marker gradients.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Active degrees of freedom of the iguana skeleton.
+
+The reduced joint parametrisation that the synthetic gait drives and the full-body IK solves for, with matrix forward
+kinematics and analytic marker gradients.
 
 15 markers cannot determine the ~100 rotational DOFs of the 34-bone skeleton, so a pose is described by
 `theta (..., n_dof)` (29 values): root position (3) and yaw/pitch/roll (3); trunk yaw at three control points
@@ -17,8 +34,8 @@ from functools import lru_cache
 import numba
 import numpy as np
 
-from iguana_ros.body.markers import MarkerSet, iguana_markers
-from iguana_ros.body.skeleton import Skeleton, iguana_skeleton
+from iguana_ros.body.markers import iguana_markers, MarkerSet
+from iguana_ros.body.skeleton import iguana_skeleton, Skeleton
 from iguana_ros.geometry import quat_from_euler
 
 AXIS_Z, AXIS_Y, AXIS_X = 0, 1, 2
@@ -41,7 +58,7 @@ class ActiveDofs:
 
     @property
     def n_dof(self) -> int:
-        """Number of active DOFs."""
+        """Return number of active DOFs."""
         return len(self.names)
 
     def index(self, name: str) -> int:
@@ -92,7 +109,7 @@ def _dof_rows(skeleton: Skeleton) -> list:
 
 @lru_cache(maxsize=1)
 def iguana_active_dofs() -> ActiveDofs:
-    """The 29 active DOFs of the iguana skeleton, bounded by its joint limits."""
+    """Return the 29 active DOFs of the iguana skeleton, bounded by its joint limits."""
     skeleton = iguana_skeleton()
     rows = _dof_rows(skeleton)
     names = ('root_x', 'root_y', 'root_z') + tuple(r[0] for r in rows)
@@ -130,7 +147,7 @@ def euler_matrices(angles: np.ndarray) -> np.ndarray:
 
 
 def euler_quaternions(angles: np.ndarray) -> np.ndarray:
-    """Unit quaternions `(..., 4)` (xyzw) of `Rz Ry Rx` from Euler angles `(..., 3)` (z, y, x slots)."""
+    """Return unit quaternions `(..., 4)` (xyzw) of `Rz Ry Rx` from Euler angles `(..., 3)` (z, y, x slots)."""
     return quat_from_euler(angles, 'ZYX')
 
 
@@ -146,8 +163,11 @@ def root_positions(dofs: ActiveDofs, theta: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class KinematicState:
-    """World joint positions `(F, n_bones, 3)`, rotations `(F, n_bones, 3, 3)` and the world axes
-    `(F, n_bones, 3, 3)` (last axis xyz) of each bone's z, y and x elementary rotations."""
+    """
+    World joint positions `(F, n_bones, 3)`, rotations `(F, n_bones, 3, 3)` and the world axes `(F, n_bones, 3, 3)`.
+
+    (last axis xyz) of each bone's z, y and x elementary rotations.
+    """
 
     positions: np.ndarray
     rotations: np.ndarray
@@ -265,7 +285,7 @@ class BodyModel:
 
 @lru_cache(maxsize=1)
 def iguana_body_model() -> BodyModel:
-    """The iguana's skeleton, 29 active DOFs and 15 markers."""
+    """Return the iguana's skeleton, 29 active DOFs and 15 markers."""
     skeleton, markers = iguana_skeleton(), iguana_markers()
     return BodyModel(skeleton=skeleton, dofs=iguana_active_dofs(), markers=markers,
                      mask=ancestor_mask(skeleton, markers))

@@ -1,5 +1,21 @@
-"""Parametric trotting-lizard gait: the synthetic 'capture subject' whose markers stand in for the paper's
-unpublished iguana capture.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Parametric trotting-lizard gait.
+
+The synthetic 'capture subject' whose markers stand in for the paper's unpublished iguana capture.
 
 A take is generated in the active-DOF parametrisation of `iguana_ros.motion.dofs`: a root path (straight or
 curved) driven by a speed factor `s(t)` in [0, 1] (0 = standing, 1 = steady trot), a trot with diagonal foot
@@ -18,7 +34,7 @@ from iguana_ros.constants import (FRAME_RATE, PELVIC_YAW_AMPLITUDE, TROT_DUTY_FA
                                   TROT_STRIDE_LENGTH)
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import quat_to_rotvec
-from iguana_ros.motion.dofs import LEGS, BodyModel, iguana_body_model, local_rotations
+from iguana_ros.motion.dofs import BodyModel, iguana_body_model, LEGS, local_rotations
 
 FOOT_PHASE = {'fl': 0.0, 'hr': 0.0, 'fr': 0.5, 'hl': 0.5}
 """Phase (fraction of a stride) of each foot's touchdown: a trot, FL+HR then FR+HL."""
@@ -58,8 +74,12 @@ class GaitParameters:
 
 @dataclass(frozen=True)
 class TakeSpec:
-    """One synthetic take: duration (s), heading change per stride at full speed (rad, + = left), and the
-    speed factor as piecewise-linear knots `((time s, factor), ...)` smoothed over ~0.3 s."""
+    """
+    One synthetic take.
+
+    Duration (s), heading change per stride at full speed (rad, + = left), and the speed factor as piecewise-linear
+    knots `((time s, factor), ...)` smoothed over ~0.3 s.
+    """
 
     name: str
     duration: float
@@ -81,8 +101,12 @@ SYNTHETIC_TAKES = (
 
 @dataclass(frozen=True)
 class SyntheticTake:
-    """A generated take: poses `theta (F, n_dof)`, true contacts `(F, 4)`, clean markers `(F, n_markers, 3)`,
-    speed factor `(F,)` and per-foot true touchdown times (s)."""
+    """
+    A generated take.
+
+    Poses `theta (F, n_dof)`, true contacts `(F, 4)`, clean markers `(F, n_markers, 3)`, speed factor `(F,)` and
+    per-foot true touchdown times (s).
+    """
 
     name: str
     frame_rate: float
@@ -94,7 +118,7 @@ class SyntheticTake:
 
     @property
     def n_frames(self) -> int:
-        """Number of frames."""
+        """Return number of frames."""
         return int(self.theta.shape[0])
 
     def touchdown_frames(self, leg: str) -> np.ndarray:
@@ -230,13 +254,14 @@ def foot_targets(model: BodyModel, path: RootPath, gait: GaitParameters, t: np.n
 
 
 def foot_markers(model: BodyModel, theta: np.ndarray) -> np.ndarray:
-    """The four foot-marker positions `(F, 4, 3)` of poses `theta (F, n_dof)` (fl, fr, hl, hr)."""
+    """Return the four foot-marker positions `(F, 4, 3)` of poses `theta (F, n_dof)` (fl, fr, hl, hr)."""
     return model.marker_positions(theta)[:, :4]
 
 
 def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.ndarray,
            iterations: int = 30, tolerance: float = 5e-4, effectors=foot_markers) -> np.ndarray:
-    """Poses `(F, n_dof)` with the 12 leg DOFs set so the feet reach `targets (F, 4, 3)`.
+    """
+    Poses `(F, n_dof)` with the 12 leg DOFs set so the feet reach `targets (F, 4, 3)`.
 
     The feet are `effectors(model, theta) -> (F, 4, 3)` (default: the foot markers). Bounded Gauss-Newton over
     all frames at once. Stance targets (`stance (F, 4)` True) must be met within `tolerance` m; swing targets
@@ -266,7 +291,7 @@ def leg_ik(model: BodyModel, theta: np.ndarray, targets: np.ndarray, stance: np.
 
 
 def _leg_dof_names(leg: str) -> tuple:
-    """The three active DOFs of leg `leg`: upper yaw, upper roll, middle roll."""
+    """Return the three active DOFs of leg `leg`: upper yaw, upper roll, middle roll."""
     upper, middle = ('shoulder', 'elbow') if leg[0] == 'f' else ('hip', 'knee')
     return f'{upper}_yaw_{leg}', f'{upper}_roll_{leg}', f'{middle}_roll_{leg}'
 

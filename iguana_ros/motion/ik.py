@@ -1,4 +1,19 @@
-"""Full-body IK (Section IV): sparse markers -> root pose and active joint angles for every frame.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Full-body IK (Section IV): sparse markers -> root pose and active joint angles for every frame.
 
 One nonlinear least-squares problem over the whole take, solved with L-BFGS-B (the paper's L-BFGS, with the
 joint limits as bounds): marker misfit of the visible markers (a gap, NaN, drops out; foot-marker gaps are
@@ -66,8 +81,11 @@ class IKResult:
 
 
 def _frame_fits(reference: np.ndarray, observed: np.ndarray, weight: np.ndarray, valid: np.ndarray) -> tuple:
-    """Rotations `(F, 3, 3)` and translations `(F, 3)` with observed ~ R @ reference + t (weighted), frame by frame;
-    frames not `valid (F,)` get the identity (the caller interpolates them)."""
+    """
+    Rotations `(F, 3, 3)` and translations `(F, 3)` with observed ~ R @ reference + t (weighted), frame by frame.
+
+    Frames not `valid (F,)` get the identity (the caller interpolates them).
+    """
     rot = np.tile(np.eye(3), (len(observed), 1, 1))
     trans = np.zeros((len(observed), 3))
     for f in np.flatnonzero(valid):              # one 3x3 SVD per frame of a take
@@ -153,8 +171,11 @@ def fill_unobserved(model: BodyModel, theta: np.ndarray, visible: np.ndarray) ->
 
 def fit_frames(model: BodyModel, target: np.ndarray, weight: np.ndarray, theta: np.ndarray,
                settings: IKSettings) -> np.ndarray:
-    """Per-frame bounded Levenberg-Marquardt fit `(F, n_dof)` of marker targets `(F, n_markers, 3)` with
-    weights `(F, n_markers)` (see `observation_weights`)."""
+    """
+    Per-frame bounded Levenberg-Marquardt fit `(F, n_dof)` of marker targets `(F, n_markers, 3)`.
+
+    with weights `(F, n_markers)` (see `observation_weights`).
+    """
     d = model.dofs
     visible = weight > 0
     root_w = np.sqrt(weight)

@@ -1,5 +1,22 @@
-"""The motion graph of Section IV: stride clips as nodes of a complete graph, a goal-seeking policy that
-picks the next clip at each stride end, and root alignment to the simulated body (end of Section VII).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The motion graph of Section IV.
+
+Stride clips as nodes of a complete graph, a goal-seeking policy that picks the next clip at each stride end, and root
+alignment to the simulated body (end of Section VII).
 
 Clips are duck-typed (see `iguana_ros.motion.clips.Clip`): `name`, `root_positions (n_frames, 3)`,
 `local_rotations (n_frames, n_bones, 4)` in a canonical frame (first root at x = y = 0 facing +x),
@@ -44,8 +61,12 @@ class MotionGraph:
     """Complete graph over a clip library (every clip may follow every clip, Figure 4)."""
 
     def __init__(self, library: dict, blend_frames: int) -> None:
-        """Build the graph over `library` (name -> clip); `blend_frames` frames smooth each transition (the planner's
-        parameter: `stages.motion_graph` gives its declared default)."""
+        """
+        Build the graph over `library` (name -> clip).
+
+        `blend_frames` frames smooth each transition (the planner's parameter: `stages.motion_graph` gives its declared
+        default).
+        """
         if not library:
             raise ValueError('the motion graph needs at least one clip')
         self.clips = dict(library)
@@ -53,7 +74,7 @@ class MotionGraph:
 
     @property
     def names(self) -> list[str]:
-        """Clip names (graph nodes)."""
+        """Clip names, the graph nodes."""
         return list(self.clips)
 
     def edges(self) -> list[tuple[str, str]]:
@@ -74,7 +95,7 @@ class MotionGraph:
         return min(costs, key=costs.get) if costs else self._idle_or_first()
 
     def _idle_or_first(self) -> str:
-        """The idle clip if the library has one, else the first clip."""
+        """Return the idle clip if the library has one, else the first clip."""
         return IDLE_CLIP if IDLE_CLIP in self.clips else next(iter(self.clips))
 
     @staticmethod

@@ -1,5 +1,22 @@
-"""Stride segmentation (Section IV): foot contacts from marker height and speed, and stride boundaries at
-the touchdown of a diagonal foot pair."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Stride segmentation (Section IV).
+
+Foot contacts from marker height and speed, and stride boundaries at the touchdown of a diagonal foot pair.
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +44,8 @@ def _debounce(flags: np.ndarray, min_run: int) -> np.ndarray:
 
 def detect_contacts(feet: np.ndarray, frame_rate: float, height: float = CONTACT_HEIGHT,
                     speed: float = CONTACT_SPEED, min_run: int = MIN_RUN) -> np.ndarray:
-    """Contacts `(F, 4)` of foot marker tracks `feet (F, 4, 3)` (m): low, slow, debounced.
+    """
+    Contacts `(F, 4)` of foot marker tracks `feet (F, 4, 3)` (m): low, slow, debounced.
 
     The speed of a frame is the smaller of its backward and forward one-sided speeds, so a foot counts as
     stopped on the frame it lands and on the frame it lifts off.

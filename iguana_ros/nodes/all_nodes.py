@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """All four nodes in one process with one executor (`iguana run --single-process`)."""
 from __future__ import annotations
 
@@ -9,7 +23,7 @@ from iguana_ros.nodes.base import IguanaNode, run_nodes
 
 
 def node_class(executable: str) -> type[IguanaNode]:
-    """The node class of node executable `executable`: the IguanaNode of its module whose KIND is its name."""
+    """Return the node class of node executable `executable`: the IguanaNode of its module whose KIND is its name."""
     module = importlib.import_module(f'{NODE_PACKAGE}.{executable}')
     found = [cls for cls in vars(module).values()
              if isinstance(cls, type) and issubclass(cls, IguanaNode) and cls.KIND == executable]

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """What every iguana_ros node shares: declared parameters, topics from the table, frame stamps, main()."""
 from __future__ import annotations
 
@@ -5,26 +19,26 @@ import sys
 import time
 from typing import Callable
 
-import rclpy
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType,
                                 SetParametersResult)
+import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from iguana_ros.errors import IguanaError
-from iguana_ros.parameters import ParamSpec, node_parameters
+from iguana_ros.parameters import node_parameters, ParamSpec
 from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import resolve
 from iguana_ros.ros.run_events import run_event_msg
-from iguana_ros.scene import Scene, load_scene
-from iguana_ros.validation import FRAME_NEW, FRAME_REPEAT, FRAME_STALE, check_frame
+from iguana_ros.scene import load_scene, Scene
+from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_REPEAT, FRAME_STALE
 
 _PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterType.PARAMETER_DOUBLE,
                 'integer': ParameterType.PARAMETER_INTEGER, 'bool': ParameterType.PARAMETER_BOOL}
 
 
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
-    """ParameterDescriptor with the declared description, type and range."""
+    """`ParameterDescriptor` with the declared description, type and range."""
     desc = ParameterDescriptor(name=spec.name, type=_PARAM_TYPES[spec.type], read_only=not spec.dynamic,
                                description=spec.description)
     if spec.choices:
@@ -38,7 +52,8 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
 
 
 class IguanaNode(Node):
-    """A node whose parameters come from msg_configs/parameters.yaml and topics from topics.yaml.
+    """
+    A node whose parameters come from msg_configs/parameters.yaml and topics from topics.yaml.
 
     Subclasses set KIND (their entry in parameters.yaml and default node name).
     """
@@ -49,8 +64,7 @@ class IguanaNode(Node):
     """What the node's 'loaded' run event says about its build (e.g. 'model from cache')."""
 
     def __init__(self, **kwargs) -> None:
-        """Create the node, say so on run_events, declare its parameters (read-only, with ranges); load its
-        scene."""
+        """Create the node, say so on run_events, declare its parameters (read-only, with ranges); load its scene."""
         super().__init__(self.KIND, **kwargs)
         self._events = self.publisher('run_events')
         self.report(EVENT_UP)
@@ -77,8 +91,12 @@ class IguanaNode(Node):
         return SetParametersResult(successful=True)
 
     def now_stamp(self):
-        """builtin_interfaces/Time of the node's clock: simulated time (the latest /clock) when use_sim_time is true
-        (the standard params file sets it), else the system clock. Frame data is stamped with `frame_stamp`."""
+        """
+        builtin_interfaces/Time of the node's clock.
+
+        Simulated time (the latest /clock) when use_sim_time is true (the standard params file sets it), else the system
+        clock. Frame data is stamped with `frame_stamp`.
+        """
         return self.get_clock().now().to_msg()
 
     def param(self, name: str):
@@ -86,13 +104,17 @@ class IguanaNode(Node):
         return self._specs[name].check(self.get_parameter(name).value)
 
     def publisher(self, key: str):
-        """Publisher for topic `key` of the topic table."""
+        """Return publisher for topic `key` of the topic table."""
         name, cls, qos = resolve(key)
         return self.create_publisher(cls, name, qos)
 
     def subscription(self, key: str, callback: Callable, raw: bool = False, depth: int | None = None):
-        """Subscription to topic `key` of the topic table; `depth` (optional) deepens this reader's history beyond
-        the table's (a latched topic's depth 1 is what its publisher keeps for late joiners)."""
+        """
+        Subscription to topic `key` of the topic table.
+
+        `depth` (optional) deepens this reader's history beyond the table's (a latched topic's depth 1 is what its
+        publisher keeps for late joiners).
+        """
         name, cls, qos = resolve(key)
         if depth is not None:
             qos.depth = max(qos.depth, depth)
@@ -109,7 +131,8 @@ class IguanaNode(Node):
 
 
 class FrameGate:
-    """Frame gating of one input topic: the newest frame a node has handled from it, and its reply to that frame.
+    """
+    Frame gating of one input topic: the newest frame a node has handled from it, and its reply to that frame.
 
     `admit(frame)` is True for a new frame. A repeated frame (a peer re-sends its input after a lockstep timeout)
     gets the kept reply again, a stale one is logged and dropped, one too far ahead is an InputError (`check_frame`).
@@ -170,7 +193,7 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
 
 
 def node_main(cls: type) -> Callable[[], None]:
-    """A console-script main() for node class `cls`."""
+    """Return a console-script main() for node class `cls`."""
     def main(args: list[str] | None = None) -> None:
         sys.exit(run_nodes([cls], args if args is not None else sys.argv))
     return main

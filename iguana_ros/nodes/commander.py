@@ -1,4 +1,19 @@
-"""Driving a running iguana_ros system from Python, in the style of nav2_simple_commander's BasicNavigator.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Driving a running iguana_ros system from Python, in the style of nav2_simple_commander's BasicNavigator.
 
     from iguana_ros.nodes.commander import IguanaCommander
 
@@ -15,9 +30,9 @@ a push is a WrenchStamped on `push`, its duration set first on the simulator's d
 """
 from __future__ import annotations
 
-import math
 from collections import deque
 from dataclasses import dataclass
+import math
 
 import numpy as np
 import rclpy
@@ -41,8 +56,12 @@ HISTORY_LENGTH = 900
 
 @dataclass(frozen=True)
 class IguanaState:
-    """The simulated iguana's root as the last iguana_state said: simulated time s, position `(3,)` m,
-    orientation `(4,)` xyzw, linear `(3,)` m/s and angular `(3,)` rad/s velocity in the world frame."""
+    """
+    The simulated iguana's root as the last iguana_state said.
+
+    Simulated time s, position `(3,)` m, orientation `(4,)` xyzw, linear `(3,)` m/s and angular `(3,)` rad/s velocity in
+    the world frame.
+    """
 
     time: float
     position: np.ndarray
@@ -99,8 +118,12 @@ class IguanaCommander:
         wait_spinning(condition, self.node, timeout, lambda: None, lambda: failure)
 
     def go_to(self, x: float, y: float, yaw: float = 0.0, timeout: float = 10.0, frame_id: str = WORLD_FRAME) -> None:
-        """Send a goal at (x, y) m heading `yaw` rad; returns once the planner accepted it (IguanaError if it
-        rejects it, e.g. off the terrain, or no planner answers within `timeout` s)."""
+        """
+        Send a goal at (x, y) m heading `yaw` rad.
+
+        Returns once the planner accepted it (IguanaError if it rejects it, e.g. off the terrain, or no planner answers
+        within `timeout` s).
+        """
         if not all(math.isfinite(v) for v in (x, y, yaw)):
             raise IguanaError(f'goal ({x}, {y}, yaw {yaw}) is not finite')
         publish_goals(self.node, [goal_message(x, y, math.degrees(yaw), frame_id=frame_id)], timeout=timeout)
@@ -123,7 +146,7 @@ class IguanaCommander:
         return True
 
     def state(self, timeout: float = 5.0) -> IguanaState:
-        """The newest iguana_state (spins briefly for it); IguanaError if none arrives within `timeout` s."""
+        """Return the newest `iguana_state` (spins briefly for it); IguanaError if none arrives within `timeout` s."""
         seen = self._state
         try:
             self._spin_until(lambda: self._state is not None and self._state is not seen, timeout, '')
@@ -138,11 +161,14 @@ class IguanaCommander:
         return [s for s in self._history if s.time >= time]
 
     def push(self, region: str, force, duration: float | None = None, timeout: float = 10.0) -> float:
-        """Push the node group `region` (e.g. 'trunk_left') with `force` `(3,)` N in the world frame for
-        `duration` s (default: the simulator's push_duration), from the simulator's next frame after it arrives.
+        """
+        Push the node group `region` (e.g. 'trunk_left') with `force` `(3,)` N in the world frame for `duration` s.
+
+        (default: the simulator's push_duration), from the simulator's next frame after it arrives.
 
         Returns once the simulator acknowledged it (Fast DDS may take its heartbeat period, ~3 s wall, while
-        the run goes on): the simulated time s of the newest state when it was sent, for `states_since`."""
+        the run goes on): the simulated time s of the newest state when it was sent, for `states_since`.
+        """
         if duration is not None and duration != self._push_duration:
             self._set_push_duration(float(duration), timeout)
         self._spin_until(lambda: self._push_pub.get_subscription_count() > 0, timeout,

@@ -1,4 +1,19 @@
-"""Publishing goal_pose messages and waiting until the planner has accepted them (`iguana goal`, `iguana run`).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Publishing goal_pose messages and waiting until the planner has accepted them (`iguana goal`, `iguana run`).
 
 The planner publishes every goal it accepted on the latched `accepted_goals` topic (nav_msgs/Path; empty at its
 start-up). A sender reads that list first (so it knows the planner is there and how many goals it had), waits
@@ -28,7 +43,7 @@ POLL_S = 0.02
 
 
 def goal_message(x: float, y: float, yaw_deg: float = 0.0, at: float = 0.0, frame_id: str = WORLD_FRAME):
-    """PoseStamped goal at (x, y) heading `yaw_deg`, stamped `at` s of simulated time (0 = at once)."""
+    """`PoseStamped` goal at (x, y) heading `yaw_deg`, stamped `at` s of simulated time (0 = at once)."""
     return pose_stamped_msg([x, y, 0.0], quat_from_yaw(math.radians(yaw_deg)), stamp=at, frame_id=frame_id)
 
 
@@ -52,7 +67,7 @@ def accepted_among(goals: list, accepted: list) -> int:
 
 
 def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_going: Callable[[], None],
-          failure: Callable[[], str]) -> None:
+                  failure: Callable[[], str]) -> None:
     """Spin `node` until `condition()`; IguanaError(failure()) after `timeout` s. `keep_going()` may raise."""
     from rclpy.executors import SingleThreadedExecutor
     executor = SingleThreadedExecutor(context=node.context)
@@ -71,9 +86,12 @@ def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_goin
 
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
                keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> str:
-    """Publish PoseStamped `goals` once `min_subscribers` listen (and, with `confirm`, the planner's accepted_goals
-    list has arrived and every goal_pose subscription on the graph is matched); wait until the subscribers
-    acknowledge them and (with `confirm`) until the planner lists them as accepted. Returns the topic name.
+    """
+    Publish PoseStamped `goals` once `min_subscribers` listen.
+
+    (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
+    matched); wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
+    Returns the topic name.
 
     IguanaError in one line when a step does not happen within `timeout` s (each step has the whole timeout).
     `keep_going()` is called while waiting (it may raise to give up early).
@@ -102,8 +120,12 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
             accepted_topic = accepted_sub.topic_name
 
         def wanted() -> int:
-            """Subscriptions the goals must reach: the minimum, or (confirming) every one on the graph that can
-            match this volatile publisher, the planners' among them."""
+            """
+            Subscriptions the goals must reach.
+
+            The minimum, or (confirming) every one on the graph that can match this volatile publisher, the planners'
+            among them.
+            """
             if not confirm:
                 return min_subscribers
             subs = node.get_subscriptions_info_by_topic(topic)

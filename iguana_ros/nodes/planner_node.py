@@ -1,5 +1,23 @@
-"""Planner node (Section IV): goal_pose + iguana_state in, one motion_clip per stride and the clip's stance
-flags per frame (reference_stance) out; the goals it accepted on accepted_goals (latched, for their senders)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Planner node (Section IV).
+
+goal_pose + iguana_state in, one motion_clip per stride and the clip's stance flags per frame (reference_stance) out;
+the goals it accepted on accepted_goals (latched, for their senders).
+"""
 from __future__ import annotations
 
 from nav_msgs.msg import Path
@@ -41,8 +59,11 @@ class PlannerNode(IguanaNode):
                                f'goal radius {self.stage.params.goal_radius:.2f} m')
 
     def on_goal(self, msg) -> None:
-        """Schedule a goal (applied at its stamp in simulated time; stamp 0 = at the next stride) and add it to
-        accepted_goals."""
+        """
+        Schedule a goal.
+
+        (applied at its stamp in simulated time; stamp 0 = at the next stride) and add it to accepted_goals.
+        """
         xy, stamp = goal_from_msg(msg, self.half_extent)
         at = self.stage.accept_goal(xy, stamp)
         if at != stamp:

@@ -1,6 +1,23 @@
-"""Simulator node (Section V): spring_rest_lengths + push in; mesh_marker, scene_markers, iguana_state,
-foot_state, foot_positions, /clock out. `lockstep` advances a frame only when that frame's lengths arrive;
-`realtime` paces to the wall clock with the latest lengths.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Simulator node (Section V).
+
+spring_rest_lengths + push in; mesh_marker, scene_markers, iguana_state, foot_state, foot_positions, /clock out.
+`lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the wall clock with the latest
+lengths.
 """
 from __future__ import annotations
 
@@ -23,7 +40,7 @@ from iguana_ros.ros.messages import (foot_positions_to_msg, foot_state_to_msg, g
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
 from iguana_ros.stages import push_forces, simulator_stage
-from iguana_ros.validation import FRAME_STALE, check_frame
+from iguana_ros.validation import check_frame, FRAME_STALE
 from iguana_ros.visuals import body_colors, terrain_mesh
 
 WATCHDOG_PERIOD = 0.1
@@ -80,7 +97,7 @@ class SimulatorNode(IguanaNode):
             f'{fidelity} fidelity, {self.mode} mode, {duration:g} s')
 
     def _make_io(self) -> None:
-        """Publishers and subscriptions."""
+        """Make publishers and subscriptions."""
         self.state_pub = self.publisher('iguana_state')
         self.clock_pub = self.publisher('clock')
         self.mesh_pub = self.publisher('mesh_marker')
@@ -94,8 +111,12 @@ class SimulatorNode(IguanaNode):
 
     # ------------------------------------------------------------------------------------------ inputs
     def on_lengths(self, msg) -> None:
-        """Lockstep: advance when the current frame's lengths arrive. Realtime: keep the latest. Lengths outside
-        the model's bounds are rejected: the frame is not simulated with them (lockstep waits on)."""
+        """
+        Lockstep.
+
+        Advance when the current frame's lengths arrive. Realtime: keep the latest. Lengths outside the model's bounds
+        are rejected: the frame is not simulated with them (lockstep waits on).
+        """
         try:
             frame, lengths = lengths_from_msg(msg, self.n_springs, self.model.spring_rest_lengths)
         except IguanaError as exc:
@@ -158,7 +179,7 @@ class SimulatorNode(IguanaNode):
                       '(same ROS_DOMAIN_ID?)')
 
     def missing_peers(self) -> str:
-        """What the start still waits for ('' when ready): lockstep peers, goals, the recorder."""
+        """Return what the start still waits for ('' when ready): lockstep peers, goals, the recorder."""
         if self.mode == 'lockstep' and not self.lockstep_peers_ready():
             return 'the planner, terrain adaptation and spring-length nodes'
         if self.goals_received < self.param('wait_for_goals'):
@@ -169,8 +190,12 @@ class SimulatorNode(IguanaNode):
         return '' if recorder_ok else 'the bag recorder'
 
     def lockstep_peers_ready(self) -> bool:
-        """Two iguana_state subscriptions (the planner's and the terrain adaptation's) besides the recorder's and
-        `iguana run`'s progress monitor's, and a spring_rest_lengths publisher."""
+        """
+        Two iguana_state subscriptions.
+
+        (the planner's and the terrain adaptation's) besides the recorder's and `iguana run`'s progress monitor's, and a
+        spring_rest_lengths publisher.
+        """
         readers = [info for info in self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])
                    if info.node_name not in (RECORDER_NODE_NAME, MONITOR_NODE_NAME)]
         return len(readers) >= 2 and self.count_publishers(resolve('spring_rest_lengths')[0]) >= 1

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Spring-length node (Section VII): reference_pose in, desired spring lengths (JointState) out."""
 from __future__ import annotations
 
@@ -28,8 +42,11 @@ class SpringLengthNode(IguanaNode):
                                f'{model.n_nodes} nodes')
 
     def on_pose(self, msg) -> None:
-        """Publish the desired lengths of the pose's frame (re-send them for a repeated frame); lengths the
-        simulator would reject (`check_desired_lengths`) are not published."""
+        """
+        Publish the desired lengths of the pose's frame (re-send them for a repeated frame).
+
+        Lengths the simulator would reject (`check_desired_lengths`) are not published.
+        """
         frame, positions, rotations = reference_pose_from_msg(msg, self.n_bones, self.skeleton, self.bound)
         if not self.pose_gate.admit(frame):
             return

@@ -1,11 +1,25 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out each frame."""
 from __future__ import annotations
 
 from iguana_ros.errors import InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.ros.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
-from iguana_ros.stages import StrideLookahead, adaptation_stage, stride_ended
-from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
+from iguana_ros.stages import adaptation_stage, stride_ended, StrideLookahead
+from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
 MAX_CLIPS = 4
 """Placed clips kept (by start frame) for frames that arrive late."""

@@ -1,4 +1,19 @@
-"""Sparse 3×3-block matrix pattern of the system matrix, built once; numba block kernels.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Sparse 3×3-block matrix pattern of the system matrix, built once; numba block kernels.
 
 The system matrix is symmetric; its upper triangle (blocks (i, j) with i ≤ j, the diagonal block first in each
 row) is stored in block-CSR form: `row_ptr (n_nodes + 1,)`, `cols (n_blocks,)` and values
@@ -46,7 +61,7 @@ class BlockPattern:
 
     @property
     def n_blocks(self) -> int:
-        """Number of stored 3×3 blocks."""
+        """Return number of stored 3×3 blocks."""
         return len(self.cols)
 
     @property
@@ -55,8 +70,11 @@ class BlockPattern:
         return block_rows(self.row_ptr)
 
     def to_scipy(self, blocks: np.ndarray):
-        """The full symmetric matrix as `scipy.sparse.csc_matrix (3 n_nodes, 3 n_nodes)` from the stored
-        `blocks (n_blocks, 3, 3)`."""
+        """
+        Return the full symmetric matrix as `scipy.sparse.csc_matrix (3 n_nodes, 3 n_nodes)`.
+
+        from the stored `blocks (n_blocks, 3, 3)`.
+        """
         from scipy.sparse import bsr_matrix
 
         n = 3 * self.n_nodes
@@ -79,7 +97,7 @@ def _upper_key(rows: np.ndarray, cols: np.ndarray, n_nodes: int) -> np.ndarray:
 
 @numba.njit(cache=True)
 def block_matvec(row_ptr, cols, blocks, x, out):
-    """out = A x for the symmetric matrix A stored as its upper block triangle; `x, out (n_nodes, 3)`."""
+    """`out` = A x for the symmetric matrix A stored as its upper block triangle; `x, out (n_nodes, 3)`."""
     n = row_ptr.shape[0] - 1
     out[:] = 0.0
     for i in range(n):                               # blocks indexed in place: views cost 2x here (measured)
@@ -107,7 +125,7 @@ def block_matvec(row_ptr, cols, blocks, x, out):
 
 @numba.njit(cache=True)
 def invert_3x3(a, out):
-    """out = a⁻¹ for a symmetric positive-definite 3×3 block (cofactor formula); returns the determinant."""
+    """`out` = a⁻¹ for a symmetric positive-definite 3×3 block (cofactor formula); returns the determinant."""
     c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
     c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
     c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]

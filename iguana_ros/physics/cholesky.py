@@ -1,4 +1,19 @@
-"""Sparse 3×3-block Cholesky `P A Pᵀ = L Lᵀ` of the system matrix (numba), used as the CG preconditioner.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Sparse 3×3-block Cholesky `P A Pᵀ = L Lᵀ` of the system matrix (numba), used as the CG preconditioner.
 
 The symbolic part (`CholeskyPattern.build`: a fill-reducing node ordering — minimum degree or reverse
 Cuthill–McKee, whichever needs fewer block updates — the structure of L and every update's target) is computed
@@ -37,8 +52,12 @@ class CholeskyArrays(NamedTuple):
 
 
 class CholeskyFactor(NamedTuple):
-    """Storage of the block Cholesky preconditioner: the pattern, L, its inverted diagonal, work space and the
-    factor state `(3,)` int64 (`integrator.F_VALID`, `F_STEP`, `F_LAST_ITERS`)."""
+    """
+    Storage of the block Cholesky preconditioner.
+
+    The pattern, L, its inverted diagonal, work space and the factor state `(3,)` int64 (`integrator.F_VALID`, `F_STEP`,
+    `F_LAST_ITERS`).
+    """
 
     pattern: CholeskyArrays
     values: np.ndarray    # (n_factor_blocks, 3, 3), the blocks of L
@@ -49,7 +68,8 @@ class CholeskyFactor(NamedTuple):
 
 @dataclass(frozen=True)
 class CholeskyPattern:
-    """Structure of the block factor L over `n_nodes` in the permuted order `perm` (L row/col j = node perm[j]).
+    """
+    Structure of the block factor L over `n_nodes` in the permuted order `perm` (L row/col j = node perm[j]).
 
     Column j of L holds the blocks `l_rows[l_ptr[j]:l_ptr[j + 1]]` (ascending, the diagonal first).
     A blocks feeding column j: stored blocks `a_block[a_ptr[j]:a_ptr[j + 1]]` of A's upper triangle, copied
@@ -74,8 +94,11 @@ class CholeskyPattern:
 
     @classmethod
     def build(cls, row_ptr: np.ndarray, cols: np.ndarray) -> 'CholeskyPattern':
-        """Ordering and symbolic factor of the upper-triangle block-CSR pattern `(row_ptr (n + 1,),
-        cols (n_blocks,))` of a symmetric matrix."""
+        """
+        Ordering and symbolic factor of the upper-triangle block-CSR pattern `(row_ptr (n + 1,), cols (n_blocks,))`.
+
+        of a symmetric matrix.
+        """
         n = len(row_ptr) - 1
         full_ptr, full_cols = _symmetric_pattern(row_ptr, cols)
         candidates = []
@@ -109,11 +132,11 @@ class CholeskyPattern:
 
     @property
     def n_factor_blocks(self) -> int:
-        """Number of 3×3 blocks of L (diagonal included)."""
+        """Return number of 3×3 blocks of L (diagonal included)."""
         return len(self.l_rows)
 
     def arrays(self) -> CholeskyArrays:
-        """The arrays as the compiled kernels take them."""
+        """Return the arrays as the compiled kernels take them."""
         return CholeskyArrays(self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest,
                               self.a_transpose, self.u_ptr, self.u_col, self.u_from, self.u_start, self.u_dest)
 
@@ -136,8 +159,12 @@ def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
 
 
 def _gather_map(row_ptr: np.ndarray, cols: np.ndarray, iperm: np.ndarray, where: list) -> tuple:
-    """Where each stored upper block (r, c) of A goes in L: column min(iperm[r], iperm[c]), row the max, transposed
-    when iperm[c] ≥ iperm[r] (then L holds A(c, r) = blockᵀ). Returns (a_block, a_dest, a_transpose, a_ptr)."""
+    """
+    Where each stored upper block (r, c) of A goes in L.
+
+    Column min(iperm[r], iperm[c]), row the max, transposed when iperm[c] ≥ iperm[r] (then L holds A(c, r) = blockᵀ).
+    Returns (a_block, a_dest, a_transpose, a_ptr).
+    """
     n = len(row_ptr) - 1
     rows = block_rows(row_ptr)
     pr, pc = iperm[rows], iperm[cols]
@@ -152,8 +179,7 @@ def _gather_map(row_ptr: np.ndarray, cols: np.ndarray, iperm: np.ndarray, where:
 
 
 def _orderings(row_ptr: np.ndarray, cols: np.ndarray) -> list:
-    """Candidate node orderings `(n,)` of the full symmetric block pattern: reverse Cuthill–McKee and minimum
-    degree."""
+    """Candidate node orderings `(n,)` of the full symmetric block pattern: reverse Cuthill–McKee and minimum degree."""
     from scipy.sparse import csr_matrix, identity
     from scipy.sparse.csgraph import reverse_cuthill_mckee
     from scipy.sparse.linalg import splu
@@ -162,7 +188,7 @@ def _orderings(row_ptr: np.ndarray, cols: np.ndarray) -> list:
     graph = csr_matrix((np.ones(len(cols)), cols, row_ptr), shape=(n, n))
     orders = [np.asarray(reverse_cuthill_mckee(graph, symmetric_mode=True), dtype=np.int64)]
     dominant = (graph + float(n + 1) * identity(n)).tocsc()   # no pivoting: SuperLU keeps its column order
-    lu = splu(dominant, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+    lu = splu(dominant, permc_spec='MMD_AT_PLUS_A', diag_pivot_thresh=0.0, options={'SymmetricMode': True})
     minimum_degree = np.empty(n, dtype=np.int64)
     minimum_degree[lu.perm_c] = np.arange(n)
     orders.append(minimum_degree)
@@ -188,7 +214,7 @@ def _symbolic(n: int, row_ptr: np.ndarray, cols: np.ndarray, perm: np.ndarray, i
 
 
 def empty_factor(n_nodes: int) -> CholeskyFactor:
-    """The CholeskyFactor of no factor (empty pattern and blocks) for a preconditioner that uses none."""
+    """Return the CholeskyFactor of no factor (empty pattern and blocks) for a preconditioner that uses none."""
     e = np.zeros(0, dtype=np.int64)
     return CholeskyFactor(CholeskyArrays(*(e,) * 12), np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)),
                           np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64))
@@ -196,8 +222,11 @@ def empty_factor(n_nodes: int) -> CholeskyFactor:
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _factor_pivot(values, p, diag_inv, j):
-    """Replace the symmetric 3×3 `values[p]` by its lower Cholesky factor L and write L⁻¹ into `diag_inv[j]`;
-    False if the block is not positive definite."""
+    """
+    Replace the symmetric 3×3 `values[p]` by its lower Cholesky factor L and write L⁻¹ into `diag_inv[j]`.
+
+    False if the block is not positive definite.
+    """
     d0 = values[p, 0, 0]
     if not d0 > 0.0:
         return False
@@ -245,7 +274,8 @@ def _update_column(values, start, u_dest, lo, hi):
 
 @numba.njit(cache=True, fastmath=FASTMATH)
 def block_cholesky(pattern, blocks, values, diag_inv):
-    """Factorise A (`blocks (n_blocks, 3, 3)`) into `values (n_l, 3, 3)` = L and `diag_inv (n, 3, 3)` = L_jj⁻¹.
+    """
+    Factorise A (`blocks (n_blocks, 3, 3)`) into `values (n_l, 3, 3)` = L and `diag_inv (n, 3, 3)` = L_jj⁻¹.
 
     Left-looking; returns False (values unusable) if a pivot block is not positive definite. Blocks are indexed
     in place (numba array views cost more than the arithmetic here).
@@ -283,7 +313,7 @@ def block_cholesky(pattern, blocks, values, diag_inv):
 
 @numba.njit(cache=True)
 def cholesky_solve(pattern, values, diag_inv, r, z, y):
-    """z = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space."""
+    """`z` = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space."""
     perm, l_ptr, l_rows = pattern.perm, pattern.l_ptr, pattern.l_rows
     n = perm.shape[0]
     for j in range(n):

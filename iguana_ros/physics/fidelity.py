@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Named fidelity presets: the knobs that trade simulation speed for accuracy."""
 from __future__ import annotations
 
@@ -18,10 +32,12 @@ RESOLUTIONS = ('coarse', 'medium', 'fine')
 
 @dataclass(frozen=True)
 class Fidelity:
-    """Integration settings: time step (s), linear solver and CG preconditioner, CG tolerance/iterations,
-    Jacobian refresh interval (steps), rotation-extraction iterations per step, and how long a Cholesky
-    preconditioner factor is reused (`factor_every` steps; refactorised sooner once a solve needs more than
-    `refactor_iters` CG iterations).
+    """
+    Integration settings.
+
+    Time step (s), linear solver and CG preconditioner, CG tolerance/iterations, Jacobian refresh interval (steps),
+    rotation-extraction iterations per step, and how long a Cholesky preconditioner factor is reused (`factor_every`
+    steps; refactorised sooner once a solve needs more than `refactor_iters` CG iterations).
 
     `resolution` is the mesh resolution a scene or benchmark builds the model at (the simulator itself
     simulates whatever model it is given).
@@ -87,7 +103,7 @@ PRESETS = {
 
 
 def get_fidelity(preset='balanced', **overrides) -> Fidelity:
-    """A validated `Fidelity` from a preset name (or a `Fidelity`) with field overrides (None = keep)."""
+    """Return a validated `Fidelity` from a preset name (or a `Fidelity`) with field overrides (None = keep)."""
     if isinstance(preset, Fidelity):
         base = preset
     elif preset in PRESETS:

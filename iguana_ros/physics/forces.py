@@ -1,4 +1,19 @@
-"""Force kernels of `M p̈ = f_x + f_s + f_e + f_d` (paper Section V), compiled with numba.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Force kernels of `M p̈ = f_x + f_s + f_e + f_d` (paper Section V), compiled with numba.
 
 Conventions: positions/velocities/forces `(n_nodes, 3)` in m, m/s, N. Every kernel *adds* its force into `forces`
 and, when `scale != 0`, adds `scale ×` its stiffness blocks `-∂f/∂x` into the block matrix `blocks (n_blocks, 3, 3)`
@@ -59,8 +74,11 @@ def _quat_rotation(qx, qy, qz, qw):
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _rotation_step(q, f):
-    """One Müller et al. (2016) iteration towards the rotation maximising tr(Rᵀf) from the quaternion `q` (4-tuple,
-    x y z w) for the 3×3 `f` (9-tuple, row-major); returns (new quaternion, squared step angle)."""
+    """
+    One Müller et al. (2016) iteration towards the rotation maximising tr(Rᵀf) from the quaternion `q`.
+
+    (4-tuple, x y z w) for the 3×3 `f` (9-tuple, row-major); returns (new quaternion, squared step angle).
+    """
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = _quat_rotation(q[0], q[1], q[2], q[3])
     f00, f01, f02, f10, f11, f12, f20, f21, f22 = f
     ox = (r10 * f20 - r20 * f10) + (r11 * f21 - r21 * f11) + (r12 * f22 - r22 * f12)   # Σ_c r_c × f_c
@@ -187,8 +205,12 @@ def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _add_tet_stiffness(rg, vmu, vlam, blocks, tet_blocks, tets, t):
-    """Add R K Rᵀ of tet `t`: block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` =
-    R ∇φ_a, into the stored upper triangle (block (b, a) = (a, b)ᵀ when node b < node a)."""
+    """
+    Add R K Rᵀ of tet `t`.
+
+    Block (a, b) = V[μ(r_a·r_b) I + μ r_b r_aᵀ + λ r_a r_bᵀ] for `rg (4, 3)` = R ∇φ_a, into the stored upper triangle
+    (block (b, a) = (a, b)ᵀ when node b < node a).
+    """
     for a in range(4):
         a0, a1, a2 = rg[a, 0], rg[a, 1], rg[a, 2]
         for b in range(a, 4):                        # upper blocks; (b, a) is the transpose
@@ -265,7 +287,8 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
 @numba.njit(cache=True, fastmath=FASTMATH)
 def contact_forces(x, v, contact_mass, contact_offset, friction, heights, ox, oy, spacing, kn, cn, kt, ct,
                    anchors, state, forces, diag_k, diag_c):
-    """Penalty contact on the height field: normal k·d + c·ḋ (≥ 0), Coulomb friction via stick anchors.
+    """
+    Penalty contact on the height field: normal k·d + c·ḋ (≥ 0), Coulomb friction via stick anchors.
 
     Per node: `kn, kt` stiffness and `cn, ct` damping per kg of `contact_mass (n,)` (1/s², 1/s); a node touches
     the terrain `contact_offset (n,)` m before its position reaches it (the sole pad of a foot node);
@@ -358,7 +381,7 @@ def _friction(x, v, i, n0, n1, n2, kt, ct, limit, anchors, forces, diag_k, diag_
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _outer_add(blk, n0, n1, n2, k):
-    """blk += k n nᵀ."""
+    """`blk` += k n nᵀ."""
     n = (n0, n1, n2)
     for p in range(3):
         for q in range(3):

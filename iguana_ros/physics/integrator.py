@@ -1,4 +1,19 @@
-"""Linearised backward Euler (Baraff & Witkin 1998) for `M p̈ = f_x + f_s + f_e + f_d`, compiled with numba.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Linearised backward Euler (Baraff & Witkin 1998) for `M p̈ = f_x + f_s + f_e + f_d`, compiled with numba.
 
 Per step of length h, with K = −∂f/∂x (springs + FEM = K_int, contact = K_c), Rayleigh damping C = αM + βK_int
 and contact damping C_c:
@@ -18,8 +33,8 @@ import numba
 import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec, invert_3x3
-from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
 from iguana_ros.physics.cholesky import block_cholesky
+from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
 from iguana_ros.physics.solver import preconditioned_cg
 
 # indices of the float parameter vector `fp`
@@ -43,8 +58,11 @@ STATUS_SOLVER = 4
 
 @numba.njit(cache=True)
 def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info):
-    """Forces, (maybe) the system matrix, and the right-hand side of one step (`model` a KernelModel, `state` a
-    KernelState); returns (status, refreshed)."""
+    """
+    Return forces, (maybe) the system matrix, and the right-hand side of one step.
+
+    (`model` a KernelModel, `state` a KernelState); returns (status, refreshed).
+    """
     mass, terrain = model.mass, model.terrain_grid
     x, v, forces, blocks = state.positions, state.velocities, state.forces, state.matrix_blocks
     dextra, pinv = state.diag_mass_damping, state.diag_inv
@@ -143,7 +161,7 @@ def _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_
 
 @numba.njit(cache=True)
 def finish_step(state, fp, counters, info):
-    """v ← v + Δv, x ← x + h v; checks for NaN/Inf and the speed bound. Returns a STATUS_* code."""
+    """`v` ← v + Δv, x ← x + h v; checks for NaN/Inf and the speed bound. Returns a STATUS_* code."""
     x, v, dv = state.positions, state.velocities, state.delta_v
     h = fp[FP_DT]
     max_speed2 = fp[FP_MAX_SPEED] * fp[FP_MAX_SPEED]
@@ -173,8 +191,11 @@ F_VALID, F_STEP, F_LAST_ITERS = range(3)
 
 @numba.njit(cache=True)
 def _factor_is_due(ip, counters, factor_state):
-    """Whether the Cholesky preconditioner must be refactorised before this step's solve: there is none, it is
-    `factor_every` steps old, or the last solve needed more than `refactor_iters` CG iterations."""
+    """
+    Whether the Cholesky preconditioner must be refactorised before this step's solve.
+
+    There is none, it is `factor_every` steps old, or the last solve needed more than `refactor_iters` CG iterations.
+    """
     return (factor_state[F_VALID] <= 0 or counters[C_STEP] - factor_state[F_STEP] >= ip[IP_FACTOR_EVERY]
             or factor_state[F_LAST_ITERS] > ip[IP_REFACTOR_ITERS])
 
@@ -203,7 +224,7 @@ def _solve(model, state, fp, ip, chol, kind):
 
 @numba.njit(cache=True)
 def ramp_lengths(ld_from, ld_to, out, fraction):
-    """out = ld_from + fraction (ld_to − ld_from): the desired lengths `(n_springs,)` part-way through a ramp."""
+    """`out` = ld_from + fraction (ld_to − ld_from): the desired lengths `(n_springs,)` part-way through a ramp."""
     for s in range(out.shape[0]):
         out[s] = ld_from[s] + fraction * (ld_to[s] - ld_from[s])
 
@@ -211,7 +232,8 @@ def ramp_lengths(ld_from, ld_to, out, fraction):
 @numba.njit(cache=True, nogil=True)   # the GIL is free while a frame steps: a lookahead thread adapts poses
 def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, external, n_steps, info, chol,
                  ramp_offset, ramp_steps):
-    """Advance `n_steps` steps with preconditioned CG; stops at the first failure. Returns (status, steps done).
+    """
+    Advance `n_steps` steps with preconditioned CG; stops at the first failure. Returns (status, steps done).
 
     Desired lengths ramp linearly from `ld_from` to `ld_to` `(n_springs,)`: step k of the call uses the
     fraction (ramp_offset + k + 1) / ramp_steps (capped at 1), written into `ld_work`; `ramp_steps` <= 0

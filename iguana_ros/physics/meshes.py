@@ -1,4 +1,19 @@
-"""Small procedural soft bodies (a single tetrahedron, a box or beam of tetrahedra) for tests and benchmarks.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Small procedural soft bodies (a single tetrahedron, a box or beam of tetrahedra) for tests and benchmarks.
 
 `SoftBodyMesh` has the attributes the simulator reads from the iguana model (`iguana_ros.body.model`), so
 `SoftBodySimulator` accepts either. Springs follow the paper (Section V): every pair of nodes of each
@@ -50,7 +65,11 @@ def tet_volumes(positions: np.ndarray, tets: np.ndarray) -> np.ndarray:
 
 
 def paper_springs(tets: np.ndarray) -> np.ndarray:
-    """Unique node pairs `(n_springs, 2)` (i < j, sorted): tet edges plus opposite nodes of face-adjacent tets."""
+    """
+    Return unique node pairs `(n_springs, 2)` (i < j, sorted).
+
+    Tet edges plus opposite nodes of face-adjacent tets.
+    """
     tets = np.asarray(tets, dtype=np.int64)
     a, b = np.triu_indices(4, k=1)
     edges = np.stack([tets[:, a], tets[:, b]], axis=-1).reshape(-1, 2)
@@ -87,7 +106,11 @@ def lumped_masses(positions: np.ndarray, tets: np.ndarray, total_mass: float) ->
 def mesh_from_tets(positions: np.ndarray, tets: np.ndarray, total_mass: float = 1.0,
                    youngs_modulus: float = DEFAULT_YOUNGS_MODULUS, poisson_ratio: float = DEFAULT_POISSON_RATIO,
                    spring_stiffness: float = DEFAULT_SPRING_STIFFNESS, node_tags: dict | None = None) -> SoftBodyMesh:
-    """A `SoftBodyMesh` from nodes `(n, 3)` and tets `(m, 4)` (reoriented to positive volume) with uniform material."""
+    """
+    Return a `SoftBodyMesh` from nodes `(n, 3)` and tets `(m, 4)`.
+
+    (reoriented to positive volume) with uniform material.
+    """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     tets = np.array(tets, dtype=np.int64)
     vol = tet_volumes(positions, tets)
@@ -110,7 +133,8 @@ def single_tet(edge: float = 0.1, total_mass: float = 0.1, **material) -> SoftBo
 
 
 def box_mesh(size=(0.3, 0.1, 0.1), cells=(3, 1, 1), total_mass: float = 1.0, **material) -> SoftBodyMesh:
-    """A box of `size` (m) split into `cells` cubes of 6 tets each, resting on z = 0, centred on x = y = 0.
+    """
+    Return a box of `size` (m) split into `cells` cubes of 6 tets each, resting on z = 0, centred on x = y = 0.
 
     Tags: 'bottom' (z = 0 nodes, also 'feet'), 'top', 'left' (max y), 'right' (min y), 'front' (max x).
     """

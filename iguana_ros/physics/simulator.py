@@ -1,4 +1,19 @@
-"""`SoftBodySimulator`: the iguana soft body of paper Section V stepped by linearised backward Euler.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`SoftBodySimulator`: the iguana soft body of paper Section V stepped by linearised backward Euler.
 
 Works with `iguana_ros.body.model.IguanaModel` or any object with the same attributes (e.g.
 `iguana_ros.physics.meshes.SoftBodyMesh`). Deterministic: the same inputs give bitwise the same states.
@@ -15,13 +30,13 @@ from iguana_ros.geometry import matrix_to_quat, rigid_fit
 from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
+from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.fidelity import Fidelity, get_fidelity
-from iguana_ros.physics.forces import (CONTACT_NONE, contact_forces, corotated_elastic_forces, lame_parameters,
+from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
                                        shape_gradients)
-from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
-from iguana_ros.physics.kernel_data import KernelModel, empty_state
-from iguana_ros.physics.solver import PRECONDITIONER_CODES, DirectSolver
+from iguana_ros.physics.kernel_data import empty_state, KernelModel
+from iguana_ros.physics.solver import DirectSolver, PRECONDITIONER_CODES
 
 LENGTH_HOLDS = ('linear', 'zero')
 """How desired lengths change within a frame: ramped from the previous frame's (first-order hold) or stepped."""
@@ -61,16 +76,20 @@ def contact_offsets(model) -> np.ndarray:
 
 
 def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
-    """Each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along
+    """
+    Each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along.
+
     (the FEM force is invariant to relabelling): every (a < b) stiffness block then lands untransposed in the
-    upper-triangle storage, so the assembly branch is always predicted."""
+    upper-triangle storage, so the assembly branch is always predicted.
+    """
     order = np.argsort(tets, axis=1, kind='stable')
     return (np.ascontiguousarray(np.take_along_axis(tets, order, axis=1)),
             np.ascontiguousarray(np.take_along_axis(grads, order[:, :, None], axis=1)))
 
 
 class SoftBodySimulator:
-    """Tetrahedral soft body with springs, corotated FEM, Rayleigh damping and height-field ground contact.
+    """
+    Tetrahedral soft body with springs, corotated FEM, Rayleigh damping and height-field ground contact.
 
     `terrain` is a `HeightField` (None = no ground). `fidelity` is a preset name or `Fidelity`; `overrides`
     replace its fields (dt, solver, cg_tol, cg_max_iter, jacobian_every, polar_iters). With `cg_fallback`, a step
@@ -106,7 +125,7 @@ class SoftBodySimulator:
 
     # ------------------------------------------------------------------------------------------ building
     def _build_model_arrays(self, model, terrain, friction) -> None:
-        """Static arrays of the compiled kernels (`self._model`, a KernelModel)."""
+        """Build static arrays of the compiled kernels (`self._model`, a KernelModel)."""
         rest = np.ascontiguousarray(model.rest_positions, dtype=np.float64)
         tets = np.ascontiguousarray(model.tets, dtype=np.int64)
         springs = np.ascontiguousarray(model.springs, dtype=np.int64).reshape(-1, 2)
@@ -179,8 +198,11 @@ class SoftBodySimulator:
         self._held_lengths: np.ndarray | None = None
 
     def _build_factor(self) -> CholeskyFactor:
-        """The CholeskyFactor of the compiled step loop: pattern and factor storage when the preconditioner is
-        'cholesky', else empty arrays of the same types."""
+        """
+        Return the CholeskyFactor of the compiled step loop.
+
+        Pattern and factor storage when the preconditioner is 'cholesky', else empty arrays of the same types.
+        """
         if self.fidelity.preconditioner == 'cholesky':
             return CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols).factor()
         return empty_factor(len(self.rest_positions))
@@ -229,8 +251,11 @@ class SoftBodySimulator:
         return self._state.contact_state != CONTACT_NONE
 
     def ground_forces(self) -> np.ndarray:
-        """Ground reaction (normal + friction) on each node `(n_nodes, 3)` N at the current state (zero without
-        terrain); evaluates the contact kernel on copies, so the simulation is not changed."""
+        """
+        Ground reaction (normal + friction) on each node `(n_nodes, 3)` N at the current state (zero without terrain).
+
+        Evaluates the contact kernel on copies, so the simulation is not changed.
+        """
         s = self._state
         forces = np.zeros_like(s.positions)
         if self.terrain is None:
@@ -246,13 +271,16 @@ class SoftBodySimulator:
 
     @property
     def steps_per_frame(self) -> int:
-        """Steps in one 1/30 s reference frame at this time step."""
+        """Return steps in one 1/30 s reference frame at this time step."""
         return max(1, int(round(1.0 / (FRAME_RATE * self.fidelity.dt))))
 
     @property
     def stats(self) -> dict:
-        """Counters: steps, CG iterations (total and per step), Jacobian refreshes, Cholesky factorisations,
-        nodes in contact."""
+        """
+        Counters.
+
+        Steps, CG iterations (total and per step), Jacobian refreshes, Cholesky factorisations, nodes in contact.
+        """
         c = self._counters
         steps = int(c[itg.C_STEP])
         return {'steps': steps, 'cg_iterations': int(c[itg.C_CG_ITERS]),
@@ -263,9 +291,12 @@ class SoftBodySimulator:
 
     # -------------------------------------------------------------------------------------------- stepping
     def advance_frame(self, desired_lengths=None, external_forces=None, n_steps: int | None = None) -> None:
-        """Advance `n_steps` (default one 1/30 s frame) with spring desired lengths `(n_springs,)` m (reached at the
-        last step, see `length_hold`) and constant external forces `(n_nodes, 3)` N (None = none); raises
-        SimulationDiverged on failure."""
+        """
+        Advance `n_steps` (default one 1/30 s frame) with spring desired lengths `(n_springs,)` m.
+
+        (reached at the last step, see `length_hold`) and constant external forces `(n_nodes, 3)` N (None = none);
+        raises SimulationDiverged on failure.
+        """
         if self._diverged is not None:
             raise self._diverged
         ld = self.desired_lengths_rest if desired_lengths is None else np.asarray(desired_lengths, np.float64)
@@ -291,7 +322,7 @@ class SoftBodySimulator:
         self.advance_frame(desired_lengths, external_forces, int(round(duration / self.fidelity.dt)))
 
     def _run_cg(self, ld_from, ld, ext, n_steps, ramp) -> tuple:
-        """Steps in one compiled call; a step whose CG fails is solved by sparse LU (if `cg_fallback`)."""
+        """Return steps in one compiled call; a step whose CG fails is solved by sparse LU (if `cg_fallback`)."""
         done_total = 0
         while True:
             status, done = itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters,
@@ -336,7 +367,7 @@ class SoftBodySimulator:
         return itg.STATUS_OK, n_steps
 
     def _divergence(self, status: int) -> SimulationDiverged:
-        """The error for a failed step, naming the cause, the time and what to change."""
+        """Return the error for a failed step, naming the cause, the time and what to change."""
         node, value = int(self._info[0]), float(self._info[1])
         t = self._counters[itg.C_STEP] * self.fidelity.dt
         hint = 'reduce dt, stiffness or forces, or use a more accurate fidelity preset'

@@ -1,12 +1,29 @@
-"""Linear solvers for the implicit step `A Δv = b`: preconditioned CG (numba; block Jacobi, SSOR or a block
-Cholesky factor) and a direct LU."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Linear solvers for the implicit step `A Δv = b`.
+
+Preconditioned CG (numba; block Jacobi, SSOR or a block Cholesky factor) and a direct LU.
+"""
 from __future__ import annotations
 
 import numba
 import numpy as np
 
-from iguana_ros.physics.assembly import BlockPattern, block_matvec
-from iguana_ros.physics.cholesky import CholeskyArrays, CholeskyFactor, cholesky_solve
+from iguana_ros.physics.assembly import block_matvec, BlockPattern
+from iguana_ros.physics.cholesky import cholesky_solve, CholeskyArrays, CholeskyFactor
 
 PRECONDITIONER_CODES = {'jacobi': 0, 'ssor': 1, 'cholesky': 2}
 """Integer codes of the CG preconditioners in the compiled kernels."""
@@ -23,7 +40,7 @@ def _dot(a, b):
 
 @numba.njit(cache=True)
 def _precondition(pinv, r, z):
-    """z = P⁻¹ r with the inverted 3×3 diagonal blocks `pinv (n, 3, 3)`."""
+    """`z` = P⁻¹ r with the inverted 3×3 diagonal blocks `pinv (n, 3, 3)`."""
     for i in range(r.shape[0]):
         r0, r1, r2 = r[i, 0], r[i, 1], r[i, 2]
         for k in range(3):
@@ -32,8 +49,11 @@ def _precondition(pinv, r, z):
 
 @numba.njit(cache=True)
 def _ssor(row_ptr, cols, blocks, pinv, r, z):
-    """z = M⁻¹ r for the symmetric block Gauss–Seidel preconditioner M = (D + L) D⁻¹ (D + U), with A stored as
-    its upper block triangle (L = Uᵀ)."""
+    """
+    `z` = M⁻¹ r for the symmetric block Gauss–Seidel preconditioner M = (D + L) D⁻¹ (D + U).
+
+    with A stored as its upper block triangle (L = Uᵀ).
+    """
     n = r.shape[0]
     z[:] = r
     for i in range(n):                               # forward: (D + Uᵀ) y = r; y_i final, then pushed to rows j > i
@@ -64,7 +84,7 @@ def _ssor(row_ptr, cols, blocks, pinv, r, z):
 
 @numba.njit(cache=True)
 def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
-    """z = P⁻¹ r: block Jacobi (kind 0), symmetric block Gauss–Seidel (1) or the block Cholesky factor (2)."""
+    """`z` = P⁻¹ r: block Jacobi (kind 0), symmetric block Gauss–Seidel (1) or the block Cholesky factor (2)."""
     if kind == 2:
         cholesky_solve(chol.pattern, chol.values, chol.diag_inv, r, z, chol.work)
     elif kind == 1:
@@ -75,7 +95,7 @@ def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
 
 @numba.njit(cache=True)
 def _no_factor(n):
-    """A `chol` argument for the preconditioners that use no factor."""
+    """Return a `chol` argument for the preconditioners that use no factor."""
     e = np.zeros(0, dtype=np.int64)
     return CholeskyFactor(CholeskyArrays(e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)),
                           np.zeros((0, 3, 3)), np.zeros((n, 3)), e)
@@ -90,7 +110,8 @@ def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, wor
 
 @numba.njit(cache=True)
 def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind):
-    """Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
+    """
+    Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
 
     A is stored as its upper block triangle (`iguana_ros.physics.assembly`). Preconditioner `kind`
     (PRECONDITIONER_CODES): inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi), symmetric block
@@ -150,5 +171,5 @@ class DirectSolver:
         self._lu = splu(self._pattern.to_scipy(blocks), permc_spec='MMD_AT_PLUS_A')
 
     def solve(self, rhs: np.ndarray, out: np.ndarray) -> None:
-        """out `(n, 3)` = A⁻¹ rhs `(n, 3)` with the last factorisation."""
+        """`out` `(n, 3)` = A⁻¹ rhs `(n, 3)` with the last factorisation."""
         out[:] = self._lu.solve(rhs.ravel()).reshape(out.shape)

@@ -1,4 +1,19 @@
-"""Pinhole and orthographic cameras, and the camera presets of `iguana render` (follow, side, top, orbit).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Pinhole and orthographic cameras, and the camera presets of `iguana render` (follow, side, top, orbit).
 
 World frame: z up. A camera frame has x to the image right, y to the image top and z forward (into the
 scene). Presets turn a recorded root track into one camera per rendered frame; `side` and `top` are static
@@ -64,7 +79,7 @@ class Camera:
 
     @property
     def orthographic(self) -> bool:
-        """True for an orthographic camera."""
+        """Return True for an orthographic camera."""
         return self.ortho_height > 0.0
 
     def basis(self) -> np.ndarray:
@@ -147,7 +162,11 @@ def orbit_cameras(times: np.ndarray, positions: np.ndarray, yaws: np.ndarray | N
 
 
 def travel_direction(positions: np.ndarray, heading: float = 0.0) -> np.ndarray:
-    """Unit xy direction `(2,)` of the track's principal axis, oriented start to end; `heading` if it barely moves."""
+    """
+    Return unit xy direction `(2,)` of the track's principal axis, oriented start to end.
+
+    `heading` if it barely moves.
+    """
     xy = positions[:, :2]
     if len(xy) < 2 or np.ptp(xy, axis=0).max() < 0.05:
         return np.array([np.cos(heading), np.sin(heading)])
@@ -157,7 +176,7 @@ def travel_direction(positions: np.ndarray, heading: float = 0.0) -> np.ndarray:
 
 
 def framed_camera(forward: np.ndarray, up_hint: np.ndarray, points: np.ndarray, aspect: float) -> Camera:
-    """Static orthographic camera along `forward (3,)` whose view holds every point `(n, 3)` with a margin."""
+    """Return static orthographic camera along `forward (3,)` whose view holds every point `(n, 3)` with a margin."""
     cam = Camera(np.zeros(3), forward / np.linalg.norm(forward), up_hint, ortho_height=1.0)
     basis = cam.basis()
     local = points @ basis.T
@@ -170,7 +189,7 @@ def framed_camera(forward: np.ndarray, up_hint: np.ndarray, points: np.ndarray, 
 
 
 def side_camera(positions: np.ndarray, extent_points: np.ndarray, aspect: float, heading: float) -> Camera:
-    """Static view from the right of the travel direction, tilted down STATIC_TILT_DEG, framing the run."""
+    """Return static view from the right of the travel direction, tilted down STATIC_TILT_DEG, framing the run."""
     d = travel_direction(positions, heading)
     level = np.array([-d[1], d[0], 0.0])
     tilt = np.radians(STATIC_TILT_DEG)
@@ -178,15 +197,18 @@ def side_camera(positions: np.ndarray, extent_points: np.ndarray, aspect: float,
 
 
 def top_camera(positions: np.ndarray, extent_points: np.ndarray, aspect: float, heading: float) -> Camera:
-    """Static view straight down, travel direction to the image right, framing the run."""
+    """Return static view straight down, travel direction to the image right, framing the run."""
     d = travel_direction(positions, heading)
     return framed_camera(-_Z, np.array([-d[1], d[0], 0.0]), extent_points, aspect)
 
 
 def preset_cameras(preset: str, times: np.ndarray, positions: np.ndarray, yaws: np.ndarray | None,
                    extent_points: np.ndarray, aspect: float) -> list[Camera]:
-    """One camera per frame time `(n,)` for `preset`, from root positions `(n, 3)`, yaws `(n,)` or None, and
-    the points `(m, 3)` a static view must show; static presets return the same Camera object n times."""
+    """
+    One camera per frame time `(n,)` for `preset`, from root positions `(n, 3)`, yaws `(n,)` or None.
+
+    and the points `(m, 3)` a static view must show; static presets return the same Camera object n times.
+    """
     if preset not in PRESETS:
         raise InputError(f'unknown camera {preset!r}; expected one of: {", ".join(PRESETS)}')
     if preset == 'follow':

@@ -1,8 +1,26 @@
-"""Image and animation writers: PNG (one frame), GIF (Pillow, one median-cut palette) and MP4 (H.264, imageio-ffmpeg)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Image and animation writers.
+
+PNG (one frame), GIF (Pillow, one median-cut palette) and MP4 (H.264, imageio-ffmpeg).
+"""
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterable
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -45,8 +63,12 @@ def write_png(path: str | Path, image: np.ndarray) -> Path:
 
 
 def gif_palette(first: np.ndarray, key_colors: Iterable = ()):
-    """A median-cut 256-colour palette image for a whole GIF: the first frame `(H, W, 3)` uint8 plus a
-    block of each of `key_colors` (RGB in [0, 1]: trail, goals) so rare colours keep an entry."""
+    """
+    Return a median-cut 256-colour palette image for a whole GIF.
+
+    The first frame `(H, W, 3)` uint8 plus a block of each of `key_colors` (RGB in [0, 1]: trail, goals) so rare colours
+    keep an entry.
+    """
     from PIL import Image
 
     blocks = [np.broadcast_to(np.round(np.asarray(c, dtype=float)[:3] * 255).astype(np.uint8),

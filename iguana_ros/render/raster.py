@@ -1,4 +1,19 @@
-"""Compiled rasterization kernels: near-plane clipping, z-buffered flat triangles, depth-tested line segments.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Compiled rasterization kernels: near-plane clipping, z-buffered flat triangles, depth-tested line segments.
 
 Screen coordinates are pixels with the origin at the top-left corner; pixel (row i, column j) has its centre
 at (j + 0.5, i + 0.5). Every depth test compares a per-vertex `key` interpolated linearly in screen space where
@@ -13,7 +28,8 @@ import numpy as np
 
 @numba.njit(cache=True)
 def clip_near(cam, attrs, near):
-    """Clip triangles `cam (n, 3, 3)` (camera frame, z forward) against the plane z = `near`.
+    """
+    Clip triangles `cam (n, 3, 3)` (camera frame, z forward) against the plane z = `near`.
 
     Per-vertex attributes `attrs (n, 3, a)` are interpolated along clipped edges. Returns clipped
     triangles `(m, 3, 3)`, their attributes `(m, 3, a)` and the source triangle of each `(m,)`; a triangle
@@ -87,7 +103,8 @@ def _checker_factor(w0, w1, w2, q, wxy, t, cell, dark):
 @numba.njit(cache=True)
 def rasterize_triangles(color, depth, xy, key, q, rgb, wxy, checker_cell, checker_dark,
                         outline_px, outline_dark):
-    """Z-buffered flat fill of triangles `xy (n, 3, 2)` px into `color (H, W, 3)` and `depth (H, W)`.
+    """
+    Z-buffered flat fill of triangles `xy (n, 3, 2)` px into `color (H, W, 3)` and `depth (H, W)`.
 
     `key (n, 3)`: depth key per vertex (bigger = nearer); `rgb (n, 3)`: flat colour per triangle;
     `q (n, 3)`: perspective weights (1/z, or 1 for orthographic) and `wxy (n, 3, 2)` world x, y per vertex,
@@ -141,7 +158,8 @@ def rasterize_triangles(color, depth, xy, key, q, rgb, wxy, checker_cell, checke
 
 @numba.njit(cache=True)
 def draw_segments(color, depth, p0, p1, k0, k1, radius, rgb):
-    """Depth-tested round-capped segments `p0 (m, 2)` -> `p1 (m, 2)` px of `radius` px in colour `rgb (3,)`.
+    """
+    Depth-tested round-capped segments `p0 (m, 2)` -> `p1 (m, 2)` px of `radius` px in colour `rgb (3,)`.
 
     `k0, k1 (m,)` are the depth keys of the end points (bigger = nearer); a pixel is painted where the
     segment's key is at least the stored one. Segments longer than 4 (W + H) px are skipped (off-screen

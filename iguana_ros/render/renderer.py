@@ -1,4 +1,19 @@
-"""Draws a `RecordedRun` frame by frame: sky, terrain, goal spheres, root trail and the flat-shaded iguana.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Draws a `RecordedRun` frame by frame: sky, terrain, goal spheres, root trail and the flat-shaded iguana.
 
 A z-buffered software rasterizer (numba kernels in `raster`) at `supersample`x the output size, box-filtered
 down (anti-aliasing). Colours are flat per triangle: the mean of its corners' marker colours times a

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """A recorded run as plain numpy arrays (ROS-free): what `iguana_ros.bag.frames` reads and `Renderer` draws."""
 from __future__ import annotations
 
@@ -18,7 +32,8 @@ class GoalSet:
 
 @dataclass
 class RecordedRun:
-    """Frames of a run: times (s from the first mesh frame), surface triangle soups, root poses, scene.
+    """
+    Frames of a run: times (s from the first mesh frame), surface triangle soups, root poses, scene.
 
     `mesh_points[i] (3*n_t, 3)` m and `mesh_colors[i] (3*n_t, 4)` are frame i's TRIANGLE_LIST corners;
     `root_positions (n, 3)` m and `root_yaws (n,)` rad (None without odometry, then the positions are mesh
@@ -45,11 +60,11 @@ class RecordedRun:
 
     @property
     def n_frames(self) -> int:
-        """Number of frames."""
+        """Return number of frames."""
         return len(self.times)
 
     def goals_at(self, t: float) -> GoalSet | None:
-        """The latest GoalSet whose time is <= `t` (the first one before any), or None without goals."""
+        """Return the latest GoalSet whose time is <= `t` (the first one before any), or None without goals."""
         if not self.goals:
             return None
         current = self.goals[0]
@@ -59,10 +74,13 @@ class RecordedRun:
         return current
 
     def extent_points(self, max_frames: int = 60) -> np.ndarray:
-        """Points `(m, 3)` a static view must show: mesh corners of up to `max_frames` frames, the root path
-        and the goal spheres."""
+        """
+        Points `(m, 3)` a static view must show.
+
+        Mesh corners of up to `max_frames` frames, the root path and the goal spheres.
+        """
         step = max(1, self.n_frames // max_frames)
-        parts = [p for p in self.mesh_points[::step]] + [self.mesh_points[-1], self.track_positions]
+        parts = list(self.mesh_points[::step]) + [self.mesh_points[-1], self.track_positions]
         for g in self.goals:
             for sign in (-1.0, 1.0):
                 parts.append(g.positions + sign * g.radii[:, None])

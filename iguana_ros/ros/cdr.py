@@ -1,6 +1,23 @@
-"""The one CDR codec: serialized ROS 2 messages (little-endian plain CDR, XCDR1, as rmw_fastrtps and rosbag2 write
-them) read and written with numpy, for the messages too large for the Python message classes (one object per
-point): visualization_msgs/Marker and MarkerArray.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The one CDR codec.
+
+Serialized ROS 2 messages (little-endian plain CDR, XCDR1, as rmw_fastrtps and rosbag2 write them) read and written with
+numpy, for the messages too large for the Python message classes (one object per point): visualization_msgs/Marker and
+MarkerArray.
 
 A layout lists a message's fields in wire order; `CdrWriter.write` and `CdrReader.read` walk the same layout, so
 the bytes built and the bytes read follow one definition (`MARKER`). Alignment is relative to the payload start,
@@ -9,9 +26,9 @@ imports no message package for it); the message classes are imported when a mark
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import struct
 import typing
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,7 +76,7 @@ def _alignment(fmt: str) -> int:
 
 
 def _default(kind) -> object:
-    """The value a field takes when a writer is not given it: zeros, '' or an empty sequence."""
+    """Return the value a field takes when a writer is not given it: zeros, '' or an empty sequence."""
     if kind == STRING:
         return ''
     if isinstance(kind, Sequence):
@@ -71,7 +88,7 @@ class CdrWriter:
     """Builds one serialized message: the header, then fields appended in order."""
 
     def __init__(self) -> None:
-        """An empty payload after the little-endian header."""
+        """Start an empty payload after the little-endian header."""
         self.parts: list[bytes] = [CDR_LE_HEADER]
         self.size = 0
 
@@ -88,13 +105,13 @@ class CdrWriter:
         self._put(struct.pack('<' + fmt, *values), _alignment(fmt))
 
     def string(self, text: str) -> None:
-        """A CDR string."""
+        """Write a CDR string."""
         raw = text.encode() + b'\x00'
         self.pack('I', len(raw))
         self._put(raw, 1)
 
     def sequence(self, rows: np.ndarray, kind: Sequence) -> None:
-        """A sequence: the row count, then the rows' raw data (row-major, `kind.dtype`)."""
+        """Write a sequence: the row count, then the rows' raw data (row-major, `kind.dtype`)."""
         data = np.ascontiguousarray(rows, dtype=kind.dtype).reshape(-1, kind.width)
         self.pack('I', data.shape[0])
         if data.size:
@@ -111,8 +128,8 @@ class CdrWriter:
             else:
                 self.pack(kind, *(value if isinstance(value, (tuple, list, np.ndarray)) else (value,)))
 
-    def bytes(self) -> bytes:
-        """The serialized message."""
+    def to_bytes(self) -> bytes:
+        """Return the serialized message."""
         return b''.join(self.parts)
 
 
@@ -120,7 +137,7 @@ class CdrReader:
     """Reads the fields of one serialized message in order; struct.error or ValueError if it ends early."""
 
     def __init__(self, data: bytes, what: str = 'message') -> None:
-        """InputError naming `what` unless `data` opens with the little-endian CDR header."""
+        """`InputError` naming `what` unless `data` opens with the little-endian CDR header."""
         if len(data) < 4 or data[:4] != CDR_LE_HEADER:
             raise InputError(f'{what} bytes are not little-endian CDR (expected header 00 01 00 00)')
         self.data, self.pos = data, 0
@@ -133,7 +150,7 @@ class CdrReader:
         return values
 
     def string(self) -> str:
-        """A CDR string (undecodable bytes replaced)."""
+        """Return a CDR string, undecodable bytes replaced."""
         (n,) = self.take('I')
         if 4 + self.pos + n > len(self.data):
             raise ValueError(f'string of {n} bytes runs past the end of the message')
@@ -142,7 +159,7 @@ class CdrReader:
         return text
 
     def sequence(self, kind: Sequence) -> np.ndarray:
-        """A sequence as an array `(n, kind.width)` (a read-only view of the bytes; float64 zeros when empty)."""
+        """Return a sequence as an array `(n, kind.width)` (a read-only view of the bytes; float64 zeros when empty)."""
         (n,) = self.take('I')
         if n == 0:
             return np.zeros((0, kind.width))
@@ -178,7 +195,7 @@ class MarkerData:
     """The fields of a visualization_msgs/Marker that rendering uses, as numpy arrays."""
 
     ns: str
-    type: int
+    type: int  # noqa: A003 - visualization_msgs/Marker.type
     action: int
     position: np.ndarray        # (3,) m
     orientation: np.ndarray     # (4,) xyzw
@@ -189,7 +206,7 @@ class MarkerData:
 
 
 def _marker_data(fields: dict) -> MarkerData:
-    """MarkerData of the fields `CdrReader.read(MARKER)` returned."""
+    """`MarkerData` of the fields `CdrReader.read(MARKER)` returned."""
     pose = np.array(fields['pose'])
     return MarkerData(fields['ns'], fields['type'][0], fields['action'][0], pose[:3], pose[3:],
                       np.array(fields['scale']), np.array(fields['color'], dtype=np.float64),
@@ -199,8 +216,11 @@ def _marker_data(fields: dict) -> MarkerData:
 def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 0.0,
                              frame_id: str = WORLD_FRAME, ns: str = 'iguana',
                              marker_id: int = 0) -> bytes:
-    """Serialized bytes of exactly the Marker `conversions.triangle_list_marker` builds from vertices `(n_v, 3)`,
-    triangles `(n_t, 3)` and RGBA `(n_v, 4)` (the fast path to publish: `publisher.publish(bytes)`)."""
+    """
+    Return serialized bytes of exactly the Marker `conversions.triangle_list_marker` builds from vertices `(n_v, 3)`.
+
+    triangles `(n_t, 3)` and RGBA `(n_v, 4)` (the fast path to publish: `publisher.publish(bytes)`).
+    """
     from builtin_interfaces.msg import Time  # noqa: F811 (the class itself, for isinstance)
 
     from iguana_ros.ros.conversions import time_to_msg, triangle_soup
@@ -212,7 +232,7 @@ def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 
                           'type': _TRIANGLE_LIST, 'action': _ADD, 'pose': (0.0,) * 6 + (1.0,),
                           'scale': (1.0, 1.0, 1.0), 'color': (1.0, 1.0, 1.0, 1.0), 'points': points,
                           'colors': rgba})
-    return writer.bytes()
+    return writer.to_bytes()
 
 
 def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:
@@ -226,8 +246,11 @@ def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:
 
 
 def marker_array_from_cdr(data: bytes, what: str = 'scene_markers') -> list[MarkerData]:
-    """The markers of a serialized visualization_msgs/MarkerArray (no per-point objects); InputError naming
-    `what` if the bytes are not one."""
+    """
+    Return the markers of a serialized visualization_msgs/MarkerArray (no per-point objects).
+
+    InputError naming `what` if the bytes are not one.
+    """
     reader = CdrReader(data, f'{what}: message')
     try:
         (n,) = reader.take('I')

@@ -1,4 +1,19 @@
-"""Vectorised conversions between numpy arrays and the ROS messages of the topic table.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Vectorised conversions between numpy arrays and the ROS messages of the topic table.
 
 Quaternions are xyzw everywhere (ROS and scipy order). Times are float seconds on the numpy side.
 Message construction is bounded by the Python message classes (one object per point); the large per-frame mesh
@@ -9,11 +24,11 @@ from __future__ import annotations
 import array
 from collections.abc import Sequence
 
-import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from geometry_msgs.msg import (Point, Pose, PoseArray, PoseStamped, Quaternion, Transform,
                                Twist, Vector3, Wrench, WrenchStamped)
 from nav_msgs.msg import Odometry
+import numpy as np
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
 from trajectory_msgs.msg import MultiDOFJointTrajectory, MultiDOFJointTrajectoryPoint
@@ -145,8 +160,11 @@ def odometry_to_numpy(msg: Odometry) -> tuple[np.ndarray, np.ndarray, np.ndarray
 # ----------------------------------------------------------------------------- pushes
 
 def push_msg(force, region: str, stamp: float | Time = 0.0) -> WrenchStamped:
-    """geometry_msgs/WrenchStamped of a push: force `(3,)` N in the world frame on the node group `region`
-    (header.frame_id, e.g. 'trunk_left'), no torque."""
+    """
+    geometry_msgs/WrenchStamped of a push.
+
+    force `(3,)` N in the world frame on the node group `region` (header.frame_id, e.g. 'trunk_left'), no torque.
+    """
     f = validate_array('force', force, (3,))
     return WrenchStamped(header=_header(stamp, region), wrench=Wrench(force=Vector3(x=f[0], y=f[1], z=f[2])))
 
@@ -156,8 +174,11 @@ def push_msg(force, region: str, stamp: float | Time = 0.0) -> WrenchStamped:
 def multi_dof_trajectory_msg(times, joint_names: Sequence[str], translations, rotations,
                              stamp: float | Time = 0.0,
                              frame_id: str = WORLD_FRAME) -> MultiDOFJointTrajectory:
-    """MultiDOFJointTrajectory from times `(n_frames,)` s, names, translations `(n_frames, n_joints, 3)`
-    and rotations `(n_frames, n_joints, 4)` xyzw."""
+    """
+    `MultiDOFJointTrajectory` from times `(n_frames,)` s, names.
+
+    translations `(n_frames, n_joints, 3)` and rotations `(n_frames, n_joints, 4)` xyzw.
+    """
     t = validate_array('times', times, (None,))
     n_joints = len(joint_names)
     trans = validate_array('translations', translations, (t.shape[0], n_joints, 3))
@@ -175,8 +196,11 @@ def multi_dof_trajectory_msg(times, joint_names: Sequence[str], translations, ro
 
 def multi_dof_trajectory_to_numpy(msg: MultiDOFJointTrajectory
                                   ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
-    """Times `(n_frames,)`, joint names, translations `(n_frames, n_joints, 3)`, rotations `(..., 4)`; InputError if
-    a point holds another number of transforms than there are joint names."""
+    """
+    Return times `(n_frames,)`, joint names, translations `(n_frames, n_joints, 3)`, rotations `(..., 4)`.
+
+    InputError if a point holds another number of transforms than there are joint names.
+    """
     n_joints = len(msg.joint_names)
     counts = {len(p.transforms) for p in msg.points}
     if counts - {n_joints}:
@@ -210,7 +234,8 @@ def triangle_soup(vertices, triangles, colors) -> tuple[np.ndarray, np.ndarray]:
 def triangle_list_marker(vertices, triangles, colors, stamp: float | Time = 0.0,
                          frame_id: str = WORLD_FRAME, ns: str = 'iguana',
                          marker_id: int = 0) -> Marker:
-    """TRIANGLE_LIST Marker from vertices `(n_v, 3)`, triangles `(n_t, 3)` and RGBA `(n_v, 4)` in [0, 1].
+    """
+    TRIANGLE_LIST Marker from vertices `(n_v, 3)`, triangles `(n_t, 3)` and RGBA `(n_v, 4)` in [0, 1].
 
     points/colors get 3*n_t entries; color.a = 1, scale = 1, identity pose so RViz2 and Foxglove draw it.
     """
@@ -234,7 +259,7 @@ def triangle_list_from_marker(msg: Marker) -> tuple[np.ndarray, np.ndarray]:
 
 
 def marker_array_msg(markers: Sequence[Marker], delete_all_first: bool = False) -> MarkerArray:
-    """MarkerArray of `markers`, optionally preceded by a DELETEALL marker that clears old ones."""
+    """`MarkerArray` of `markers`, optionally preceded by a DELETEALL marker that clears old ones."""
     items = list(markers)
     if delete_all_first:
         items.insert(0, Marker(action=Marker.DELETEALL))

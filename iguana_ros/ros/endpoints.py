@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Turns the ROS-free topic table into rclpy QoS profiles and message classes."""
 from __future__ import annotations
 
@@ -5,7 +19,7 @@ import importlib
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from iguana_ros.topics import QosSpec, TopicSpec, topic
+from iguana_ros.topics import QosSpec, topic, TopicSpec
 
 _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE, 'best_effort': ReliabilityPolicy.BEST_EFFORT}
 _DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
@@ -22,7 +36,7 @@ not count it as a peer)."""
 
 
 def qos_profile(spec: QosSpec) -> QoSProfile:
-    """rclpy QoSProfile for a QosSpec."""
+    """`rclpy` QoSProfile for a QosSpec."""
     return QoSProfile(reliability=_RELIABILITY[spec.reliability],
                       durability=_DURABILITY[spec.durability],
                       history=_HISTORY[spec.history], depth=spec.depth)

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The pipeline's values as the topic table's messages, and back, with validation (float64 end to end)."""
 from __future__ import annotations
 
@@ -20,13 +34,13 @@ from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_
 
 
 def check_frame_id(what: str, frame_id: str) -> None:
-    """InputError unless `frame_id` is the world frame."""
+    """`InputError` unless `frame_id` is the world frame."""
     if frame_id != WORLD_FRAME:
         raise InputError(f'{what} has frame_id {frame_id!r}, expected {WORLD_FRAME!r}')
 
 
 def clip_to_msg(clip: AlignedClip, skeleton, start_frame: int):
-    """MultiDOFJointTrajectory of a placed clip: bone 0 carries the root pose, the others their offsets."""
+    """`MultiDOFJointTrajectory` of a placed clip: bone 0 carries the root pose, the others their offsets."""
     n = len(clip.root_positions)
     translations = np.broadcast_to(skeleton.offsets, (n,) + skeleton.offsets.shape).copy()
     translations[:, 0] = clip.root_positions
@@ -37,8 +51,12 @@ def clip_to_msg(clip: AlignedClip, skeleton, start_frame: int):
 
 
 def clip_from_msg(msg, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
-    """(start frame, placed clip) of a motion_clip message; InputError unless it fits `skeleton` (joint names,
-    bone offsets, unit rotations, 2..MAX_CLIP_FRAMES points) with its root within `bound` m."""
+    """
+    (start frame, placed clip) of a motion_clip message.
+
+    InputError unless it fits `skeleton` (joint names, bone offsets, unit rotations, 2..MAX_CLIP_FRAMES points) with its
+    root within `bound` m.
+    """
     check_frame_id('motion_clip', msg.header.frame_id)
     _times, names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
     if tuple(names) != tuple(skeleton.names):
@@ -51,8 +69,12 @@ def clip_from_msg(msg, skeleton, bound: float = math.inf) -> tuple[int, AlignedC
 
 
 def stride_from_msg(msg) -> tuple[int, Stride]:
-    """(start frame, Stride) of a motion_clip message: the frames it advances and its root's displacement `(2,)`
-    (first to last point) and first heading, in the world; InputError if it does not fit."""
+    """
+    (start frame, Stride) of a motion_clip message.
+
+    The frames it advances and its root's displacement `(2,)` (first to last point) and first heading, in the world;
+    InputError if it does not fit.
+    """
     check_frame_id('motion_clip', msg.header.frame_id)
     _times, _names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
     if len(translations) < 2 or translations.shape[1] < 1:
@@ -64,14 +86,18 @@ def stride_from_msg(msg) -> tuple[int, Stride]:
 
 
 def reference_pose_to_msg(joint_positions: np.ndarray, joint_rotations: np.ndarray, frame: int):
-    """PoseArray of world bone frames `(n_bones, 3)`, `(n_bones, 4)` stamped with `frame`."""
+    """`PoseArray` of world bone frames `(n_bones, 3)`, `(n_bones, 4)` stamped with `frame`."""
     return pose_array_msg(joint_positions, joint_rotations, stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
 
 
 def reference_pose_from_msg(msg, n_bones: int, skeleton=None, bound: float = math.inf
                             ) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, positions `(n_bones, 3)`, rotations `(n_bones, 4)`) of a reference_pose message; with `skeleton`,
-    InputError unless the bone frames fit it (unit rotations, bone lengths) within `bound` m of the origin."""
+    """
+    (frame, positions `(n_bones, 3)`, rotations `(n_bones, 4)`) of a reference_pose message.
+
+    With `skeleton`, InputError unless the bone frames fit it (unit rotations, bone lengths) within `bound` m of the
+    origin.
+    """
     check_frame_id('reference_pose', msg.header.frame_id)
     positions, rotations = pose_array_to_numpy(msg)
     validate_array('reference_pose positions', positions, (n_bones, 3))
@@ -82,13 +108,17 @@ def reference_pose_from_msg(msg, n_bones: int, skeleton=None, bound: float = mat
 
 
 def lengths_to_msg(lengths: np.ndarray, frame: int):
-    """JointState whose position holds the desired spring lengths `(n_springs,)` of `frame`."""
+    """`JointState` whose position holds the desired spring lengths `(n_springs,)` of `frame`."""
     return joint_state_msg(lengths, stamp=frame_stamp(frame))
 
 
 def lengths_from_msg(msg, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
-    """(frame, lengths `(n_springs,)`) of a spring_rest_lengths message; InputError if wrong or negative, or (given
-    the model's `rest_lengths`) outside the factor of rest that `check_desired_lengths` allows."""
+    """
+    (frame, lengths `(n_springs,)`) of a spring_rest_lengths message.
+
+    InputError if wrong or negative, or (given the model's `rest_lengths`) outside the factor of rest that
+    `check_desired_lengths` allows.
+    """
     lengths = validate_array('spring_rest_lengths', joint_state_positions(msg), (n_springs,))
     if np.any(lengths < 0.0):
         raise InputError('spring_rest_lengths has negative lengths')
@@ -104,8 +134,11 @@ def state_to_msg(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, 
 
 
 def state_from_msg(msg, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, root position `(3,)`, orientation `(4,)`) of an iguana_state message; InputError if non-finite
-    (pose or twist), not a unit orientation, or beyond `bound` m."""
+    """
+    (frame, root position `(3,)`, orientation `(4,)`) of an iguana_state message.
+
+    InputError if non-finite (pose or twist), not a unit orientation, or beyond `bound` m.
+    """
     check_frame_id('iguana_state', msg.header.frame_id)
     position, orientation, linear, angular = odometry_to_numpy(msg)
     position, orientation = check_root_pose('iguana_state', position, orientation, bound)
@@ -114,16 +147,23 @@ def state_from_msg(msg, bound: float = math.inf) -> tuple[int, np.ndarray, np.nd
 
 
 def goal_from_msg(msg, half_extent: float) -> tuple[np.ndarray, float]:
-    """((x, y) `(2,)` m, adoption time s) of a goal_pose message on a terrain reaching `half_extent` m from the
-    origin; InputError if its frame, numbers or stamp are wrong or the goal is off the terrain (`check_goal`)."""
+    """
+    ((x, y) `(2,)` m, adoption time s) of a goal_pose message on a terrain reaching `half_extent` m from the origin.
+
+    InputError if its frame, numbers or stamp are wrong or the goal is off the terrain (`check_goal`).
+    """
     check_frame_id('goal_pose', msg.header.frame_id)
     position, orientation = pose_stamped_to_numpy(msg)
     return check_goal(position, orientation, time_from_msg(msg.header.stamp), half_extent)
 
 
 def push_from_msg(msg, regions, duration: float, active_forces=()) -> tuple[np.ndarray, str]:
-    """(force `(3,)` N, region) of a push message (header.frame_id names the region, '' = trunk_left) lasting
-    `duration` s while `active_forces` act; InputError unless `check_push` accepts it."""
+    """
+    (force `(3,)` N, region) of a push message.
+
+    (header.frame_id names the region, '' = trunk_left) lasting `duration` s while `active_forces` act; InputError
+    unless `check_push` accepts it.
+    """
     wrench = msg.wrench
     region = msg.header.frame_id or 'trunk_left'
     force = check_push([wrench.force.x, wrench.force.y, wrench.force.z],
@@ -133,8 +173,12 @@ def push_from_msg(msg, regions, duration: float, active_forces=()) -> tuple[np.n
 
 
 def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):
-    """foot_state: JointState named FEET, position = sole heights above the terrain `(4,)` m, effort = contact
-    flags `(4,)` as 1.0 / 0.0, stamped with `frame` (the state after `frame` frames)."""
+    """
+    foot_state.
+
+    JointState named FEET, position = sole heights above the terrain `(4,)` m, effort = contact flags `(4,)` as 1.0 /
+    0.0, stamped with `frame` (the state after `frame` frames).
+    """
     return _feet_msg(heights, contact, frame)
 
 
@@ -170,7 +214,7 @@ def foot_positions_from_msg(msg) -> tuple[int, np.ndarray]:
 
 
 def _feet_msg(values: np.ndarray | None, flags: np.ndarray, frame: int):
-    """JointState named FEET: position = `values` (None = empty), effort = `flags` as 1.0 / 0.0."""
+    """`JointState` named FEET: position = `values` (None = empty), effort = `flags` as 1.0 / 0.0."""
     shape = (0,) if values is None else (len(FEET),)
     msg = joint_state_msg(validate_array('foot values', np.zeros(0) if values is None else values, shape),
                           stamp=frame_stamp(frame))

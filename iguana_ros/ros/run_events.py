@@ -1,6 +1,24 @@
-"""run_events messages: what a node process reports about itself (iguana_ros.progress.RunEvent) as the topic
-table's diagnostic_msgs/DiagnosticArray: header stamped with the wall clock (system time) of the event, one
-DiagnosticStatus whose name is the node, message the event, values detail, clip and frame."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+run_events messages.
+
+What a node process reports about itself (iguana_ros.progress.RunEvent) as the topic table's
+diagnostic_msgs/DiagnosticArray: header stamped with the wall clock (system time) of the event, one DiagnosticStatus
+whose name is the node, message the event, values detail, clip and frame.
+"""
 from __future__ import annotations
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -15,7 +33,7 @@ MAX_TEXT = 200
 
 
 def run_event_msg(event: RunEvent) -> DiagnosticArray:
-    """DiagnosticArray of one RunEvent."""
+    """`DiagnosticArray` of one RunEvent."""
     values = [KeyValue(key='detail', value=event.detail), KeyValue(key='clip', value=event.clip),
               KeyValue(key='frame', value=str(int(event.frame)))]
     status = DiagnosticStatus(level=DiagnosticStatus.OK, name=event.node, message=event.kind, values=values)
@@ -23,8 +41,11 @@ def run_event_msg(event: RunEvent) -> DiagnosticArray:
 
 
 def run_event_from_msg(msg) -> RunEvent:
-    """RunEvent of a run_events message; InputError unless it holds one status with a short name, event and
-    values and an integer frame."""
+    """
+    `RunEvent` of a run_events message.
+
+    InputError unless it holds one status with a short name, event and values and an integer frame.
+    """
     if len(msg.status) != 1:
         raise InputError(f'run_events holds {len(msg.status)} statuses, expected 1')
     status = msg.status[0]

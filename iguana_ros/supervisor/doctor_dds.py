@@ -1,6 +1,23 @@
-"""`iguana doctor`'s DDS checks: a publish/subscribe loopback with a second process on this ROS_DOMAIN_ID, and
-the other participants already on that domain (the rclpy graph after a discovery wait; other runs' processes from
-/proc, as `iguana run`'s own domain check finds them).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana doctor`'s DDS checks.
+
+A publish/subscribe loopback with a second process on this ROS_DOMAIN_ID, and the other participants already on that
+domain (the rclpy graph after a discovery wait; other runs' processes from /proc, as `iguana run`'s own domain check
+finds them).
 
 The loopback is real DDS between two processes: this process publishes a token on doctor_ping every
 PING_PERIOD_S, the echo process (`python -m iguana_ros.supervisor.doctor_dds`, started as a NodeProcess so it dies
@@ -8,14 +25,14 @@ with its parent) sends it back on doctor_pong.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import os
 import sys
 import time
 import uuid
-from dataclasses import dataclass
 
 from iguana_ros.doctor import Check
-from iguana_ros.supervisor.domain_check import DomainReport, DomainWatch, current_domain_id, other_runs
+from iguana_ros.supervisor.domain_check import current_domain_id, DomainReport, DomainWatch, other_runs
 from iguana_ros.supervisor.process import NodeProcess, stop_all
 
 DOCTOR_NODE_NAME = 'iguana_doctor'
@@ -50,7 +67,7 @@ class LoopbackResult:
 
 
 def echo_main(lifetime_s: float = ECHO_LIFETIME_S) -> int:
-    """The echo process: send every doctor_ping back on doctor_pong until SIGINT/SIGTERM or `lifetime_s`."""
+    """Return the echo process: send every doctor_ping back on doctor_pong until SIGINT/SIGTERM or `lifetime_s`."""
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
@@ -111,7 +128,7 @@ def loopback(watch: DomainWatch, timeout: float = LOOPBACK_TIMEOUT_S) -> Loopbac
 
 
 def loopback_fix() -> str:
-    """What to change when two processes on this machine cannot reach each other over DDS."""
+    """Return what to change when two processes on this machine cannot reach each other over DDS."""
     scope = os.environ.get(DISCOVERY_RANGE_ENV, '').strip().upper()
     if scope == 'OFF':
         return f'{DISCOVERY_RANGE_ENV}=OFF turns discovery off: export {DISCOVERY_RANGE_ENV}=LOCALHOST'
@@ -125,7 +142,7 @@ def loopback_fix() -> str:
 
 
 def check_loopback(result: LoopbackResult, domain: str) -> Check:
-    """The loopback's Check line."""
+    """Return the loopback's Check line."""
     name = f'DDS loopback on ROS_DOMAIN_ID {domain}'
     if result.ok:
         return Check(name, True, f'a second process echoed a message in {result.seconds:.2f} s '
@@ -136,7 +153,7 @@ def check_loopback(result: LoopbackResult, domain: str) -> Check:
 
 
 def check_participants(others: list[str], domain: str, run_nodes: list[str], processes: list) -> Check:
-    """The 'other participants' Check line: foreign nodes on the graph and other runs' processes."""
+    """Return the 'other participants' Check line: foreign nodes on the graph and other runs' processes."""
     name = f'other participants on ROS_DOMAIN_ID {domain}'
     if not others and not processes:
         return Check(name, True, f'none after {DISCOVERY_WAIT_S:g} s of discovery')
@@ -146,17 +163,20 @@ def check_participants(others: list[str], domain: str, run_nodes: list[str], pro
     if others:
         named = ', '.join(others[:8]) + (f' and {len(others) - 8} more' if len(others) > 8 else '')
         parts.append(f'{len(others)} node{"s" * (len(others) != 1)}: {named}')
-    clash = ' (named like a run\'s own: iguana run would refuse this domain)' if run_nodes else ''
+    clash = " (named like a run's own: iguana run would refuse this domain)" if run_nodes else ''
     pids = ' '.join(str(p.pid) for p in processes)
     stop = f'stop them (kill {pids})' if pids else 'stop them'
-    return Check(name, False, '; '.join(parts) + clash + '; their traffic would mix with a run\'s',
+    return Check(name, False, '; '.join(parts) + clash + "; their traffic would mix with a run's",
                  f'{stop}, or use a domain of your own: export ROS_DOMAIN_ID=<0-101, not {domain}>')
 
 
 def dds_checks(run_node_names: tuple[str, ...], timeout: float = LOOPBACK_TIMEOUT_S,
                discovery_s: float = DISCOVERY_WAIT_S) -> list[Check]:
-    """[loopback, other participants] on this process's ROS_DOMAIN_ID; `run_node_names` are the names a run's
-    nodes have (found on the graph, they make `iguana run` refuse the domain)."""
+    """
+    [loopback, other participants] on this process's ROS_DOMAIN_ID.
+
+    `run_node_names` are the names a run's nodes have (found on the graph, they make `iguana run` refuse the domain).
+    """
     domain = current_domain_id()
     watch = DomainWatch(run_node_names, DOCTOR_NODE_NAME)
     joined = time.monotonic()
@@ -171,7 +191,7 @@ def dds_checks(run_node_names: tuple[str, ...], timeout: float = LOOPBACK_TIMEOU
 
 
 def check_loopback_now(timeout: float = LOOPBACK_TIMEOUT_S) -> Check:
-    """The loopback check alone (what `iguana run` asks when it hears nothing of its nodes)."""
+    """Return the loopback check alone (what `iguana run` asks when it hears nothing of its nodes)."""
     watch = DomainWatch((), DOCTOR_NODE_NAME)
     try:
         return check_loopback(loopback(watch, timeout), current_domain_id())

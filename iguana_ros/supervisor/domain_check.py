@@ -1,4 +1,20 @@
-"""Is the ROS domain free for a run? Other runs' processes on this machine (from /proc) and, on the DDS graph,
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Is the ROS domain free for a run? Other runs' processes on this machine (from /proc) and, on the DDS graph.
+
 nodes with the run's node names or publishers of the topics the run's nodes publish.
 
 A second run on a busy domain would mix its messages with the other run's (lockstep stalls, two simulators on
@@ -13,9 +29,9 @@ topic than the run's own, is foreign).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 import os
 import time
-from dataclasses import dataclass, field
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.supervisor.process import ProcessInfo, run_processes
@@ -52,11 +68,15 @@ class DomainReport:
 
     @property
     def busy(self) -> bool:
-        """True if anything was found."""
+        """Return True if anything was found."""
         return bool(self.processes or self.nodes or self.publishers)
 
     def findings(self) -> str:
-        """What is on the domain, e.g. 'processes of another iguana run: 4711 (bag record); nodes planner_node'."""
+        """
+        Return what is on the domain, e.g. 'processes of another iguana run.
+
+        4711 (bag record); nodes planner_node'.
+        """
         parts = []
         if self.processes:
             parts.append('processes of another iguana run: ' + ', '.join(p.label() for p in self.processes))
@@ -76,13 +96,16 @@ class DomainReport:
 
 
 def current_domain_id() -> str:
-    """The ROS_DOMAIN_ID of this process's environment ('0' when unset)."""
+    """Return the ROS_DOMAIN_ID of this process's environment ('0' when unset)."""
     return os.environ.get('ROS_DOMAIN_ID', '').strip() or '0'
 
 
 def output_topics(node_names: tuple[str, ...]) -> dict[str, int]:
-    """{absolute name: how many of `node_names` publish it} for the topics of msg_configs/topics.yaml that
-    one of `node_names` publishes."""
+    """
+    {absolute name: how many of `node_names` publish it} for the topics of msg_configs/topics.yaml.
+
+    that one of `node_names` publishes.
+    """
     counts = {}
     for spec in default_topics().values():
         ours = sum(1 for pub in spec.publishers if pub.split()[0] in node_names)
@@ -103,8 +126,12 @@ def other_runs(domain_id: str) -> list[ProcessInfo]:
 
 
 class DomainWatch:
-    """A DDS participant on this process's domain that looks for nodes named `node_names` and publishers of
-    the topics those nodes publish (`iguana doctor` also lists every other node); `close()` leaves the graph."""
+    """
+    A DDS participant on this process's domain.
+
+    that looks for nodes named `node_names` and publishers of the topics those nodes publish (`iguana doctor` also lists
+    every other node); `close()` leaves the graph.
+    """
 
     def __init__(self, node_names: tuple[str, ...], watch_name: str = WATCH_NODE_NAME) -> None:
         """Join the graph as node `watch_name` (rclpy context of its own, no signal handlers)."""
@@ -124,8 +151,11 @@ class DomainWatch:
                        if name not in skip})
 
     def foreign(self, ours_running: bool) -> tuple[list[str], dict[str, list[str]]]:
-        """(node names, {topic: publishing nodes}) that are not the run's own: with `ours_running` one node of
-        each name and the table's publishers of each topic are allowed, else none."""
+        """
+        (node names, {topic: publishing nodes}) that are not the run's own.
+
+        With `ours_running` one node of each name and the table's publishers of each topic are allowed, else none.
+        """
         names = [name for name, _ in self.node.get_node_names_and_namespaces() if name in self.node_names]
         nodes = sorted({n for n in names if names.count(n) > (1 if ours_running else 0)})
         publishers = {}
@@ -161,9 +191,12 @@ class DomainWatch:
 
 def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LISTEN_S,
                        keep_open: bool = True) -> DomainWatch | None:
-    """Raise DomainInUse (one line) if other runs' processes are on this domain (from /proc, at once) or, within
-    `listen_s`, nodes named `node_names` or publishers of their topics (DDS). Returns the watch, still on the
-    graph for `check_while_starting` (None when `listen_s` is 0 or not `keep_open`)."""
+    """
+    Raise DomainInUse (one line) if other runs' processes are on this domain (from /proc, at once) or.
+
+    within `listen_s`, nodes named `node_names` or publishers of their topics (DDS). Returns the watch, still on the
+    graph for `check_while_starting` (None when `listen_s` is 0 or not `keep_open`).
+    """
     domain = current_domain_id()
     processes = other_runs(domain)
     if processes:
@@ -184,8 +217,11 @@ def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LIST
 
 
 def check_while_starting(watch: DomainWatch) -> None:
-    """Raise DomainInUse if the graph now holds a second node of one of the run's names or more publishers of an
-    output topic than the run's own nodes (a peer discovered late)."""
+    """
+    Raise DomainInUse if the graph now holds a second node of one of the run's names or more publishers.
+
+    of an output topic than the run's own nodes (a peer discovered late).
+    """
     nodes, publishers = watch.foreign(True)
     if nodes or publishers:
         raise DomainInUse(DomainReport(current_domain_id(), nodes=nodes, publishers=publishers).line())

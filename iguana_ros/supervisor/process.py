@@ -1,5 +1,21 @@
-"""Child processes for `iguana run` and the node tests: process groups, parent-death signal, captured output,
-clean stop; finding a run's processes in /proc.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Child processes for `iguana run` and the node tests.
+
+Process groups, parent-death signal, captured output, clean stop; finding a run's processes in /proc.
 
 On Linux every child is started through a few lines of stdlib Python (`_GUARD`) that join or make the process
 group, set the parent-death signal (`prctl(PR_SET_PDEATHSIG)`, kept across exec) and then exec the command, so a
@@ -9,19 +25,19 @@ parent with threads (DDS threads in the test process).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 import os
+from pathlib import Path
 import signal
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
-from pathlib import Path
 
 from iguana_ros.errors import IguanaError
 
-_GUARD = '''
+_GUARD = """
 import ctypes, os, signal, sys
 parent, group, death = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 for stop in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
@@ -36,7 +52,7 @@ if death > 0 and ctypes.CDLL(None, use_errno=True).prctl(1, death, 0, 0, 0) != 0
 if os.getppid() != parent:
     sys.exit('parent exited before the child started')
 os.execvp(sys.argv[4], sys.argv[4:])
-'''
+"""
 """Child-side start-up: argv = parent pid, process group (0 = new, -1 = keep), death signal (0 = none), command."""
 
 HAS_PARENT_DEATH_SIGNAL = sys.platform.startswith('linux')
@@ -69,7 +85,8 @@ def describe_exit(code: int | None) -> str:
 
 
 class NodeProcess:
-    """A command run as a child process with stdout/stderr captured to a file.
+    """
+    A command run as a child process with stdout/stderr captured to a file.
 
     `group=None` gives the child a process group of its own (signals go to that whole group); `group=0` makes
     it the leader of a new group that later children join with `group=<its pid>` (signals then go to the
@@ -94,8 +111,8 @@ class NodeProcess:
 
     def _popen(self) -> subprocess.Popen:
         """Start the child in its process group, with its parent-death signal where the OS has one."""
-        common = dict(stdin=subprocess.DEVNULL, stdout=self._out, stderr=subprocess.STDOUT, cwd=self.cwd,
-                      env=self.env)
+        common = {'stdin': subprocess.DEVNULL, 'stdout': self._out, 'stderr': subprocess.STDOUT, 'cwd': self.cwd,
+                  'env': self.env}
         if not HAS_PARENT_DEATH_SIGNAL:
             return subprocess.Popen(self.args, start_new_session=self.group is None, **common)
         group = 0 if self.group is None else self.group
@@ -124,7 +141,7 @@ class NodeProcess:
         return self.out_path.read_text(errors='replace') if self.out_path.exists() else ''
 
     def tail(self, lines: int = 15) -> str:
-        """The last `lines` lines of output."""
+        """Return the last `lines` lines of output."""
         return '\n'.join(self.output.splitlines()[-lines:])
 
     @property
@@ -133,7 +150,7 @@ class NodeProcess:
         return self.proc is not None and self.proc.poll() is None
 
     def wait_for_output(self, text: str, timeout: float = 20.0) -> bool:
-        """True once `text` appears in the output; False on timeout or if the process exits first."""
+        """Return True once `text` appears in the output; False on timeout or if the process exits first."""
         wait_for(lambda: text in self.output or self.proc.poll() is not None, timeout, period=0.05)
         return text in self.output
 
@@ -182,8 +199,12 @@ class NodeProcess:
 
 
 def stop_all(children: list[NodeProcess], timeout: float = 10.0) -> list[int]:
-    """Stop several children at once: SIGINT to all, then SIGTERM, then SIGKILL to those still running after
-    `timeout` s each; returns their exit statuses."""
+    """
+    Stop several children at once.
+
+    SIGINT to all, then SIGTERM, then SIGKILL to those still running after `timeout` s each; returns their exit
+    statuses.
+    """
     started = [c for c in children if c.proc is not None]
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
         running = [c for c in started if c.proc.poll() is None]
@@ -240,7 +261,7 @@ def _environ(pid: int) -> dict[str, str] | None:
 
 
 def _alive(pid: int) -> bool:
-    """True unless process `pid` is gone or a zombie."""
+    """Return True unless process `pid` is gone or a zombie."""
     try:
         stat = Path(f'/proc/{pid}/stat').read_text()
     except OSError:
@@ -249,8 +270,11 @@ def _alive(pid: int) -> bool:
 
 
 def processes_with_env(key: str, value: str | None = None) -> list[ProcessInfo]:
-    """Live processes (not zombies, not this one) with environment variable `key` (equal to `value` if given),
-    by pid; empty where there is no /proc or for processes not ours to read."""
+    """
+    Live processes (not zombies, not this one) with environment variable `key` (equal to `value` if given), by pid.
+
+    Empty where there is no /proc or for processes not ours to read.
+    """
     found = []
     proc = Path('/proc')
     if not proc.is_dir():

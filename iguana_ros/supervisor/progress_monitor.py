@@ -1,7 +1,23 @@
-"""The supervisor's view of a run over DDS, for `iguana run`'s progress: the node processes' run_events (start-up
-milestones, the planner's clips), the simulator's iguana_state (how far the run is, when frames 0 and 1 were
-published, where the root is) and the planner's accepted_goals (the goal it follows). Everything comes from
-messages; nothing is read from a log.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The supervisor's view of a run over DDS, for `iguana run`'s progress.
+
+The node processes' run_events (start-up milestones, the planner's clips), the simulator's iguana_state (how far the run
+is, when frames 0 and 1 were published, where the root is) and the planner's accepted_goals (the goal it follows).
+Everything comes from messages; nothing is read from a log.
 
 The monitor is a node of its own (`iguana_run_monitor`, its own rclpy context, no signal handlers) that the
 supervisor spins in short steps from its own loop (`poll`); a message it cannot read is skipped, never raised.
@@ -15,7 +31,7 @@ import numpy as np
 
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.errors import IguanaError
-from iguana_ros.progress import EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus, StartupClock, active_goal
+from iguana_ros.progress import active_goal, EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus, StartupClock
 from iguana_ros.ros.conversions import time_from_msg
 from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, resolve
 from iguana_ros.ros.messages import state_from_msg
@@ -52,12 +68,12 @@ class RunMonitor:
         self.executor.add_node(self.node)
 
     def launched(self) -> None:
-        """The supervisor starts the run's processes now."""
+        """Note that the supervisor starts the run's processes now."""
         self.clock.launched = time.time()
         self._show()
 
     def _on_event(self, msg) -> None:
-        """A node's run event: a start-up milestone or the planner's new clip."""
+        """Handle a node's run event: a start-up milestone or the planner's new clip."""
         self.taken += 1
         try:
             event = run_event_from_msg(msg)
@@ -69,7 +85,7 @@ class RunMonitor:
             self.clip = event.clip
 
     def _on_state(self, msg, info) -> None:
-        """The simulator's state of a frame: its publication time (frames 0 and 1) and the root."""
+        """Handle the simulator's state of a frame: its publication time (frames 0 and 1) and the root."""
         self.taken += 1
         try:
             frame, root, _ = state_from_msg(msg)
@@ -82,12 +98,12 @@ class RunMonitor:
             self.rate.add(time.monotonic(), frame / FRAME_RATE)
 
     def _on_goals(self, msg) -> None:
-        """The planner's accepted goals, in order: (x, y, adoption time s)."""
+        """Handle the planner's accepted goals, in order: (x, y, adoption time s)."""
         self.taken += 1
         self.goals = [(p.pose.position.x, p.pose.position.y, time_from_msg(p.header.stamp)) for p in msg.poses]
 
     def status(self) -> RunStatus:
-        """Simulated time, recent realtime factor, distance to the goal the planner follows, current clip."""
+        """Return simulated time, recent realtime factor, distance to the goal the planner follows, current clip."""
         now = max(self.frame, 0) / FRAME_RATE
         goal = active_goal(self.goals, now, MAX_SCHEDULE_AHEAD)
         distance = math.nan if goal is None or self.root is None else float(np.hypot(*(self.root[:2] - goal)))

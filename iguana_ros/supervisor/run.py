@@ -1,4 +1,19 @@
-"""`iguana run`: the four nodes as separate processes (or one), the scene's goals, a bag of every topic.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana run`: the four nodes as separate processes (or one), the scene's goals, a bag of every topic.
 
 Supervision: the children share one process group and get SIGTERM when `iguana run` dies, however it dies
 (process.py); SIGINT, SIGTERM and SIGHUP stop the run in order (nodes, then the recorder, which finalises the
@@ -7,18 +22,18 @@ bag) and the summary says so; a run refuses a ROS domain that another run (or it
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from datetime import datetime
 import math
 import os
+from pathlib import Path
 import signal
 import sys
 import threading
 import time
 import uuid
-from collections.abc import Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass, field
-from datetime import datetime
-from pathlib import Path
 
 import numpy as np
 
@@ -26,11 +41,11 @@ from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
 from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
-from iguana_ros.scene import Scene, load_scene, scene_path
+from iguana_ros.scene import load_scene, Scene, scene_path
 from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
-from iguana_ros.supervisor.process import RUN_ID_ENV, NodeProcess, describe_exit, run_processes, stop_all
+from iguana_ros.supervisor.process import describe_exit, NodeProcess, RUN_ID_ENV, run_processes, stop_all
 from iguana_ros.supervisor.run_gait import RunGait
-from iguana_ros.supervisor.run_summary import RunSummary, bag_progress
+from iguana_ros.supervisor.run_summary import bag_progress, RunSummary
 
 __all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
            'goal_outcome_of', 'node_commands', 'node_params', 'ros_args', 'stop_signals']
@@ -71,8 +86,12 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 @dataclass
 class RunOptions:
-    """What `iguana run` does: scene, mode, bag directory, process layout, wall-clock limit, how long to listen
-    for another run on the ROS domain before starting (0 = only look for other runs' processes)."""
+    """
+    What `iguana run` does.
+
+    Scene, mode, bag directory, process layout, wall-clock limit, how long to listen for another run on the ROS domain
+    before starting (0 = only look for other runs' processes).
+    """
 
     scene: str = 'hills'
     mode: str = 'lockstep'
@@ -114,9 +133,13 @@ class SignalState:
 
 @contextmanager
 def stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalState]:
-    """While inside: the first of `signals` raises RunInterrupted, later ones are only noted (so the orderly
-    stop completes); a signal the parent made us ignore stays ignored; outside the main thread nothing is
-    installed. The previous handlers come back on exit."""
+    """
+    While inside.
+
+    The first of `signals` raises RunInterrupted, later ones are only noted (so the orderly stop completes); a signal
+    the parent made us ignore stays ignored; outside the main thread nothing is installed. The previous handlers come
+    back on exit.
+    """
     state = SignalState()
     if threading.current_thread() is not threading.main_thread():
         yield state
@@ -140,8 +163,12 @@ def stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalStat
 
 
 def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -> list[str]:
-    """`--ros-args [--params-file FILE] -p node:name:=value ...`: each value for its node by name, after the file
-    (a value for every node, `-p name:=value`, would lose to the file's section of that node)."""
+    """
+    `--ros-args [--params-file FILE] -p node:name:=value ...`.
+
+    Each value for its node by name, after the file (a value for every node, `-p name:=value`, would lose to the file's
+    section of that node).
+    """
     args = ['--ros-args'] + (['--params-file', str(params_file)] if params_file is not None else [])
     for node, params in params_by_node.items():
         for name, value in params.items():
@@ -151,7 +178,7 @@ def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -
 
 
 def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, dict]:
-    """This run's parameter values of every node, by node name (over the standard params file)."""
+    """Return this run's parameter values of every node, by node name (over the standard params file)."""
     common = {'scene': str(scene_file)}
     goals = {'wait_for_goals': len(scene.goals)}  # planner and simulator both wait for the scene's goals
     sim = {**common, **goals, 'mode': options.mode, 'wait_for_recorder': True, **options.extra_params}
@@ -160,8 +187,12 @@ def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str
 
 
 def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, list[str]]:
-    """Command line of every child node process, by name: the standard params file (as the launch file gives it:
-    use_sim_time and the declared defaults), then this run's values."""
+    """
+    Command line of every child node process, by name.
+
+    The standard params file (as the launch file gives it: use_sim_time and the declared defaults), then this run's
+    values.
+    """
     params, standard = node_params(options, scene, scene_file), params_file()
     if options.single_process:
         return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard)]}
@@ -170,7 +201,7 @@ def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[s
 
 
 def new_bag_dir(options: RunOptions, scene: Scene) -> Path:
-    """The bag directory of this run (`bags/<scene>_<date>_<time>` unless --record names one)."""
+    """Return the bag directory of this run (`bags/<scene>_<date>_<time>` unless --record names one)."""
     if options.record is not None:
         return Path(options.record)
     stamp = datetime.now().strftime('%Y%m%d_%H%M%S')
@@ -181,8 +212,11 @@ class SceneRun:
     """Starts and supervises the recorder and node processes of one run."""
 
     def __init__(self, options: RunOptions, display=None) -> None:
-        """Validate the scene and choose bag and log folders (nothing is started yet); `display` (a
-        progress.ProgressDisplay, optional) shows the start-up phases and the run's progress."""
+        """
+        Validate the scene and choose bag and log folders (nothing is started yet).
+
+        `display` (a progress.ProgressDisplay, optional) shows the start-up phases and the run's progress.
+        """
         self.options = options
         self.display = display
         self.monitor = None
@@ -207,20 +241,27 @@ class SceneRun:
 
     @property
     def planned_s(self) -> float:
-        """Simulated seconds the run is to last (the --duration override or the scene's)."""
+        """Return simulated seconds the run is to last (the --duration override or the scene's)."""
         return float(self.options.extra_params.get('duration') or self.scene.duration)
 
     def check_domain(self) -> None:
-        """DomainInUse (one line) if another run, its leftovers or publishers of our topics are on the domain;
-        the DDS watch stays open for `watch_domain` while the run starts."""
+        """
+        `DomainInUse` (one line) if another run, its leftovers or publishers of our topics are on the domain.
+
+        The DDS watch stays open for `watch_domain` while the run starts.
+        """
         from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
         from iguana_ros.supervisor.domain_check import check_before_start
         self.watch = check_before_start((*NODE_KINDS, RECORDER_NODE_NAME), self.options.domain_check_s)
         self.watch_until = time.monotonic() + DOMAIN_WATCH_S
 
     def watch_domain(self, may_close: bool = False, force: bool = False) -> None:
-        """While the run starts (at most every WATCH_PERIOD_S unless `force`): DomainInUse if a foreign node or
-        publisher has been discovered late. With `may_close`, leave the graph once DOMAIN_WATCH_S have passed."""
+        """
+        While the run starts (at most every WATCH_PERIOD_S unless `force`).
+
+        DomainInUse if a foreign node or publisher has been discovered late. With `may_close`, leave the graph once
+        DOMAIN_WATCH_S have passed.
+        """
         from iguana_ros.supervisor.domain_check import check_while_starting
         if self.watch is None:
             return
@@ -242,8 +283,11 @@ class SceneRun:
             self.watch = None
 
     def keep_going(self) -> None:
-        """Called while the run starts: raise if a child exited, the domain turned out to be shared or DDS does not
-        connect processes here; take in the run's messages."""
+        """
+        Raise if a child exited, the domain turned out to be shared or DDS does not connect processes here.
+
+        Then take in the run's messages. Called while the run starts.
+        """
         self.alive_or_raise()
         self.watch_domain()
         self.listen()
@@ -256,9 +300,12 @@ class SceneRun:
         self.monitor.clock.details['compiling'] = f'kernel cache {kernel_cache().state}'
 
     def listen(self, timeout: float = 0.0) -> None:
-        """Take in the monitor's messages (waiting up to `timeout` s); if no node has been heard STARTUP_SILENCE_S
-        after they were started, the doctor's loopback decides: IguanaError with its line if DDS connects no
-        processes here."""
+        """
+        Take in the monitor's messages (waiting up to `timeout` s).
+
+        If no node has been heard STARTUP_SILENCE_S after they were started, the doctor's loopback decides: IguanaError
+        with its line if DDS connects no processes here.
+        """
         if self.monitor is None:
             time.sleep(timeout)
             return
@@ -273,14 +320,14 @@ class SceneRun:
             raise IguanaError(f'no node of the run was heard within {STARTUP_SILENCE_S:g} s; {check.one_line()}')
 
     def _child(self, name: str, command: list[str]) -> NodeProcess:
-        """A child of this run: in the run's process group (the first one leads it), marked with the run id."""
+        """Return a child of this run: in the run's process group (the first one leads it), marked with the run id."""
         child = NodeProcess(command, name, self.logs, env={RUN_ID_ENV: self.run_id},
                             group=0 if self.group is None else self.group)
         self.children[name] = child
         return child
 
     def start(self) -> None:
-        """Recorder first (so it sees every topic), then the nodes."""
+        """Start the recorder first (so it sees every topic), then the nodes."""
         recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '-o', str(self.bag)]
         if self.monitor is not None:
             self.monitor.launched()
@@ -318,8 +365,11 @@ class SceneRun:
         self.watch_domain(may_close=True, force=True)
 
     def alive_or_raise(self, simulator_may_end: bool = False) -> None:
-        """ChildExited naming the first child that has exited early, with its last lines (the simulator may end
-        with status 0 once the run is under way: `simulator_may_end`)."""
+        """
+        `ChildExited` naming the first child that has exited early, with its last lines.
+
+        (the simulator may end with status 0 once the run is under way: `simulator_may_end`).
+        """
         for name, child in self.children.items():
             if child.proc is None or child.running:
                 continue
@@ -328,7 +378,7 @@ class SceneRun:
             raise ChildExited(name, child.proc.returncode, child.tail())
 
     def simulator(self) -> NodeProcess:
-        """The process running the simulator node."""
+        """Return the process running the simulator node."""
         return self.children.get('simulator_node') or self.children['nodes']
 
     def wait(self) -> int:
@@ -346,8 +396,11 @@ class SceneRun:
         return self.sim_code
 
     def stop(self) -> None:
-        """Stop every node (all at once), then the recorder (which finalises the bag); kill anything of this
-        run still alive after that (there should be none: it is named in the summary)."""
+        """
+        Stop every node (all at once), then the recorder (which finalises the bag).
+
+        Kill anything of this run still alive after that (there should be none: it is named in the summary).
+        """
         self.close_watch()
         self.close_monitor()
         stop_all([c for name, c in self.children.items() if name != 'recorder'], NODE_STOP_S)
@@ -394,9 +447,13 @@ class SceneRun:
         return (sim.name, sim.tail()) if sim is not None and sim.proc is not None else ('', '')
 
     def summary(self, code: int | None = None) -> RunSummary:
-        """The run's outcome from data: how far it got and the loop's wall time from the bag (last iguana_state
-        stamp; receive times of the first and last), the total from the supervisor's clock, goal and gait
-        figures from the recorded messages (what a bag lacks is named in the gait lines, never raised)."""
+        """
+        Return the run's outcome from data.
+
+        How far it got and the loop's wall time from the bag (last iguana_state stamp; receive times of the first and
+        last), the total from the supervisor's clock, goal and gait figures from the recorded messages (what a bag lacks
+        is named in the gait lines, never raised).
+        """
         from iguana_ros.bag.trajectory import read_topics, root_trajectory
         from iguana_ros.supervisor.run_gait import GAIT_TOPICS, run_gait
 
@@ -434,8 +491,11 @@ def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
 
 
 def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene) -> tuple[bool, float, float]:
-    """(reached, time, final distance) of the last scene goal from a recorded root trajectory: times `(n,)` s,
-    positions `(n, 3)` m."""
+    """
+    (reached, time, final distance) of the last scene goal from a recorded root trajectory.
+
+    times `(n,)` s, positions `(n, 3)` m.
+    """
     from iguana_ros.metrics import goal_arrival
 
     if not scene.goals or len(times) == 0:
@@ -448,10 +508,13 @@ def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene) -> t
 
 
 def run_scene(options: RunOptions, display=None) -> RunSummary:
-    """Run a scene end to end and return its summary, whatever ends it: the scene's end, a child's crash, the
-    wall-clock limit, or SIGINT / SIGTERM / SIGHUP (every child is stopped and the bag finalised first).
-    Raises (before anything is started) for a bad scene, an existing bag directory or a busy ROS domain.
-    `display` (a progress.ProgressDisplay) shows the start-up phases and the progress as they happen."""
+    """
+    Run a scene end to end and return its summary, whatever ends it.
+
+    The scene's end, a child's crash, the wall-clock limit, or SIGINT / SIGTERM / SIGHUP (every child is stopped and the
+    bag finalised first). Raises (before anything is started) for a bad scene, an existing bag directory or a busy ROS
+    domain. `display` (a progress.ProgressDisplay) shows the start-up phases and the progress as they happen.
+    """
     run = SceneRun(options, display)
     with stop_signals() as signals:
         try:

@@ -1,4 +1,19 @@
-"""Gait figures of a node run from the messages its bag recorded: the `gait` part of `iguana run`'s summary.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Gait figures of a node run from the messages its bag recorded: the `gait` part of `iguana run`'s summary.
 
 Rows as in `pipeline.run`: row f holds the body after frame f (iguana_state, foot_state, foot_positions stamped
 f + 1) and the reference of frame f (reference_stance, reference_pose stamped f); a stride is one motion_clip
@@ -13,8 +28,8 @@ import numpy as np
 
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
-from iguana_ros.metrics import SWING_CLEARANCE, GaitMetrics
-from iguana_ros.run_metrics import GAIT_NEEDS, FootProbe, GaitTracks, scene_goal, tracks_gait_metrics, walk_frames
+from iguana_ros.metrics import GaitMetrics, SWING_CLEARANCE
+from iguana_ros.run_metrics import FootProbe, GAIT_NEEDS, GaitTracks, scene_goal, tracks_gait_metrics, walk_frames
 
 GAIT_TOPICS = ('iguana_state', 'foot_state', 'foot_positions', 'reference_stance', 'reference_pose', 'motion_clip')
 """Topic-table keys the gait figures are read from."""
@@ -65,14 +80,14 @@ class RunGait:
             f'foot height error (RMS vs the reference) {_feet(g.foot_height_error, 100.0, "{:.1f}")} cm')))
         out.append('  ' + (needs('speed_fraction') or f"speed: {_percent(g.speed_fraction)} of the clips'"))
         out.append("  shape error: not from a node run (it needs every node's position; "
-                   "`iguana simulate --json` has it)")
+                   '`iguana simulate --json` has it)')
         if self.missing_topics:
             out.append(f'  not in the bag: {", ".join(self.missing_topics)} (a bag recorded before these topics '
                        'existed, or a run that stopped early)')
         return out + [f'  {note}' for note in self.notes]
 
     def _missing_for(self, figure: str) -> list[str]:
-        """The missing topics `figure` is computed from."""
+        """Return the missing topics `figure` is computed from."""
         return sorted({TRACK_TOPICS[t] for t in GAIT_NEEDS[figure] if TRACK_TOPICS[t] in self.missing_topics})
 
     def _needs(self, figure: str) -> str:
@@ -99,8 +114,11 @@ def _percent(fraction: float) -> str:
 
 
 def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
-    """RunGait of a run of `scene` from its RecordedTopics (`bag.trajectory.read_topics(bag, GAIT_TOPICS)`);
-    `model` and `terrain` default to the scene's."""
+    """
+    `RunGait` of a run of `scene` from its RecordedTopics (`bag.trajectory.read_topics(bag, GAIT_TOPICS)`).
+
+    `model` and `terrain` default to the scene's.
+    """
     from iguana_ros.ros import messages as m
 
     notes: list[str] = []
@@ -151,8 +169,11 @@ def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
 
 
 def _frames(recorded, key: str, decode, notes: list[str]) -> dict[int, tuple]:
-    """{frame: decoded message} of topic `key` (a re-sent frame counts once, its last message); messages that
-    do not decode are counted in a note."""
+    """
+    {frame: decoded message} of topic `key` (a re-sent frame counts once, its last message).
+
+    messages that do not decode are counted in a note.
+    """
     out, bad = {}, recorded.rejected.get(key, 0)
     for msg in recorded.messages.get(key, []):
         try:
@@ -167,8 +188,11 @@ def _frames(recorded, key: str, decode, notes: list[str]) -> dict[int, tuple]:
 
 
 def _table(rows: dict[int, tuple], frames: range, key: str, notes: list[str]) -> list | None:
-    """The rows of `frames` in order (None if the topic has none of them); a missing frame takes the nearest
-    earlier frame's row (the first one's if none), with a note."""
+    """
+    Return the rows of `frames` in order (None if the topic has none of them).
+
+    A missing frame takes the nearest earlier frame's row (the first one's if none), with a note.
+    """
     if not any(f in rows for f in frames):
         return None
     out, last, missing = [], None, 0

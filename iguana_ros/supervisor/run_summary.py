@@ -1,10 +1,28 @@
-"""What a run reports, from data only: how far it got (the last iguana_state stamp in its bag), the wall time of
-its simulation loop (the recorder's receive times of the first and last iguana_state), the supervisor's own
-wall time, whether the bag was finalised, and the outcome (completed, failed, stopped by a signal)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What a run reports, from data only.
+
+How far it got (the last iguana_state stamp in its bag), the wall time of its simulation loop (the recorder's receive
+times of the first and last iguana_state), the supervisor's own wall time, whether the bag was finalised, and the
+outcome (completed, failed, stopped by a signal).
+"""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+import math
 from pathlib import Path
 
 from iguana_ros.progress import startup_line
@@ -16,8 +34,12 @@ STATE_TOPIC = '/iguana_state'
 
 @dataclass
 class BagProgress:
-    """One pass over a run's bag: messages per topic, receive times (ns) of the first and last iguana_state,
-    whether the file was finalised (summary section and metadata.yaml written) and what ended it early."""
+    """
+    One pass over a run's bag.
+
+    Messages per topic, receive times (ns) of the first and last iguana_state, whether the file was finalised (summary
+    section and metadata.yaml written) and what ended it early.
+    """
 
     exists: bool = False
     finalised: bool = False
@@ -47,7 +69,7 @@ class BagProgress:
 
 
 def bag_progress(bag: Path) -> BagProgress:
-    """BagProgress of bag directory `bag` (a missing or unreadable bag gives exists=False / a problem)."""
+    """`BagProgress` of bag directory `bag` (a missing or unreadable bag gives exists=False / a problem)."""
     from iguana_ros.bag.storage import BagReader
     from iguana_ros.errors import IguanaError
 
@@ -70,9 +92,13 @@ def bag_progress(bag: Path) -> BagProgress:
 
 @dataclass
 class RunSummary:
-    """What a run reports. `exit_code`: 0 completed, 1 failed, 128 + n stopped by signal n. `simulated_s` is the
-    last recorded iguana_state stamp, `wall_s` the recorder's wall time from the first to the last of them;
-    `message` holds the last lines of the node that failed."""
+    """
+    What a run reports.
+
+    `exit_code`: 0 completed, 1 failed, 128 + n stopped by signal n. `simulated_s` is the last recorded iguana_state
+    stamp, `wall_s` the recorder's wall time from the first to the last of them; `message` holds the last lines of the
+    node that failed.
+    """
 
     scene: str
     bag: Path
@@ -96,7 +122,7 @@ class RunSummary:
 
     @property
     def realtime_factor(self) -> float:
-        """Simulated seconds per wall second of the simulation loop."""
+        """Return simulated seconds per wall second of the simulation loop."""
         return self.simulated_s / self.wall_s if self.wall_s > 0 else 0.0
 
     def progress(self) -> str:

@@ -1,13 +1,28 @@
-"""The stability and speed-accuracy benchmarks as sweep plans: one engine task per scenario or per gait run.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The stability and speed-accuracy benchmarks as sweep plans: one engine task per scenario or per gait run.
 
 `iguana bench stability`, `iguana bench tradeoff` and `iguana sweep` of a stability or tradeoff spec run these
 plans; the maths (scenarios, runs, comparisons) stays in iguana_ros.bench.stability and iguana_ros.bench.sim.
 """
 from __future__ import annotations
 
-from iguana_ros.errors import InputError
-from iguana_ros.bench.sim import TRADEOFF_MESHES, gait_run, tradeoff_rows, tradeoff_runs
+from iguana_ros.bench.sim import gait_run, TRADEOFF_MESHES, tradeoff_rows, tradeoff_runs
 from iguana_ros.bench.stability import SCENARIOS
+from iguana_ros.errors import InputError
 from iguana_ros.sweep.engine import Plan, Task, task_key
 
 TRADEOFF_TIMING = ('realtime_factor', 'realtime_factor_cpu', 'ms_per_step')
@@ -35,8 +50,11 @@ def stability_plan(mesh: str = 'coarse', seconds: float = 1.5, scenarios: tuple 
 
 def tradeoff_plan(mesh: str = 'medium', seconds: float = 2.0, meshes: tuple = TRADEOFF_MESHES,
                   groups: tuple | None = None) -> Plan:
-    """One task per gait run of the speed-accuracy table (references first; the settings of `groups`, default
-    all); rows as the table's."""
+    """
+    One task per gait run of the speed-accuracy table (references first; the settings of `groups`, default all).
+
+    Rows as the table's.
+    """
     runs = tradeoff_runs(mesh, tuple(meshes), groups)
     tasks = [Task(task_key('tradeoff', run.mesh, float(seconds), run.settings), gait_run,
                   (run.mesh, float(seconds), run.settings),

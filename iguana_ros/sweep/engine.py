@@ -1,4 +1,19 @@
-"""The sweep engine: independent tasks run on a Dask distributed cluster, one row (a JSON-able dict) per task.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The sweep engine: independent tasks run on a Dask distributed cluster, one row (a JSON-able dict) per task.
 
 A local cluster of worker processes by default (`dask.distributed.LocalCluster`, one single-threaded worker per
 core, each with a memory limit), or the workers of a running scheduler (`dask scheduler` / `dask worker ADDRESS`
@@ -10,15 +25,15 @@ workers or the order they finish in.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 import contextlib
+from dataclasses import dataclass
 import hashlib
 import json
 import math
 import os
 import sys
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from iguana_ros.errors import IguanaError, InputError
@@ -40,9 +55,13 @@ overloaded machine) before they fail as NoWorkerError rows instead of the sweep 
 
 
 class Task(NamedTuple):
-    """One task: `fn(*args)` on a worker, returning a JSON-able row. `key` identifies the inputs (the same inputs
-    always give the same key: resume and Dask keys), `identity` the row fields that say what ran (kept in an
-    error row), `label` a short name (shown by the progress bar for the last finished task)."""
+    """
+    One task.
+
+    `fn(*args)` on a worker, returning a JSON-able row. `key` identifies the inputs (the same inputs always give the
+    same key: resume and Dask keys), `identity` the row fields that say what ran (kept in an error row), `label` a short
+    name (shown by the progress bar for the last finished task).
+    """
 
     key: str
     fn: Callable[..., Any]
@@ -57,9 +76,13 @@ def _as_rows(results: list) -> list[dict]:
 
 
 class Plan(NamedTuple):
-    """A sweep ready to run: its `tasks` in order, `rows(results)` turning the results of the first tasks (in task
-    order) into table rows (the rows of a longer prefix extend those of a shorter one), and the `timing` columns
-    of those rows (measurements of the machine, not of the task: they differ between runs)."""
+    """
+    A sweep ready to run.
+
+    Its `tasks` in order, `rows(results)` turning the results of the first tasks (in task order) into table rows (the
+    rows of a longer prefix extend those of a shorter one), and the `timing` columns of those rows (measurements of the
+    machine, not of the task: they differ between runs).
+    """
 
     tasks: list
     rows: Callable[[list], list[dict]] = _as_rows
@@ -68,8 +91,12 @@ class Plan(NamedTuple):
 
 @dataclass(frozen=True)
 class Cluster:
-    """Where tasks run: `scheduler` address ('tcp://host:8786'; None = a local cluster of `workers` processes,
-    default one per core) and each local worker's `memory_limit` (bytes, '3GiB', or 0 = none)."""
+    """
+    Where tasks run.
+
+    `scheduler` address ('tcp://host:8786'; None = a local cluster of `workers` processes, default one per core) and
+    each local worker's `memory_limit` (bytes, '3GiB', or 0 = none).
+    """
 
     workers: int | None = None
     scheduler: str | None = None
@@ -88,7 +115,7 @@ class Cluster:
 
 
 def task_key(*parts: Any) -> str:
-    """A stable 16-hex-digit key of JSON-able `parts` (dataclasses as their fields)."""
+    """Return a stable 16-hex-digit key of JSON-able `parts` (dataclasses as their fields)."""
     text = json.dumps(parts, sort_keys=True, default=_plain, separators=(',', ':'))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -103,7 +130,7 @@ def _plain(value: Any) -> Any:
 
 
 def error_row(identity: dict, exc: BaseException, wall: float) -> dict:
-    """The row of a task that raised `exc`: what ran, `error` (one line), `error_type`, `wall_s`."""
+    """Return the row of a task that raised `exc`: what ran, `error` (one line), `error_type`, `wall_s`."""
     message = ' '.join(str(exc).split()) or type(exc).__name__
     return {**identity, 'error': message, 'error_type': type(exc).__name__, 'wall_s': wall}
 
@@ -114,8 +141,11 @@ def is_engine_failure(row: dict) -> bool:
 
 
 def execute(task: Task) -> Any:
-    """Run `task` on this process (a worker): kernels warmed once, then `fn(*args)`; an exception gives its
-    error row."""
+    """
+    Run `task` on this process (a worker).
+
+    Kernels warmed once, then `fn(*args)`; an exception gives its error row.
+    """
     from iguana_ros.sweep.kernels import warm_kernels
 
     warm_kernels()
@@ -128,7 +158,8 @@ def execute(task: Task) -> Any:
 
 def run_tasks(tasks: list[Task], cluster: Cluster = Cluster(),
               on_result: Callable[[int, Any], None] | None = None, progress: bool = False) -> list:
-    """The result of every task, in task order, computed on `cluster`.
+    """
+    Return the result of every task, in task order, computed on `cluster`.
 
     `on_result(index, result)` is called as each task finishes (in finishing order); `progress` shows a bar with
     the ETA on stderr. Raises IguanaError if the cluster cannot be started or reached.
@@ -153,7 +184,7 @@ def run_tasks(tasks: list[Task], cluster: Cluster = Cluster(),
 
 
 def _outcome(future, task: Task) -> Any:
-    """A finished future's result, or the error row of a task the engine lost (its worker died)."""
+    """Return a finished future's result, or the error row of a task the engine lost (its worker died)."""
     try:
         return future.result()
     except Exception as exc:                      # noqa: BLE001 - KilledWorker, a lost connection, ...
@@ -162,7 +193,7 @@ def _outcome(future, task: Task) -> Any:
 
 @contextlib.contextmanager
 def _client(cluster: Cluster, n_tasks: int) -> Iterator:
-    """A Dask client of a new local cluster (closed on exit, workers stopped) or of `cluster.scheduler`."""
+    """Yield a Dask client of a new local cluster (closed on exit, workers stopped) or of `cluster.scheduler`."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -199,7 +230,7 @@ class _NoBar:
 
 @contextlib.contextmanager
 def _bar(total: int, show: bool) -> Iterator:
-    """A tqdm progress bar with ETA on stderr (or nothing)."""
+    """Yield a tqdm progress bar with ETA on stderr (or nothing)."""
     if not show:
         yield _NoBar()
         return
@@ -210,7 +241,7 @@ def _bar(total: int, show: bool) -> Iterator:
 
 
 def in_order(callback: Callable[[int, Any], None]) -> Callable[[int, Any], None]:
-    """An `on_result` that hands results to `callback(index, result)` in task order (buffering early ones)."""
+    """Return an `on_result` that hands results to `callback(index, result)` in task order (buffering early ones)."""
     pending: dict[int, Any] = {}
     state = {'next': 0}
 
@@ -224,8 +255,11 @@ def in_order(callback: Callable[[int, Any], None]) -> Callable[[int, Any], None]
 
 
 def row_stream(plan: Plan, show: Callable[[dict], None]) -> Callable[[int, Any], None]:
-    """An `on_result` that calls `show(row)` for each table row of `plan`, in table order, as soon as the results
-    it needs (those of every earlier task) are in."""
+    """
+    Return an `on_result` that calls `show(row)` for each table row of `plan`, in table order.
+
+    as soon as the results it needs (those of every earlier task) are in.
+    """
     results: list = []
     shown = {'n': 0}
 
@@ -241,7 +275,8 @@ def row_stream(plan: Plan, show: Callable[[dict], None]) -> Callable[[int, Any],
 def parallel_map(fn: Callable, arguments: list[tuple], workers: int | None = None,
                  progress: Callable[[Any, int, int], None] | None = None,
                  identity: Callable[[tuple], dict] = lambda args: {}) -> list:
-    """`fn(*args)` for every tuple of `arguments` on a local cluster of `workers` processes, results in order.
+    """
+    `fn(*args)` for every tuple of `arguments` on a local cluster of `workers` processes, results in order.
 
     `progress(result, n_done, n_total)` is called as each finishes; a call that raises (or whose worker dies)
     gives `error_row(identity(args), ...)` as its result.
@@ -253,8 +288,11 @@ def parallel_map(fn: Callable, arguments: list[tuple], workers: int | None = Non
 
 def run_local(tasks: list[Task], workers: int | None = None,
               progress: Callable[[Any, int, int], None] | None = None) -> list:
-    """`run_tasks` on a local cluster of `workers` processes (default one per core), with `progress(result,
-    n_done, n_total)` called as each task finishes (in finishing order); results in task order."""
+    """
+    `run_tasks` on a local cluster of `workers` processes (default one per core).
+
+    with `progress(result, n_done, n_total)` called as each task finishes (in finishing order); results in task order.
+    """
     done = {'n': 0}
 
     def report(_index: int, result: Any) -> None:

@@ -1,5 +1,21 @@
-"""A sweep's outputs: the log of finished tasks (what `--resume` reads), the results table (CSV and JSON) and
-plots of its columns.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A sweep's outputs.
+
+The log of finished tasks (what `--resume` reads), the results table (CSV and JSON) and plots of its columns.
 
 `rows.jsonl` gets one line {"key", "result"} per finished task as it finishes (flushed, so a sweep that is
 stopped keeps what finished); `results.csv` has one column per row field (nested fields as dotted names, lists
@@ -10,8 +26,8 @@ from __future__ import annotations
 import csv
 import json
 import math
-import re
 from pathlib import Path
+import re
 from typing import Any, Iterator
 
 from iguana_ros.errors import IguanaError, InputError
@@ -25,8 +41,12 @@ class ResultLog:
     """The finished tasks of a sweep in `out_dir`/rows.jsonl: read for a resume, appended as tasks finish."""
 
     def __init__(self, out_dir: Path, resume: bool) -> None:
-        """Open the log; InputError if `out_dir` already holds a sweep's finished tasks and `resume` is False
-        (nothing is overwritten), or if the folder cannot be written."""
+        """
+        Open the log.
+
+        InputError if `out_dir` already holds a sweep's finished tasks and `resume` is False (nothing is overwritten),
+        or if the folder cannot be written.
+        """
         self.path = Path(out_dir) / LOG_NAME
         if self.path.exists() and self.path.stat().st_size and not resume:
             raise InputError(f'{out_dir} already holds the results of a sweep ({self.path.name}); pass --resume to '
@@ -66,7 +86,7 @@ class ResultLog:
 
 
 def flatten(row: dict, prefix: str = '') -> dict:
-    """A row with nested mappings as dotted keys ({'terrain': {'seed': 1}} -> {'terrain.seed': 1})."""
+    """Return a row with nested mappings as dotted keys ({'terrain': {'seed': 1}} -> {'terrain.seed': 1})."""
     flat = {}
     for key, value in row.items():
         name = f'{prefix}{key}'
@@ -83,7 +103,7 @@ def columns_of(rows: list[dict]) -> list[str]:
 
 
 def _cell(value: Any) -> Any:
-    """A CSV cell: empty for None, JSON text for lists and mappings, the value otherwise (floats exact)."""
+    """Return a CSV cell: empty for None, JSON text for lists and mappings, the value otherwise (floats exact)."""
     if value is None:
         return ''
     if isinstance(value, (list, tuple, dict)):
@@ -107,8 +127,11 @@ def write_table(out_dir: Path, rows: list[dict], meta: dict) -> list[Path]:
 
 
 def _series(rows: list[dict], plot) -> Iterator[tuple[Any, list, list]]:
-    """(group value, x values, y values) per value of `plot.by` over the rows with a numeric y (failed rows and
-    missing values left out), groups in first-seen order."""
+    """
+    (group value, x values, y values) per value of `plot.by` over the rows with a numeric y.
+
+    (failed rows and missing values left out), groups in first-seen order.
+    """
     groups: dict = {}
     for row in rows:
         flat = flatten(row)
@@ -124,12 +147,12 @@ def _series(rows: list[dict], plot) -> Iterator[tuple[Any, list, list]]:
 
 
 def _is_number(value: Any) -> bool:
-    """A finite int or float, not a bool."""
+    """Return a finite int or float, not a bool."""
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def check_plot_columns(rows: list[dict], plots: tuple) -> None:
-    """IguanaError (one line) if a plot names a column the table does not have."""
+    """`IguanaError` (one line) if a plot names a column the table does not have."""
     names = set(columns_of(rows))
     for i, plot in enumerate(plots):
         for column in (plot.x, plot.y, plot.by):
@@ -145,8 +168,11 @@ def plot_path(out_dir: Path, plot) -> Path:
 
 
 def plot_columns(rows: list[dict], plot, path: Path, title: str = '') -> Path:
-    """Column `plot.y` against `plot.x`, one line per `plot.by` value (numeric x sorted; other x as categories
-    in first-seen order), saved as PNG at `path`."""
+    """
+    Column `plot.y` against `plot.x`, one line per `plot.by` value.
+
+    (numeric x sorted; other x as categories in first-seen order), saved as PNG at `path`.
+    """
     import matplotlib
 
     matplotlib.use('Agg')

@@ -1,9 +1,26 @@
-"""One sweep task on a scene: the library loop (`pipeline.run`) with the task's options, reduced to one row of
-what ran and its locomotion metrics."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+One sweep task on a scene.
+
+The library loop (`pipeline.run`) with the task's options, reduced to one row of what ran and its locomotion metrics.
+"""
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
+import time
 
 from iguana_ros.scene import Scene
 
@@ -21,23 +38,31 @@ TIMING_COLUMNS = ('wall_s', 'realtime_factor')
 
 @dataclass(frozen=True)
 class RunOptions:
-    """How a scene task runs besides its scene: adaptation (None = the scene's), `stop_after_goal` (s after the
-    root first reaches the last goal; None = the whole duration) and `simulator`, sorted (name, value) pairs of
-    SoftBodySimulator keywords (fidelity fields such as `dt`, and `friction`)."""
+    """
+    How a scene task runs besides its scene.
+
+    Adaptation (None = the scene's), `stop_after_goal` (s after the root first reaches the last goal; None = the whole
+    duration) and `simulator`, sorted (name, value) pairs of SoftBodySimulator keywords (fidelity fields such as `dt`,
+    and `friction`).
+    """
 
     adaptation: bool | None = None
     stop_after_goal: float | None = None
     simulator: tuple = ()
 
     def simulator_options(self) -> dict:
-        """The SoftBodySimulator keywords (a friction given per node tag as pairs becomes a mapping)."""
+        """Return the SoftBodySimulator keywords (a friction given per node tag as pairs becomes a mapping)."""
         return {name: dict(value) if name == 'friction' and isinstance(value, tuple) else value
                 for name, value in self.simulator}
 
 
 def scene_identity(scene: Scene, adaptation: bool | None = None) -> dict:
-    """The row fields that say what ran: scene, terrain kind and its parameters, last goal, mesh, duration and
-    adaptation (`adaptation` or the scene's) with its mode name."""
+    """
+    Return the row fields that say what ran.
+
+    scene, terrain kind and its parameters, last goal, mesh, duration and adaptation (`adaptation` or the scene's) with
+    its mode name.
+    """
     adapt = scene.adaptation if adaptation is None else bool(adaptation)
     return {'scene': scene.name, 'kind': scene.terrain.kind,
             'terrain': {k: getattr(scene.terrain, k) for k in KIND_FIELDS.get(scene.terrain.kind, ())},
@@ -47,8 +72,11 @@ def scene_identity(scene: Scene, adaptation: bool | None = None) -> dict:
 
 
 def run_scene(scene: Scene, options: RunOptions, identity: dict) -> dict:
-    """Run `scene` with `options`; the row `identity` + `wall_s` (build, run and metrics), `simulated_s`,
-    `realtime_factor` (simulated over the frame loop's wall time) and every LocomotionMetrics field.
+    """
+    Run `scene` with `options`.
+
+    The row `identity` + `wall_s` (build, run and metrics), `simulated_s`, `realtime_factor` (simulated over the frame
+    loop's wall time) and every LocomotionMetrics field.
 
     Raises what the run raises (SimulationDiverged, InputError, ...): the engine makes that an error row.
     """

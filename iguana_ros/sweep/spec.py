@@ -1,4 +1,19 @@
-"""Sweep spec files (YAML, msg_configs/sweeps/): what a sweep runs, validated with one-line errors, and its tasks.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Sweep spec files (YAML, msg_configs/sweeps/): what a sweep runs, validated with one-line errors, and its tasks.
 
 A spec names one of three kinds of sweep:
 
@@ -17,16 +32,16 @@ when the spec is read, before anything runs.
 from __future__ import annotations
 
 import dataclasses
-import itertools
-import math
-import typing
 from dataclasses import dataclass
 from fractions import Fraction
+import itertools
+import math
 from pathlib import Path
+import typing
 
 from iguana_ros.config import config_path
 from iguana_ros.errors import InputError
-from iguana_ros.scene import NAME_PATTERN, RESOLUTIONS, Scene, parse_scene, read_yaml
+from iguana_ros.scene import NAME_PATTERN, parse_scene, read_yaml, RESOLUTIONS, Scene
 
 MAX_TASKS = 100_000
 """Most tasks a spec may expand to."""
@@ -54,8 +69,12 @@ class PlotSpec:
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """A validated sweep: its `name`, `kind` (scenes, stability, tradeoff), `plan` (the engine's tasks), the
-    `summary` to add, the `plots` and the spec `source` file."""
+    """
+    A validated sweep.
+
+    Its `name`, `kind` (scenes, stability, tradeoff), `plan` (the engine's tasks), the `summary` to add, the `plots` and
+    the spec `source` file.
+    """
 
     name: str
     kind: str
@@ -71,7 +90,7 @@ def _fail(source: str, path: str, message: str) -> typing.NoReturn:
 
 
 def sweep_path(name_or_path: str) -> Path:
-    """A spec file: an existing path, or the name of a sweep under msg_configs/sweeps/."""
+    """Return a spec file: an existing path, or the name of a sweep under msg_configs/sweeps/."""
     path = Path(name_or_path)
     if path.suffix in ('.yaml', '.yml') or path.exists():
         return path
@@ -118,7 +137,7 @@ def parse_sweep(raw, source: str = '<spec>', base_dir: Path = Path('.'), default
             if field in raw:
                 _fail(source, field, f'applies to scene sweeps only, not to {kind}')
     plan = {'scenes': _scene_plan, 'stability': _stability_plan, 'tradeoff': _tradeoff_plan}[kind](raw, source,
-                                                                                                    base_dir)
+                                                                                                   base_dir)
     summary = raw.get('summary')
     if summary is not None and summary not in SUMMARIES:
         _fail(source, 'summary', f'expected one of {", ".join(SUMMARIES)}, got {summary!r}')
@@ -141,7 +160,7 @@ def _mapping(value, source: str, path: str, fields: dict) -> dict:
 
 def _number(value, source: str, path: str, integer: bool = False, minimum: float = 0.0,
             strict: bool = True) -> float:
-    """A finite number > `minimum` (>= with strict=False); an integer with `integer`."""
+    """Return a finite number > `minimum` (>= with strict=False); an integer with `integer`."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         _fail(source, path, f'expected a finite number, got {value!r}')
     if integer and not float(value).is_integer():
@@ -152,7 +171,7 @@ def _number(value, source: str, path: str, integer: bool = False, minimum: float
 
 
 def _strings(value, source: str, path: str, choices: tuple | None = None) -> tuple:
-    """A non-empty list of strings (each among `choices` if given)."""
+    """Return a non-empty list of strings (each among `choices` if given)."""
     if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
         _fail(source, path, f'expected a non-empty list of names, got {value!r}')
     bad = [v for v in value if choices is not None and v not in choices]
@@ -169,7 +188,7 @@ def _choice(value, source: str, path: str, choices: tuple) -> str:
 
 
 def _plots(raw, source: str) -> tuple:
-    """The `plots` list: mappings {x, y, by (optional)} of column names."""
+    """Return the `plots` list: mappings {x, y, by (optional)} of column names."""
     if not isinstance(raw, list):
         _fail(source, 'plots', f'expected a list of {{x, y, by}} mappings, got {raw!r}')
     plots = []
@@ -185,7 +204,7 @@ def _plots(raw, source: str) -> tuple:
 # ------------------------------------------------------------------------------------------ benchmark kinds
 
 def _stability_plan(raw: dict, source: str, _base_dir: Path):
-    """The stability benchmark's plan from the `stability` section."""
+    """Return the stability benchmark's plan from the `stability` section."""
     from iguana_ros.bench.stability import SCENARIOS
     from iguana_ros.sweep.benchmarks import stability_plan
 
@@ -198,12 +217,12 @@ def _stability_plan(raw: dict, source: str, _base_dir: Path):
 
 
 def _tradeoff_plan(raw: dict, source: str, _base_dir: Path):
-    """The speed-accuracy benchmark's plan from the `tradeoff` section."""
+    """Return the speed-accuracy benchmark's plan from the `tradeoff` section."""
     from iguana_ros.bench.sim import TRADEOFF_GROUPS, TRADEOFF_MESHES
     from iguana_ros.sweep.benchmarks import tradeoff_plan
 
     fields = _mapping(raw['tradeoff'], source, 'tradeoff', {'mesh': 'medium', 'seconds': 2.0,
-                                                             'meshes': list(TRADEOFF_MESHES), 'groups': None})
+                                                            'meshes': list(TRADEOFF_MESHES), 'groups': None})
     meshes = () if fields['meshes'] == [] else _strings(fields['meshes'], source, 'tradeoff.meshes', RESOLUTIONS)
     groups = fields['groups']
     return tradeoff_plan(_choice(fields['mesh'], source, 'tradeoff.mesh', RESOLUTIONS),
@@ -243,7 +262,11 @@ def _scene_plan(raw: dict, source: str, base_dir: Path):
 
 
 def _named_scenes(entries: tuple, base_dir: Path) -> list[Scene]:
-    """The scenes named by the spec (a relative path from the spec's folder first, then as load_scene finds it)."""
+    """
+    Return the scenes named by the spec.
+
+    (a relative path from the spec's folder first, then as load_scene finds it).
+    """
     from iguana_ros.scene import load_scene
 
     scenes = []
@@ -254,12 +277,15 @@ def _named_scenes(entries: tuple, base_dir: Path) -> list[Scene]:
 
 
 def _random_terrains(raw, source: str) -> dict:
-    """The arguments of the locomotion benchmark's generator (random_scenes) from {count, seed, kinds,
-    duration, mesh}."""
+    """
+    Return the arguments of the locomotion benchmark's generator.
+
+    (random_scenes) from {count, seed, kinds, duration, mesh}.
+    """
     from iguana_ros.random_scenes import BENCH_KINDS
 
     fields = _mapping(raw, source, 'random_terrains', {'count': None, 'seed': 0, 'kinds': list(BENCH_KINDS),
-                                                        'duration': 40.0, 'mesh': 'medium'})
+                                                       'duration': 40.0, 'mesh': 'medium'})
     if fields['count'] is None:
         _fail(source, 'random_terrains.count', 'expected the number of terrains')
     return {'n_terrains': _number(fields['count'], source, 'random_terrains.count', integer=True, minimum=1,
@@ -271,7 +297,7 @@ def _random_terrains(raw, source: str) -> dict:
 
 
 def _grid(raw, source: str) -> list[tuple[str, tuple]]:
-    """The grid as (override, values) pairs in file order."""
+    """Return the grid as (override, values) pairs in file order."""
     if not isinstance(raw, dict):
         _fail(source, 'grid', f'expected a mapping of override -> list of values, got {raw!r}')
     grid = []
@@ -284,7 +310,7 @@ def _grid(raw, source: str) -> list[tuple[str, tuple]]:
 
 
 def _cases(raw, source: str, grid: list) -> list[dict]:
-    """The cases: override mappings, none naming a grid key."""
+    """Return the cases: override mappings, none naming a grid key."""
     if not isinstance(raw, list) or not raw:
         _fail(source, 'cases', f'expected a non-empty list of override mappings, got {raw!r}')
     in_grid = {key for key, _ in grid}
@@ -307,7 +333,7 @@ def fidelity_knobs() -> dict:
 
 
 def check_override_key(key, source: str, path: str) -> None:
-    """SweepError unless `key` names something a task can override."""
+    """`SweepError` unless `key` names something a task can override."""
     if not isinstance(key, str):
         _fail(source, path, f'expected an override name, got {key!r}')
     head, _, tail = key.partition('.')
@@ -323,12 +349,12 @@ def check_override_key(key, source: str, path: str) -> None:
 
 
 def _spec_type(head: str) -> type:
-    """The dataclass of a nested scene field ('terrain' -> TerrainSpec)."""
+    """Return the dataclass of a nested scene field ('terrain' -> TerrainSpec)."""
     return typing.get_type_hints(Scene)[head]
 
 
 def scene_task(base: Scene, overrides: dict, stop_after_goal: float | None, where: str):
-    """The engine task of `base` with `overrides` (validated: SceneError/SweepError naming `where`)."""
+    """Return the engine task of `base` with `overrides` (validated: SceneError/SweepError naming `where`)."""
     from iguana_ros.sweep.engine import Task, task_key
     from iguana_ros.sweep.scene_task import IDENTITY_ALIASES, RunOptions, run_scene, scene_identity
 
@@ -355,7 +381,7 @@ def scene_task(base: Scene, overrides: dict, stop_after_goal: float | None, wher
 
 
 def _knob(name: str, value, where: str):
-    """A fidelity knob's value of its field type (a float may be given as a fraction such as '1/1200')."""
+    """Return a fidelity knob's value of its field type (a float may be given as a fraction such as '1/1200')."""
     kind = fidelity_knobs()[name]
     if kind is float and isinstance(value, str):
         try:
@@ -375,7 +401,7 @@ def _knob(name: str, value, where: str):
 
 
 def _check_knobs(preset: str, knobs: dict, where: str) -> None:
-    """The scene's fidelity preset with `knobs` must be valid settings."""
+    """Check: the scene's fidelity preset with `knobs` must be valid settings."""
     from iguana_ros.physics.fidelity import get_fidelity
 
     try:
@@ -385,7 +411,7 @@ def _check_knobs(preset: str, knobs: dict, where: str) -> None:
 
 
 def _friction(value, where: str):
-    """A Coulomb coefficient >= 0, or a mapping {node tag or 'default': coefficient}."""
+    """Return a Coulomb coefficient >= 0, or a mapping {node tag or 'default': coefficient}."""
     values = value.values() if isinstance(value, dict) else [value]
     for v in values:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:

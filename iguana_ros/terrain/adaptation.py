@@ -1,4 +1,19 @@
-"""Motion adaptation for terrain (Section VI): plane fitting, then residual fitting of feet and tail.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Motion adaptation for terrain (Section VI): plane fitting, then residual fitting of feet and tail.
 
 A clip pose was captured over a flat floor at z = 0. The *residual height* of a foot (or of the tail tip) is
 its height above that floor in the clip pose. Its *target* on the terrain is the point straight below or above
@@ -32,7 +47,7 @@ from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.geometry import (matrix_to_quat, quat_between, quat_conjugate, quat_from_rotvec, quat_mul,
                                  quat_normalize, quat_rotate, quat_to_matrix, quat_to_rotvec, rigid_fit)
 from iguana_ros.jit import ensure_fresh_kernel_cache
-from iguana_ros.terrain.heightfield import HeightField, bilinear_height_gradient
+from iguana_ros.terrain.heightfield import bilinear_height_gradient, HeightField
 
 FOOT_BONES = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 """Bones whose joints are the four foot points, in the clips' contact order (fl, fr, hl, hr)."""
@@ -162,7 +177,8 @@ def terrain_targets(terrain: HeightField, points: np.ndarray, residual_heights: 
 
 
 def residual_heights_of(skeleton: Skeleton, root_position: np.ndarray, local_rotations: np.ndarray) -> tuple:
-    """Residual heights of the clip pose: feet `(4,)` (>= 0) and tail tip (float), z above the capture floor.
+    """
+    Residual heights of the clip pose: feet `(4,)` (>= 0) and tail tip (float), z above the capture floor.
 
     The tail tip's may be negative: a clip whose tail bears weight presses it into the floor
     (`motion.cleanup.TAIL_TIP_HEIGHT`), and the adapted tail is pressed as deep into the terrain.
@@ -224,7 +240,7 @@ def _rotation_and_jacobian(r, rot, jac):
 
 @numba.njit(cache=True)
 def _mat_mul(a, b, out):
-    """out = a @ b for 3x3 matrices (no BLAS call)."""
+    """`out` = a @ b for 3x3 matrices (no BLAS call)."""
     for i in range(3):
         for j in range(3):
             out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
@@ -280,7 +296,8 @@ def _position_cost(positions, eff_bones, eff_targets, eff_weights, clearance, pe
 def _ik_objective(x, var_bones, root_position, local_mats, parents, offsets, eff_bones, eff_targets,
                   eff_weights, x_ref, pose_weight, lift_weight, clearance, pen_weight, inv_scale2, lift_scale,
                   heights, ox, oy, spacing, positions):
-    """Residual-fitting objective and gradient `(n_x,)`; fills world joint `positions (n_bones, 3)`.
+    """
+    Residual-fitting objective and gradient `(n_x,)`; fills world joint `positions (n_bones, 3)`.
 
     x = rotation vectors of `var_bones` (3 each, rad) followed by the root lift (in units of `lift_scale` m).
     """
@@ -330,7 +347,7 @@ def _ik_objective(x, var_bones, root_position, local_mats, parents, offsets, eff
 
 
 def ik_bones(skeleton: Skeleton) -> np.ndarray:
-    """Indices of the bones residual fitting rotates: legs, tail, neck, head (with children and a range)."""
+    """Return indices of the bones residual fitting rotates: legs, tail, neck, head (with children and a range)."""
     has_child = np.zeros(skeleton.n_bones, dtype=bool)
     has_child[skeleton.parents[skeleton.parents >= 0]] = True
     movable = np.ptp(skeleton.limits, axis=2).max(axis=1) > 0
@@ -386,7 +403,7 @@ class _ResidualProblem:
 
 @lru_cache(maxsize=1)
 def _blas_controller():
-    """The process's BLAS thread-pool controller (inspecting loaded libraries once costs milliseconds)."""
+    """Return the process's BLAS thread-pool controller (inspecting loaded libraries once costs milliseconds)."""
     from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()
@@ -401,7 +418,8 @@ def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.nda
                  local_rotations: np.ndarray, foot_residual_heights: np.ndarray, tail_residual_height: float,
                  stance: np.ndarray | None = None, state: AdaptationState | None = None,
                  settings: AdaptationSettings | None = None) -> AdaptedPose:
-    """L-BFGS-B IK moving feet and tail tip of a plane-fitted pose to their terrain targets (Section VI-B).
+    """
+    L-BFGS-B IK moving feet and tail tip of a plane-fitted pose to their terrain targets (Section VI-B).
 
     `foot_residual_heights (4,)`, `stance (4,)` bool (None: all stance); `state` is updated for warm starts.
     """
@@ -453,7 +471,8 @@ def adapt_pose(skeleton: Skeleton, terrain: HeightField | None, root_position: n
                tail_residual_height: float | None = None, stance: np.ndarray | None = None,
                state: AdaptationState | None = None,
                settings: AdaptationSettings | None = None) -> AdaptedPose:
-    """Plane fitting then residual fitting of one clip pose on `terrain` (None or flat: no IK at all).
+    """
+    Plane fitting then residual fitting of one clip pose on `terrain` (None or flat: no IK at all).
 
     Residual heights default to the clip pose's own heights above z = 0 (feet `(4,)`, tail tip).
     """
@@ -478,7 +497,8 @@ def adapt_pose(skeleton: Skeleton, terrain: HeightField | None, root_position: n
 
 
 def align_soles(skeleton: Skeleton, terrain: HeightField, pose: AdaptedPose, stance: np.ndarray) -> AdaptedPose:
-    """The pose with each stance foot's sole turned parallel to the terrain under its pivot (`stance (4,)`).
+    """
+    Return the pose with each stance foot's sole turned parallel to the terrain under its pivot (`stance (4,)`).
 
     The clips plant their soles flat on the capture floor; on a slope a horizontal sole would stand on its
     edge (on the flat-soled model, 2 of 7-10 sole nodes) and roll. The pivot bone (FOOT_PIVOTS) is turned by

@@ -1,4 +1,19 @@
-"""Height-field terrain: a regular grid of heights, bilinear in between, clamped outside.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Height-field terrain: a regular grid of heights, bilinear in between, clamped outside.
 
 `heights[i, j]` is the terrain height (m) at world `x = origin[0] + i * spacing`, `y = origin[1] + j * spacing`.
 Outside the grid the height is that of the nearest edge (the grid is clamped, so the gradient across the edge
@@ -7,8 +22,8 @@ called inside other compiled kernels (ground contact); the methods are their vec
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+import math
 from pathlib import Path
 
 import numba
@@ -116,15 +131,15 @@ class HeightField:
         return out[..., 0], out[..., 1:]
 
     def height(self, xy: np.ndarray) -> np.ndarray:
-        """Terrain height (m) `(...)` at world points `xy (..., 2)`."""
+        """Terrain height `(...)` (m) at world points `xy (..., 2)`."""
         return self.height_and_gradient(xy)[0]
 
     def gradient(self, xy: np.ndarray) -> np.ndarray:
-        """Height gradient (dh/dx, dh/dy) `(..., 2)` at world points `xy (..., 2)`."""
+        """Height gradient `(..., 2)` (dh/dx, dh/dy) at world points `xy (..., 2)`."""
         return self.height_and_gradient(xy)[1]
 
     def normal(self, xy: np.ndarray) -> np.ndarray:
-        """Unit upward surface normal `(..., 3)` at world points `xy (..., 2)`."""
+        """Return unit upward surface normal `(..., 3)` at world points `xy (..., 2)`."""
         grad = self.gradient(xy)
         n = np.concatenate([-grad, np.ones(grad.shape[:-1] + (1,))], axis=-1)
         return n / np.linalg.norm(n, axis=-1, keepdims=True)
@@ -138,7 +153,7 @@ class HeightField:
 
     @property
     def is_flat(self) -> bool:
-        """True when every height is the same (a horizontal plane)."""
+        """Return True when every height is the same (a horizontal plane)."""
         return bool(np.ptp(self.heights) == 0.0)
 
     # ------------------------------------------------------------ constructors
@@ -165,7 +180,7 @@ class HeightField:
     @classmethod
     def hills(cls, amplitude: float = 0.05, wavelength: float = 0.6, seed: int = 0,
               extent: float = 5.0) -> 'HeightField':
-        """Smooth random hills (sum of 8 plane waves near `wavelength` m), peak |height| = `amplitude` m."""
+        """Smooth random hills: a sum of 8 plane waves near `wavelength` m, peak |height| = `amplitude` m."""
         if amplitude < 0 or wavelength <= 0 or extent <= 0:
             raise InputError('hills: amplitude must be >= 0 and wavelength, extent > 0 (metres)')
         rng = np.random.default_rng(seed)
@@ -184,7 +199,8 @@ class HeightField:
     @classmethod
     def steps(cls, block_size: float = 0.3, step_min: float = 0.03, step_max: float = 0.05, seed: int = 0,
               extent: float = 5.0, spacing: float = 0.05, pad_radius: float = STEPS_PAD_RADIUS) -> 'HeightField':
-        """Square blocks of side `block_size` m, each of a height drawn uniformly in [`step_min`, `step_max`] m.
+        """
+        Square blocks of side `block_size` m, each of a height drawn uniformly in [`step_min`, `step_max`] m.
 
         Blocks are aligned to the origin (block `(a, b)` covers `[a, a + 1) * block_size` in x, likewise in y);
         the grid of `spacing` m over `[-extent, extent]²` gives each node the height of its block, so an edge is
@@ -207,7 +223,8 @@ class HeightField:
     @classmethod
     def noise(cls, amplitude: float = 0.05, wavelength: float = 0.8, seed: int = 0, extent: float = 5.0,
               spacing: float = 0.05) -> 'HeightField':
-        """Band-limited Gaussian noise on a `spacing` m grid over `[-extent, extent]²`, peak |height| = `amplitude`.
+        """
+        Band-limited Gaussian noise on a `spacing` m grid over `[-extent, extent]²`, peak |height| = `amplitude`.
 
         White noise is smoothed by a Gaussian filter (periodic boundary) of sigma `wavelength / (2 pi sqrt 2)`,
         which puts the peak of the radial power spectrum at `wavelength` m, as the plane waves of `hills`; the
@@ -231,7 +248,8 @@ class HeightField:
 
     @classmethod
     def from_file(cls, path, scale: float = 1.0, spacing: float = 0.05, origin=None) -> 'HeightField':
-        """Load heights from `.npy` (values × `scale` m) or a grey PNG (value / dtype max × `scale` m), centred.
+        """
+        Load heights from `.npy` (values × `scale` m) or a grey PNG (value / dtype max × `scale` m), centred.
 
         A `.npy` array is indexed `[i (x), j (y)]`; a PNG is an image seen from above, x to the right and y up
         (its top row is the largest y). `origin` defaults to centring the grid on (0, 0).
@@ -254,20 +272,26 @@ class HeightField:
 
 
 def grid_nodes(extent: float, spacing: float) -> float:
-    """Nodes (an int) of the square grid the generated terrains build over `[-extent, extent]²` at `spacing` m;
-    inf when there would be more than 1e30 (a spacing too small to count with)."""
+    """
+    Nodes (an int) of the square grid the generated terrains build over `[-extent, extent]²` at `spacing` m.
+
+    Inf when there would be more than 1e30 (a spacing too small to count with).
+    """
     cells = 2.0 * extent / spacing if spacing > 0 else math.inf
     return (math.ceil(cells) + 1) ** 2 if cells < 1e15 else math.inf
 
 
 def node_count(nodes: float) -> str:
-    """A grid's node count for a message: in full up to 1e9, else in %.3g."""
+    """Return a grid's node count for a message: in full up to 1e9, else in %.3g."""
     return str(nodes) if nodes < 1e9 else f'{nodes:.3g}'
 
 
 def _grid_axis(extent: float, spacing: float) -> np.ndarray:
-    """Node coordinates `(n,)` (m) of a grid from `-extent` in steps of `spacing`, reaching at least `extent`;
-    InputError if the square grid would have more than MAX_GRID_NODES nodes."""
+    """
+    Node coordinates `(n,)` (m) of a grid from `-extent` in steps of `spacing`, reaching at least `extent`.
+
+    InputError if the square grid would have more than MAX_GRID_NODES nodes.
+    """
     nodes = grid_nodes(extent, spacing)
     if nodes > MAX_GRID_NODES:
         raise InputError(f'height field: a {2.0 * extent:g} m square at spacing {spacing:g} m has {node_count(nodes)} '
@@ -276,8 +300,12 @@ def _grid_axis(extent: float, spacing: float) -> np.ndarray:
 
 
 def heightmap_shape(path) -> tuple[int, int]:
-    """Grid shape `(nx, ny)` of a height-map file (.npy or PNG) read from its header only, after checking that the
-    file exists, is at most MAX_HEIGHTMAP_BYTES and holds at most MAX_GRID_NODES values; InputError otherwise."""
+    """
+    Grid shape `(nx, ny)` of a height-map file (.npy or PNG) read from its header only.
+
+    after checking that the file exists, is at most MAX_HEIGHTMAP_BYTES and holds at most MAX_GRID_NODES values;
+    InputError otherwise.
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(f'height field: file {path} does not exist')
@@ -301,7 +329,7 @@ def heightmap_shape(path) -> tuple[int, int]:
 
 
 def _npy_header_shape(path: Path) -> tuple:
-    """The array shape in a .npy file's header (the data is not read)."""
+    """Return the array shape in a .npy file's header (the data is not read)."""
     try:
         with path.open('rb') as f:
             version = np.lib.format.read_magic(f)
@@ -325,7 +353,7 @@ def _png_header_shape(path: Path) -> tuple:
 
 
 def _load_npy(path: Path) -> np.ndarray:
-    """A 2-D float array from a .npy file, or InputError naming the file."""
+    """Return a 2-D float array from a .npy file, or InputError naming the file."""
     try:
         data = np.load(path, allow_pickle=False)
     except (ValueError, OSError) as exc:

@@ -1,5 +1,23 @@
-"""A recorded bag read into a `RunView` for the timeline: every mesh frame, the root's states, the feet, pushes,
-clips, terrain and goals, in one pass over the bag (the same decoders as live mode)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A recorded bag read into a `RunView` for the timeline.
+
+Every mesh frame, the root's states, the feet, pushes, clips, terrain and goals, in one pass over the bag (the same
+decoders as live mode).
+"""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -9,8 +27,8 @@ from pathlib import Path
 import numpy as np
 from rclpy.serialization import deserialize_message
 
-from iguana_ros.bag.frames import NS, match_topic
-from iguana_ros.bag.storage import BagReader, accept, summarize
+from iguana_ros.bag.frames import match_topic, NS
+from iguana_ros.bag.storage import accept, BagReader, summarize
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.ros.endpoints import message_class
 from iguana_ros.topics import topic
@@ -31,8 +49,11 @@ class BagView:
 
 
 def _roles(path: str | Path) -> tuple[dict, object]:
-    """({recorded topic: table key} of the ROLES in the bag, its BagSummary, checked in full); InputError for a
-    missing bag or one without a mesh_marker topic."""
+    """
+    Return ({recorded topic: table key} of the ROLES in the bag, its BagSummary, checked in full).
+
+    InputError for a missing bag or one without a mesh_marker topic.
+    """
     summary = summarize(path)
     recorded = {t.name: t.type for t in summary.topics}
     roles = {}
@@ -49,9 +70,12 @@ def _roles(path: str | Path) -> tuple[dict, object]:
 
 def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None = None,
              push_duration: float = 0.1) -> BagView:
-    """Read bag `path` (see the module docstring); `library` names the clips (name -> clip), pushes last
-    `push_duration` s. InputError for a missing bag or one without mesh frames; DamagedBag for a damaged or
-    truncated bag unless `allow_damaged`."""
+    """
+    Read bag `path` (see the module docstring).
+
+    `library` names the clips (name -> clip), pushes last `push_duration` s. InputError for a missing bag or one without
+    mesh frames; DamagedBag for a damaged or truncated bag unless `allow_damaged`.
+    """
     roles, summary = _roles(path)
     damage = accept(summary, allow_damaged)
     view, skipped = RunView(), {}
@@ -85,8 +109,11 @@ def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None
 
 
 def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_duration: float) -> None:
-    """Scene markers and pushes carry no simulated time: each takes the simulated time of the states received
-    around it (from the recorder's receive times)."""
+    """
+    Scene markers and pushes carry no simulated time.
+
+    Each takes the simulated time of the states received around it (from the recorder's receive times).
+    """
     states = view.states
     walls, times = states.values[:, 5], states.times
     known = np.isfinite(walls)

@@ -1,7 +1,25 @@
-"""Live mode: an rclpy node of the viewer's own feeding a `RunView` from the running system's topics (QoS as
-msg_configs/topics.yaml says) and publishing the user's goals (`goal_pose`, PoseStamped, like RViz2's "2D Goal
-Pose") and pushes (`push`, WrenchStamped). It spins in a thread of its own; messages that do not fit their topic
-are counted and the first of each topic is logged, never drawn."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Live mode.
+
+An rclpy node of the viewer's own feeding a `RunView` from the running system's topics (QoS as msg_configs/topics.yaml
+says) and publishing the user's goals (`goal_pose`, PoseStamped, like RViz2's "2D Goal Pose") and pushes (`push`,
+WrenchStamped). It spins in a thread of its own; messages that do not fit their topic are counted and the first of each
+topic is logged, never drawn.
+"""
 from __future__ import annotations
 
 import math
@@ -50,7 +68,7 @@ class LiveSource:
         self.thread.start()
 
     def _publisher(self, key: str):
-        """Publisher of topic-table key `key`."""
+        """Return publisher of topic-table key `key`."""
         name, cls, qos = resolve(key)
         return self.node.create_publisher(cls, name, qos)
 
@@ -72,7 +90,7 @@ class LiveSource:
             self.node.create_subscription(cls, name, self._guarded(key, handler), qos, raw=raw)
 
     def _guarded(self, key: str, handler):
-        """`handler` that counts (and logs the first of) the messages of `key` that do not fit."""
+        """Return `handler` that counts (and logs the first of) the messages of `key` that do not fit."""
         def callback(msg) -> None:
             try:
                 handler(msg)

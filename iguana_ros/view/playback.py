@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The bag timeline's clock (ROS-free): play, pause, scrub and speed over a recording's simulated time."""
 from __future__ import annotations
 
@@ -9,8 +23,11 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
 @dataclass
 class Playback:
-    """Simulated time `time` s within [`start`, `end`], advancing at `speed` while `playing`; at the end it stops
-    (or, with `loop`, starts again)."""
+    """
+    Simulated time `time` s within [`start`, `end`], advancing at `speed` while `playing`.
+
+    At the end it stops (or, with `loop`, starts again).
+    """
 
     start: float
     end: float

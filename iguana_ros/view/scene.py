@@ -1,4 +1,19 @@
-"""What the viewer draws at one moment (ROS-free): the run so far as time series, and the frame at a time.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What the viewer draws at one moment (ROS-free): the run so far as time series, and the frame at a time.
 
 A `RunView` collects what the topics of a run carry, decoded to arrays by the existing conversions: the terrain
 and goal markers (`scene_markers`), the iguana's surface (`mesh_marker`), the root's pose and speed
@@ -11,10 +26,10 @@ append while the web server's thread draws.
 """
 from __future__ import annotations
 
-import math
-import threading
 from bisect import bisect_right
 from dataclasses import dataclass, field
+import math
+import threading
 
 import numpy as np
 
@@ -100,18 +115,22 @@ class ViewFrame:
 
 
 class Series:
-    """Rows stamped with non-decreasing times: `times (n,)` s and `values (n, *shape)`; a row at the last time
-    replaces it (a re-sent message), an older one is dropped."""
+    """
+    Rows stamped with non-decreasing times.
+
+    `times (n,)` s and `values (n, *shape)`; a row at the last time replaces it (a re-sent message), an older one is
+    dropped.
+    """
 
     def __init__(self, shape: tuple, capacity: int = 256) -> None:
-        """An empty series of rows of `shape`."""
+        """Start an empty series of rows of `shape`."""
         self._times = np.zeros(capacity)
         self._values = np.zeros((capacity, *shape))
         self.n = 0
 
     @classmethod
     def of(cls, times: np.ndarray, values: np.ndarray) -> Series:
-        """A series holding rows `values (n, *shape)` at `times (n,)` (sorted by time, stable)."""
+        """Return a series holding rows `values (n, *shape)` at `times (n,)` (sorted by time, stable)."""
         order = np.argsort(np.asarray(times, float), kind='stable')
         series = cls(np.shape(values)[1:], capacity=max(len(order), 1))
         for k in order:
@@ -132,7 +151,7 @@ class Series:
 
     @property
     def times(self) -> np.ndarray:
-        """Times `(n,)` s (a view)."""
+        """Return times `(n,)` s (a view)."""
         return self._times[:self.n]
 
     @property
@@ -146,7 +165,7 @@ class Series:
 
 
 def _latest(items: list, time: float):
-    """The last of `items` (sorted by `.time`) at or before `time`, else the first, else None."""
+    """Return the last of `items` (sorted by `.time`) at or before `time`, else the first, else None."""
     if not items:
         return None
     k = bisect_right([item.time for item in items], time) - 1
@@ -155,8 +174,11 @@ def _latest(items: list, time: float):
 
 @dataclass
 class RunView:
-    """The run so far (see the module docstring); `keep_meshes` bounds how many mesh frames are kept (None = all,
-    for a bag's timeline; live mode keeps the latest)."""
+    """
+    The run so far (see the module docstring).
+
+    `keep_meshes` bounds how many mesh frames are kept (None = all, for a bag's timeline; live mode keeps the latest).
+    """
 
     keep_meshes: int | None = None
     terrain_points: np.ndarray | None = None
@@ -199,8 +221,11 @@ class RunView:
 
     def add_state(self, time: float, position: np.ndarray, yaw: float, speed: float,
                   wall: float = math.nan) -> None:
-        """Take the root's position `(3,)` m, heading (rad) and horizontal speed (m/s) at `time` s, received at
-        wall time `wall` s."""
+        """
+        Take the root's position `(3,)` m, heading (rad) and horizontal speed (m/s) at `time` s.
+
+        received at wall time `wall` s.
+        """
         with self.lock:
             self.states.append(time, [*np.asarray(position, float)[:3], yaw, speed, wall])
 
@@ -229,7 +254,7 @@ class RunView:
 
     @property
     def end_time(self) -> float:
-        """The latest simulated time anything was seen at, s (0 before anything)."""
+        """Return the latest simulated time anything was seen at, s (0 before anything)."""
         with self.lock:
             ends = [self.meshes[-1].time] if self.meshes else []
             ends += [s.times[-1] for s in (self.states, self.feet) if s.n]
@@ -237,14 +262,14 @@ class RunView:
 
     @property
     def start_time(self) -> float:
-        """The earliest simulated time of a mesh or state, s (0 before anything)."""
+        """Return the earliest simulated time of a mesh or state, s (0 before anything)."""
         with self.lock:
             starts = [self.meshes[0].time] if self.meshes else []
             starts += [self.states.times[0]] if self.states.n else []
             return min(starts, default=0.0)
 
     def frame(self, time: float | None = None) -> ViewFrame:
-        """What to draw at simulated time `time` s (None: the latest)."""
+        """Return what to draw at simulated time `time` s (None: the latest)."""
         with self.lock:
             t = self.end_time if time is None else float(time)
             k = self.states.index_at(t)
@@ -294,7 +319,7 @@ class RunView:
         return float(travel / span) if span > 0 else math.nan
 
     def _realtime_factor(self, k: int) -> float:
-        """Simulated over wall seconds between state row `k` and the row RTF_WINDOW_S wall seconds before it."""
+        """Return simulated over wall seconds between state row `k` and the row RTF_WINDOW_S wall seconds before it."""
         if k < 1:
             return math.nan
         wall = self.states.values[:k + 1, 5]
@@ -308,7 +333,7 @@ class RunView:
 
 
 def panel_lines(frame: ViewFrame) -> list[str]:
-    """The panel's lines for `frame`: simulated time, realtime factor, clip, speed, foot slip."""
+    """Return the panel's lines for `frame`: simulated time, realtime factor, clip, speed, foot slip."""
     def figure(value: float, text: str) -> str:
         return text.format(value) if math.isfinite(value) else '–'
     return [f'simulated time {frame.time:.2f} s',
@@ -319,8 +344,12 @@ def panel_lines(frame: ViewFrame) -> list[str]:
 
 
 def terrain_hit(origin, direction, corners: np.ndarray) -> np.ndarray | None:
-    """The nearest point `(3,)` where the ray from `origin (3,)` along `direction (3,)` meets a triangle of the
-    TRIANGLE_LIST `corners (3*m, 3)` (Moller-Trumbore), None if it misses them all."""
+    """
+    Return the nearest point `(3,)`.
+
+    where the ray from `origin (3,)` along `direction (3,)` meets a triangle of the TRIANGLE_LIST `corners (3*m, 3)`
+    (Moller-Trumbore), None if it misses them all.
+    """
     o, d = np.asarray(origin, float), np.asarray(direction, float)
     n = len(corners) - len(corners) % 3
     if n == 0 or not (np.isfinite(o).all() and np.isfinite(d).all()) or not d.any():
@@ -343,9 +372,13 @@ def terrain_hit(origin, direction, corners: np.ndarray) -> np.ndarray | None:
 
 
 def identify_clip(rotations: np.ndarray, library: dict) -> str:
-    """Name of the library clip (name -> clip with `local_rotations (n_frames, n_bones, 4)`) that a placed clip's
-    rotations `(n_frames, n_bones, 4)` play: same length, same bone rotations in the last frame (the root's
-    heading and the first frames' blend differ); '' if none matches."""
+    """
+    Name of the library clip.
+
+    (name -> clip with `local_rotations (n_frames, n_bones, 4)`) that a placed clip's rotations `(n_frames, n_bones, 4)`
+    play: same length, same bone rotations in the last frame (the root's heading and the first frames' blend differ); ''
+    if none matches.
+    """
     rot = np.asarray(rotations, float)
     best, best_error = '', CLIP_MATCH_TOLERANCE
     for name, clip in library.items():
@@ -358,13 +391,16 @@ def identify_clip(rotations: np.ndarray, library: dict) -> str:
     return best
 
 
-
 PUSH_SIDES = {'left': 'trunk_left', 'right': 'trunk_right'}
 """Flank pushed -> the model's tagged node group a push on that flank acts on."""
 
 
 def flank_push(yaw: float, newtons: float, side: str) -> tuple[np.ndarray, str]:
-    """(force `(3,)` N, region) of a sideways push of `newtons` N on the trunk's `side` flank ('left' or 'right')
-    of a body heading `yaw` rad (the left flank is pushed towards the body's right, as in Section VIII-D)."""
+    """
+    (force `(3,)` N, region) of a sideways push of `newtons` N on the trunk's `side` flank.
+
+    ('left' or 'right') of a body heading `yaw` rad (the left flank is pushed towards the body's right, as in Section
+    VIII-D).
+    """
     towards_right = np.array([math.sin(yaw), -math.cos(yaw), 0.0])
     return (1.0 if side == 'left' else -1.0) * float(newtons) * towards_right, PUSH_SIDES[side]

@@ -1,21 +1,39 @@
-"""The viewer's web page (viser): scene nodes drawn from a `RunView`'s frames, a panel of figures, and either the
-live controls (a click on the terrain sends a goal, buttons send pushes) or the bag timeline (play, pause,
-scrub, speed). viser serves its own web client from the wheel; the page shows "Connecting..." in its panel when
-it loses the server and reconnects by itself when a server is back."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The viewer's web page (viser).
+
+Scene nodes drawn from a `RunView`'s frames, a panel of figures, and either the live controls (a click on the terrain
+sends a goal, buttons send pushes) or the bag timeline (play, pause, scrub, speed). viser serves its own web client from
+the wheel; the page shows "Connecting..." in its panel when it loses the server and reconnects by itself when a server
+is back.
+"""
 from __future__ import annotations
 
+from dataclasses import dataclass
 import socket
 import threading
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
 from iguana_ros.errors import InputError
 from iguana_ros.render.renderer import TRAIL_LIFT, TRAIL_RGB
 from iguana_ros.scene import MAX_PUSH_FORCE
-from iguana_ros.view.playback import SPEEDS, Playback
-from iguana_ros.view.scene import PUSH_SIDES, RunView, ViewFrame, flank_push, panel_lines, terrain_hit
+from iguana_ros.view.playback import Playback, SPEEDS
+from iguana_ros.view.scene import flank_push, panel_lines, PUSH_SIDES, RunView, terrain_hit, ViewFrame
 
 DRAW_HZ = 20.0
 """How often the page is redrawn, per wall second."""
@@ -42,15 +60,18 @@ def _rgb(rgba: np.ndarray) -> tuple[int, int, int]:
 
 
 def _quiet():
-    """Context in which stdout is swallowed: viser prints a banner of its own at start and a line at stop (the
-    CLI prints one line with the address)."""
+    """
+    Context in which stdout is swallowed.
+
+    viser prints a banner of its own at start and a line at stop (the CLI prints one line with the address).
+    """
     import contextlib
     import io
     return contextlib.redirect_stdout(io.StringIO())
 
 
 def check_port(host: str, port: int) -> None:
-    """InputError (one line) unless a server can listen on `host`:`port` (0 = any free port)."""
+    """`InputError` (one line) unless a server can listen on `host`:`port` (0 = any free port)."""
     if not 0 <= port <= 65535:
         raise InputError(f'port {port} is out of range; expected 0..65535 (0 = any free port)')
     try:
@@ -83,9 +104,11 @@ class _Drawn:
 
 
 class ViewerPage:
-    """The web page of one viewer: `serve(stop)` draws until `stop` is set, `close()` stops the server.
+    """
+    The web page of one viewer: `serve(stop)` draws until `stop` is set, `close()` stops the server.
 
-    `live` (a LiveSource) enables goals and pushes; `playback` (a Playback) shows the timeline."""
+    `live` (a LiveSource) enables goals and pushes; `playback` (a Playback) shows the timeline.
+    """
 
     def __init__(self, view: RunView, host: str = '127.0.0.1', port: int = 8080, title: str = 'iguana view',
                  live=None, playback: Playback | None = None, notes: tuple = ()) -> None:
@@ -120,7 +143,7 @@ class ViewerPage:
 
     @property
     def url(self) -> str:
-        """The page's address."""
+        """Return the page's address."""
         host = f'[{self.host}]' if ':' in self.host else self.host
         return f'http://{host}:{self.port}/'
 
@@ -161,7 +184,7 @@ class ViewerPage:
         self._loop.on_update(lambda _event: setattr(pb, 'loop', bool(self._loop.value)))
 
     def _on_click(self, event) -> None:
-        """A click in the scene: on the terrain in live mode, a goal there."""
+        """Handle a click in the scene: on the terrain in live mode, a goal there."""
         with self.view.lock:
             corners = self.view.terrain_points
         hit = None if corners is None else terrain_hit(event.ray_origin, event.ray_direction, corners)
@@ -207,9 +230,12 @@ class ViewerPage:
                 self._goal_status()
 
     def _show_playback(self) -> None:
-        """The timeline's controls as the clock stands. The slider follows the clock only while it plays (and once
-        more as it stops): paused, the slider and its number field are the user's, so a value being typed is never
-        overwritten by the clock's previous one."""
+        """
+        Show the timeline's controls as the clock stands.
+
+        The slider follows the clock only while it plays (and once more as it stops): paused, the slider and its number
+        field are the user's, so a value being typed is never overwritten by the clock's previous one.
+        """
         pb = self.playback
         if (pb.playing or self._was_playing) and abs(self._time.value - pb.time) >= 0.01:
             self._time.value = round(pb.time, 3)
@@ -246,8 +272,12 @@ class ViewerPage:
                 self._follow_root(frame.root)
 
     def _follow_root(self, root: np.ndarray) -> None:
-        """Aim new browsers at the root; with 'follow the iguana', move every camera so it looks at the root from
-        the angle and distance that browser has (setting a viser camera's position moves its look-at along)."""
+        """
+        Aim new browsers at the root.
+
+        With 'follow the iguana', move every camera so it looks at the root from the angle and distance that browser has
+        (setting a viser camera's position moves its look-at along).
+        """
         drawn = self.drawn
         if drawn.followed is not None and np.linalg.norm(root - drawn.followed) < FOLLOW_STEP_M:
             return
@@ -270,7 +300,7 @@ class ViewerPage:
             self.handles[name] = handle
 
     def _draw_terrain(self) -> None:
-        """The terrain mesh (its median colour, both sides)."""
+        """Draw the terrain mesh (its median colour, both sides)."""
         with self.view.lock:
             points, colors = self.view.terrain_points, self.view.terrain_colors
         n = len(points) - len(points) % 3
@@ -279,7 +309,7 @@ class ViewerPage:
             color=_rgb(colors[:n]), side='double', cast_shadow=False))
 
     def _draw_mesh(self, frame: ViewFrame) -> None:
-        """The iguana's surface (its median colour, flat-shaded); the same triangle count only moves vertices."""
+        """Draw the iguana's surface (its median colour, flat-shaded); the same triangle count only moves vertices."""
         points = frame.mesh.points.astype(np.float32)
         handle = self.handles.get('iguana')
         if handle is not None and handle.vertices.shape == points.shape:
@@ -290,7 +320,7 @@ class ViewerPage:
             flat_shading=True, side='double'))
 
     def _draw_path(self, path: np.ndarray) -> None:
-        """The root's path so far, lifted a little off the ground."""
+        """Draw the root's path so far, lifted a little off the ground."""
         if len(path) < 2:
             self._replace('path', None)
             return
@@ -327,12 +357,15 @@ class ViewerPage:
             self.pending_goal = None
 
     def close(self) -> None:
-        """Stop the server (the page then shows that it lost it), waiting at most CLOSE_S: viser's stop waits up to
-        5 s for a connected browser's goodbye, and its server thread is a daemon that exit ends anyway."""
+        """
+        Stop the server (the page then shows that it lost it), waiting at most CLOSE_S.
+
+        viser's stop waits up to 5 s for a connected browser's goodbye, and its server thread is a daemon that exit ends
+        anyway.
+        """
         def stop() -> None:
             with _quiet():
                 self.server.stop()
         stopper = threading.Thread(target=stop, name='iguana-view-stop', daemon=True)
         stopper.start()
         stopper.join(CLOSE_S)
-

@@ -1,10 +1,27 @@
-"""Mid-file damage in a bag (chunk CRCs, data-section and summary CRCs, lost index, damaged metadata.yaml): detected,
-reported with what was recovered, every intact chunk recovered, exit status 1 unless --allow-damaged."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Mid-file damage in a bag (chunk CRCs, data-section and summary CRCs, lost index, damaged metadata.yaml).
+
+Detected, reported with what was recovered, every intact chunk recovered, exit status 1 unless --allow-damaged.
+"""
 import random
 import struct
 
-import pytest
 from mcap.reader import make_reader
+import pytest
 
 from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import BagReader, BagWriter, summarize
@@ -26,7 +43,7 @@ def _expected(indices) -> list[tuple[str, bytes]]:
 
 @pytest.fixture
 def bag(tmp_path):
-    """A finished directory bag of N messages on /a and /b, one chunk per message."""
+    """Return a finished directory bag of N messages on /a and /b, one chunk per message."""
     writer = BagWriter(tmp_path / 'b', chunk_age_s=0.0)
     a = writer.add_topic('/a', STRING_TYPE, message_definition(STRING_TYPE))
     b = writer.add_topic('/b', STRING_TYPE, message_definition(STRING_TYPE))

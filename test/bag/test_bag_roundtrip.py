@@ -1,13 +1,27 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Record real publisher processes with `iguana bag record`, replay with `iguana bag play`, compare bytes."""
 import subprocess
 
-import pytest
-import yaml
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
-from ros_harness import IGUANA, NodeProcess, helper, read_dump
+import pytest
+import yaml
 
 from iguana_ros.bag.storage import BagReader
+from ros_harness import helper, IGUANA, NodeProcess, read_dump
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

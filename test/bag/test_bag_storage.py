@@ -1,12 +1,26 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Bag schema text, QoS YAML, crash-safe writer, truncation-tolerant reader and CLI error lines."""
 import time
 
-import pytest
-import yaml
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+import pytest
+import yaml
 
-from iguana_ros.bag.schema import SEPARATOR, field_types, message_definition
+from iguana_ros.bag.schema import field_types, message_definition, SEPARATOR
 from iguana_ros.bag.storage import BagReader, BagWriter, parse_qos_profiles, qos_profiles_yaml, summarize
 from iguana_ros.cli import main
 from iguana_ros.errors import InputError

@@ -1,14 +1,27 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The tetrahedral iguana model: mass, size, volumes, connectivity, surface, springs, skin weights, tags."""
 import numpy as np
 import pytest
 
-from iguana_ros.body.stiffness import stiffness_preset
-
 from iguana_ros.body.markers import marker_positions
 from iguana_ros.body.mesh import face_adjacency, surface_topology, tet_volumes
-from iguana_ros.body.model import IguanaModel, build_model
+from iguana_ros.body.model import build_model, IguanaModel
 from iguana_ros.body.shape import body_field, iguana_shape
 from iguana_ros.body.springs import tet_springs
+from iguana_ros.body.stiffness import stiffness_preset
 from iguana_ros.constants import BODY_LENGTH, BODY_MASS
 from iguana_ros.errors import InputError
 
@@ -46,7 +59,7 @@ def test_rest_pose_stands_on_the_ground(model):
     z = model.rest_positions[:, 2]
     assert z.min() >= 0.0
     assert z.min() < 1e-4
-    assert np.all(model.rest_positions[model.node_tags["feet"], 2] < 4e-3)
+    assert np.all(model.rest_positions[model.node_tags['feet'], 2] < 4e-3)
 
 
 def test_every_tet_has_positive_volume_and_no_sliver(model):

@@ -1,10 +1,24 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Desired spring lengths from the DQS-skinned reference mesh (Section VII)."""
 import numpy as np
 import pytest
 
 from iguana_ros.body.model import build_model
 from iguana_ros.body.skeleton import forward_kinematics
-from iguana_ros.body.spring_lengths import SpringLengthComputer, desired_spring_lengths
+from iguana_ros.body.spring_lengths import desired_spring_lengths, SpringLengthComputer
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.geometry import quat_from_rotvec, quat_mul
 
@@ -62,7 +76,7 @@ def test_non_finite_pose_is_an_error(computer):
 
 
 def _descends(parents, bone, ancestor):
-    """True when `bone` is a (grand-)child of `ancestor`."""
+    """Return True when `bone` is a (grand-)child of `ancestor`."""
     while parents[bone] >= 0:
         bone = parents[bone]
         if bone == ancestor:

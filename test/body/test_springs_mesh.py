@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Springs on a hand-made mesh, tet quality measures, flips and smoothing, topology helpers, the body shape."""
 import numpy as np
 import pytest
@@ -5,8 +19,8 @@ import pytest
 from iguana_ros.body.mesh import (boundary_triangles, dihedral_angles, flip_bad_tets, improve_mesh,
                                   orient_positive, radius_ratios, smooth_bad_nodes, surface_topology,
                                   tet_quality, tet_volumes)
-from iguana_ros.body.shape import (SMOOTH_UNION, body_field, iguana_shape, limb_field, main_field,
-                                   project_to_surface, smooth_min)
+from iguana_ros.body.shape import (body_field, iguana_shape, limb_field, main_field, project_to_surface, smooth_min,
+                                   SMOOTH_UNION)
 from iguana_ros.body.springs import spring_lengths, tet_springs
 
 # three tets fanned around edge (0, 1): A=(0,1,2,3), B=(0,1,3,4), C=(0,1,4,5); A|B share (0,1,3), B|C (0,1,4)

@@ -1,13 +1,31 @@
-"""`iguana goal`: the planner (a real node process) accepts the PoseStamped and the command says so; bad numbers,
-no planner and a goal the planner rejects exit 1 with one line."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana goal`.
+
+The planner (a real node process) accepts the PoseStamped and the command says so; bad numbers, no planner and a goal
+the planner rejects exit 1 with one line.
+"""
 import math
 import sys
 
 import numpy as np
 import pytest
-from ros_harness import IGUANA, NodeProcess, spin_until
 
 from iguana_ros.cli import main
+from ros_harness import IGUANA, NodeProcess, spin_until
 
 
 @pytest.mark.parametrize('argv, message', [
@@ -31,7 +49,7 @@ def test_no_planner_times_out_with_clear_message(capsys):
 
 
 def _planner(tmp_path) -> NodeProcess:
-    """A planner process on a small flat scene (10 m terrain), not started."""
+    """Return a planner process on a small flat scene (10 m terrain), not started."""
     scene = tmp_path / 'scene.yaml'
     scene.write_text('model: {resolution: coarse}\nterrain: {kind: flat}\nduration: 2.0\n')
     return NodeProcess([sys.executable, '-m', 'iguana_ros.nodes.planner_node', '--ros-args', '-p', f'scene:={scene}'],
@@ -39,7 +57,7 @@ def _planner(tmp_path) -> NodeProcess:
 
 
 def _listener(make_node, executor):
-    """A second subscriber on goal_pose (a recorder, a viewer): it must not stand in for the planner."""
+    """Return a second subscriber on goal_pose (a recorder, a viewer): it must not stand in for the planner."""
     from iguana_ros.ros.endpoints import resolve
     name, cls, qos = resolve('goal_pose')
     node = make_node('goal_listener')
@@ -65,9 +83,13 @@ def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_
 @pytest.mark.ros
 @pytest.mark.timeout(150)
 def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path, make_node, executor):
-    """The defect: with a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner
-    (not yet listening) never got the goal. Now it waits until the planner lists the goal as accepted; a goal the
-    planner rejects is reported (exit 1)."""
+    """
+    The defect.
+
+    With a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner (not yet listening) never
+    got the goal. Now it waits until the planner lists the goal as accepted; a goal the planner rejects is reported
+    (exit 1).
+    """
     from iguana_ros.ros.conversions import pose_stamped_to_numpy
     received = _listener(make_node, executor)
     goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--yaw', '90', '--timeout', '90'], 'goal', tmp_path).start()

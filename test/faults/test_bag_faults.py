@@ -1,15 +1,33 @@
-"""Bag fault-injection suite, short version: a bag recorded by `iguana bag record` from a real publisher process,
-seeded random truncations and byte corruptions of its MCAP and damaged metadata.yaml variants. The long version
-is `iguana bench faults bags` (iguana_ros/faults/bag_files.py)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Bag fault-injection suite, short version.
+
+A bag recorded by `iguana bag record` from a real publisher process, seeded random truncations and byte corruptions of
+its MCAP and damaged metadata.yaml variants. The long version is `iguana bench faults bags`
+(iguana_ros/faults/bag_files.py).
+"""
 import subprocess
 
-import pytest
 from mcap.reader import make_reader
-from ros_harness import IGUANA, NodeProcess, helper, read_dump
+import pytest
 
 from iguana_ros.bag.storage import BagReader
 from iguana_ros.cli import main
 from iguana_ros.faults.bag_files import reference, run_suite
+from ros_harness import helper, IGUANA, NodeProcess, read_dump
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -72,7 +90,7 @@ def test_play_with_allow_damaged_publishes_every_intact_chunk(recorded, tmp_path
     for msg in reader.messages():
         expected.setdefault(msg.topic, []).append(msg.data)
     assert reader.damaged and sum(map(len, expected.values())) < sum(map(len, published.values()))
-    late = [m for m in BagReader(src).messages()][-1]
+    late = list(BagReader(src).messages())[-1]
     assert late.data in expected[late.topic]              # the chunks after the damaged one are there
 
     refused = subprocess.run([*IGUANA, 'bag', 'play', bag], capture_output=True, text=True, timeout=30)

@@ -1,7 +1,24 @@
-"""Process faults (issue 12, items 1, 2 and 10, and the short version of the process fault-injection suite):
-whatever kills `iguana run` or one of its children, no process is left behind, the bag stays readable with every
-message recorded before the fault, and `iguana run` ends with one clear line saying how far the run got; a second
-run on a busy ROS domain is refused. The long version: `iguana bench faults processes --trials 20`."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Process faults (issue 12, items 1, 2 and 10, and the short version of the process fault-injection suite).
+
+Whatever kills `iguana run` or one of its children, no process is left behind, the bag stays readable with every message
+recorded before the fault, and `iguana run` ends with one clear line saying how far the run got; a second run on a busy
+ROS domain is refused. The long version: `iguana bench faults processes --trials 20`.
+"""
 from __future__ import annotations
 
 import os
@@ -13,15 +30,15 @@ import time
 
 import pytest
 import yaml
-from ros_harness import IGUANA, REPO, wait_for
 
-from iguana_ros.faults.processes import TRIAL_SCENE, run_trial
+from iguana_ros.faults.processes import run_trial, TRIAL_SCENE
+from ros_harness import IGUANA, REPO, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(240)]
 
 
 def domain() -> str:
-    """This test run's ROS_DOMAIN_ID (conftest sets it)."""
+    """Return this test run's ROS_DOMAIN_ID (conftest sets it)."""
     return os.environ['ROS_DOMAIN_ID']
 
 
@@ -125,7 +142,7 @@ def test_a_foreign_publisher_of_a_run_topic_is_refused(tmp_path, make_node):
 
 
 def test_a_child_gets_sigterm_when_its_parent_is_killed(tmp_path):
-    """NodeProcess children get the parent-death signal, however the parent dies."""
+    """`NodeProcess` children get the parent-death signal, however the parent dies."""
     from iguana_ros.supervisor.process import processes_with_env
     sleeper = '[sys.executable, "-c", "import time; time.sleep(60)"]'
     script = ('import sys, time\n'

@@ -1,11 +1,28 @@
-"""Scene fault injection, the short version of `iguana bench faults scenes` (issue 12): 300 seeded mutations of the
-shipped scenes each load as a valid Scene within the limits or fail with one SceneError line naming the file (and
-the damaged field), quickly and in bounded memory; a sample runs through the real `iguana simulate` in
-subprocesses under an address-space limit: exit 1 with one line for an invalid scene, never a traceback."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Scene fault injection, the short version of `iguana bench faults scenes` (issue 12).
+
+300 seeded mutations of the shipped scenes each load as a valid Scene within the limits or fail with one SceneError line
+naming the file (and the damaged field), quickly and in bounded memory; a sample runs through the real `iguana simulate`
+in subprocesses under an address-space limit: exit 1 with one line for an invalid scene, never a traceback.
+"""
 import json
 
 from iguana_ros.cli import main
-from iguana_ros.faults.scene_files import CLI_RSS_LIMIT, MUTATORS, mutations, run_suite
+from iguana_ros.faults.scene_files import CLI_RSS_LIMIT, mutations, MUTATORS, run_suite
 
 
 def test_300_scene_mutations_load_or_fail_with_one_line():

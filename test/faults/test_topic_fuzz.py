@@ -1,6 +1,24 @@
-"""Topic fault injection (issue 12): every fault the fuzzer makes is refused by the decoder of its topic (the one
-every node that reads the topic calls), and a real lockstep run of the four node processes under a stream of them
-completes, no node dies, nothing non-finite is published, and the run equals the library run bit for bit."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Topic fault injection (issue 12).
+
+Every fault the fuzzer makes is refused by the decoder of its topic (the one every node that reads the topic calls), and
+a real lockstep run of the four node processes under a stream of them completes, no node dies, nothing non-finite is
+published, and the run equals the library run bit for bit.
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -9,25 +27,32 @@ import yaml
 
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
-from iguana_ros.faults.topic_fuzz import FUZZ_KINDS, FuzzContext, fault_plan, fuzz_message, trial_scene
+from iguana_ros.faults.topic_fuzz import fault_plan, FUZZ_KINDS, fuzz_message, FuzzContext, trial_scene
 from iguana_ros.ros import messages as m
 from iguana_ros.scene import load_scene
-from iguana_ros.validation import FRAME_NEW, check_frame, world_bound
+from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
 SECONDS = 3.0
 
 
 @pytest.fixture(scope='module')
 def scene_file(tmp_path_factory):
-    """The first scene of the long suite (`iguana bench faults topics`): hills, a goal 1.5 m away, coarse mesh."""
+    """
+    Return the first scene of the long suite (`iguana bench faults topics`).
+
+    Hills, a goal 1.5 m away, coarse mesh.
+    """
     path = tmp_path_factory.mktemp('scene') / 'fuzz.yaml'
     path.write_text(yaml.safe_dump(trial_scene(0, 0, SECONDS, 'coarse')))
     return path
 
 
 def _refused(key: str, msg, ctx: FuzzContext, model) -> bool:
-    """Whether the nodes reading topic `key` refuse `msg` at frame ctx.frame (an InputError, or a frame they do not
-    use: stale, or not the one the lockstep simulator waits for)."""
+    """
+    Whether the nodes reading topic `key` refuse `msg` at frame ctx.frame.
+
+    (an InputError, or a frame they do not use: stale, or not the one the lockstep simulator waits for).
+    """
     bound = world_bound(2 * ctx.half_extent)
     skeleton = ctx.skeleton
     try:

@@ -1,13 +1,28 @@
-"""Test helper process: subscribes raw to topic keys of the table and dumps what it receives.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Test helper process: subscribes raw to topic keys of the table and dumps what it receives.
 
 Usage: dump_subscriber.py DUMP_FILE KEY [KEY ...] [--expect N]
 Prints 'subscribed' once its subscriptions exist; exits on SIGINT/SIGTERM, or once N messages came.
 The dump also records, per topic, the durability offered by the publisher it heard from.
 """
 import argparse
+from pathlib import Path
 import signal
 import sys
-from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 

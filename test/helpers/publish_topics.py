@@ -1,4 +1,19 @@
-"""Test helper process: publishes several topics of the table as serialized bytes and dumps them.
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Test helper process: publishes several topics of the table as serialized bytes and dumps them.
 
 Usage: publish_topics.py DUMP_FILE [--duration S] [--rate HZ] [--wait-subscribers S]
 1. publishes scene_markers (transient-local) once and prints 'latched published';
@@ -9,8 +24,8 @@ Every message is serialized here, zero-padded to a multiple of 4 bytes (as Fast 
 and published raw, so the bytes on the wire are exactly the dump.
 """
 import argparse
-import sys
 from pathlib import Path
+import sys
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -49,7 +64,6 @@ def main() -> int:
     from rclpy.serialization import serialize_message
 
     from iguana_ros.ros import conversions as cv
-    from iguana_ros.ros.cdr import triangle_list_marker_cdr
     from iguana_ros.ros.endpoints import resolve
     from ros_harness import wait_for, write_dump
 

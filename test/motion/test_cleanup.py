@@ -1,15 +1,33 @@
-"""Footskate cleanup (motion.cleanup): the stride transform, planted targets on hand-made foot tracks with
-known answers, the shipped (cleaned) clip library, and cut_clip's `clean` switch."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Footskate cleanup (motion.cleanup).
+
+The stride transform, planted targets on hand-made foot tracks with known answers, the shipped (cleaned) clip library,
+and cut_clip's `clean` switch.
+"""
 import numpy as np
 import pytest
 
 from iguana_ros.body.skeleton import forward_kinematics
 from iguana_ros.geometry import quat_rotate
-from iguana_ros.motion.cleanup import (FOOT_PIVOTS, MIN_SWING_CLEARANCE, TAIL_TIP_HEIGHT, StrideTransform,
-                                       floor_pivot_heights, planted_foot_targets, stride_transform)
+from iguana_ros.motion.cleanup import (floor_pivot_heights, FOOT_PIVOTS, MIN_SWING_CLEARANCE, planted_foot_targets,
+                                       stride_transform, StrideTransform, TAIL_TIP_HEIGHT)
 from iguana_ros.motion.clips import canonical, cut_clip, load_clip_library, make_cyclic, repeated_clip
 from iguana_ros.motion.dofs import iguana_body_model
-from iguana_ros.motion.gait import SYNTHETIC_TAKES, generate_take
+from iguana_ros.motion.gait import generate_take, SYNTHETIC_TAKES
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
 
 STRIDE = StrideTransform(origin=np.array([0.1, -0.2]), target=np.array([0.4, 0.3]), turn=0.7)
@@ -32,8 +50,8 @@ def test_stride_transform_of_a_clip_reads_the_root_of_its_end_frames():
     dofs = iguana_body_model().dofs
     theta = np.zeros((3, dofs.n_dof))
     theta[:, [dofs.index('root_x'), dofs.index('root_y'), dofs.index('root_yaw')]] = [[0.1, -0.2, 0.3],
-                                                                                       [9.0, 9.0, 9.0],
-                                                                                       [0.4, 0.3, 1.0]]
+                                                                                      [9.0, 9.0, 9.0],
+                                                                                      [0.4, 0.3, 1.0]]
     stride = stride_transform(theta, dofs)
     assert stride.origin == pytest.approx([0.1, -0.2]) and stride.target == pytest.approx([0.4, 0.3])
     assert stride.turn == pytest.approx(0.7)
@@ -54,7 +72,8 @@ def _swing(a: np.ndarray, b: np.ndarray, s: np.ndarray, z0: float, lift: float) 
 
 
 def _synthetic_stride(stride: StrideTransform) -> tuple:
-    """(feet `(N+1, 3, 3)`, contacts `(N+1, 3)`) of a skating stride; the known answers are in the tests.
+    """
+    (feet `(N+1, 3, 3)`, contacts `(N+1, 3)`) of a skating stride; the known answers are in the tests.
 
     fl: stance 9..N-1 + 0..3 across the seam around q0, a swing 4..8 peaking 3 cm above the floor at frame 6.
     fr: stance 3..9 around q1, a low (1.2 cm) swing 10..N-1 + 0..2 across the seam, peaking at frame 0 = N.
@@ -147,9 +166,12 @@ def library():
 
 
 def _one_cycle(clip, skeleton):
-    """Foot pivots `(N, 4, 3)`, their bones' world rotations `(N, 4, 4)` and stance flags `(N, 4)` of the clip
-    as played (its local rotations, flat soles included) unrolled into the next stride, per foot from its first
-    lift-off (so no stance or swing is cut by the window)."""
+    """
+    Foot pivots `(N, 4, 3)`, their bones' world rotations `(N, 4, 4)` and stance flags `(N, 4)` of the clip as played.
+
+    (its local rotations, flat soles included) unrolled into the next stride, per foot from its first lift-off (so no
+    stance or swing is cut by the window).
+    """
     n = clip.n_frames
     roots, rotations = repeated_clip(clip, 2)
     joints, world = forward_kinematics(skeleton, roots, rotations)
@@ -170,10 +192,14 @@ def _runs(flags):
 
 @pytest.mark.parametrize('name', ['forward', 'turn_left', 'turn_right', 'idle'])
 def test_shipped_clips_plant_their_stance_feet_flat_on_the_floor(library, name):
-    """Each stance foot's pivot (wrist/ankle joint) stands still at its floor height and its sole is flat (the
-    pivot bone's up axis is the world's). Measured after the cleanup: pivot travel per stance <= 0.6 mm
-    (idle: its never-lifting feet follow its 0.3 mm stride at the seam, <= 1.9 mm), heights within 0.53 mm
-    (turn_left hl at its last stance frame, the leg at its reach), tilt 0. Before the cleanup the foot markers travelled 3.9-29.9 mm per stance, heights -6.7..+7.0 mm."""
+    """
+    Each stance foot's pivot (wrist/ankle joint) stands still at its floor height and its sole is flat.
+
+    (the pivot bone's up axis is the world's). Measured after the cleanup: pivot travel per stance <= 0.6 mm (idle: its
+    never-lifting feet follow its 0.3 mm stride at the seam, <= 1.9 mm), heights within 0.53 mm (turn_left hl at its
+    last stance frame, the leg at its reach), tilt 0. Before the cleanup the foot markers travelled 3.9-29.9 mm per
+    stance, heights -6.7..+7.0 mm.
+    """
     model = iguana_body_model()
     floor = floor_pivot_heights(model)
     limit = 0.0025 if name == 'idle' else 0.001
@@ -188,9 +214,12 @@ def test_shipped_clips_plant_their_stance_feet_flat_on_the_floor(library, name):
 
 @pytest.mark.parametrize('name', ['forward', 'turn_left', 'turn_right'])
 def test_shipped_walking_clips_lift_every_swing(library, name):
-    """Every swing of a walking clip peaks at least MIN_SWING_CLEARANCE above the floor (the sine bump is
-    scaled so the peak frame reaches it) and hardly dips below it: at a lift-off where the leg is stretched to
-    its reach the pivot stays up to 3.2 mm low for a frame (turn_left fr; forward fl 0.6 mm)."""
+    """
+    Every swing of a walking clip peaks at least MIN_SWING_CLEARANCE above the floor.
+
+    (the sine bump is scaled so the peak frame reaches it) and hardly dips below it: at a lift-off where the leg is
+    stretched to its reach the pivot stays up to 3.2 mm low for a frame (turn_left fr; forward fl 0.6 mm).
+    """
     model = iguana_body_model()
     floor = floor_pivot_heights(model)
     swings = 0

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The shipped clip library, clip seams, BVH export and the `iguana motion` CLI."""
 import numpy as np
 import pytest
@@ -7,9 +21,9 @@ from iguana_ros.cli import main
 from iguana_ros.constants import TROT_DUTY_FACTOR, TROT_STRIDE_LENGTH
 from iguana_ros.errors import InputError
 from iguana_ros.motion.bvh import read_bvh_positions, write_bvh
-from iguana_ros.motion.clips import REQUIRED_CLIPS, cut_clip, load_clip_library, planar_transform
+from iguana_ros.motion.clips import cut_clip, load_clip_library, planar_transform, REQUIRED_CLIPS
 from iguana_ros.motion.dofs import iguana_body_model
-from iguana_ros.motion.gait import SYNTHETIC_TAKES, generate_take
+from iguana_ros.motion.gait import generate_take, SYNTHETIC_TAKES
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
 
 

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Synthetic trot generator, degraded capture and C3D round trip."""
 import numpy as np
 import pytest
@@ -8,7 +22,7 @@ from iguana_ros.errors import InputError
 from iguana_ros.motion.c3d_io import read_c3d, read_capture, write_c3d
 from iguana_ros.motion.capture import CaptureQuality, synthesize_capture
 from iguana_ros.motion.dofs import iguana_body_model
-from iguana_ros.motion.gait import SYNTHETIC_TAKES, TakeSpec, generate_take, joint_limit_violation
+from iguana_ros.motion.gait import generate_take, joint_limit_violation, SYNTHETIC_TAKES, TakeSpec
 
 
 @pytest.fixture(scope='module')

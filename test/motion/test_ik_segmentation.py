@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Full-body IK against the generator's DOFs, and stride segmentation against its true touchdowns."""
 import numpy as np
 import pytest
@@ -5,7 +19,7 @@ import pytest
 from iguana_ros.errors import InputError
 from iguana_ros.motion.capture import synthesize_capture
 from iguana_ros.motion.dofs import iguana_body_model
-from iguana_ros.motion.gait import SYNTHETIC_TAKES, TakeSpec, generate_take
+from iguana_ros.motion.gait import generate_take, SYNTHETIC_TAKES, TakeSpec
 from iguana_ros.motion.ik import solve_ik
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries, touchdowns
 

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Motion graph: complete graph, goal-seeking clip choice, root alignment and blending."""
 from types import SimpleNamespace
 
@@ -11,7 +25,7 @@ N_BONES = 3
 
 
 def _clip(name, dx, turn, n=10):
-    """A synthetic stride: root moves dx along a circular arc turning by `turn` rad."""
+    """Return a synthetic stride: root moves dx along a circular arc turning by `turn` rad."""
     t = np.linspace(0.0, 1.0, n)
     yaw = turn * t
     root = np.zeros((n, 3))

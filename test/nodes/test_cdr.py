@@ -1,9 +1,23 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The one CDR codec (iguana_ros/ros/cdr.py) against rclpy's serializer and mcap-ros2-support's decoder."""
 import numpy as np
 import pytest
 
 pytest.importorskip('rclpy')
-from mcap.records import Schema  # noqa: E402
+from mcap.records import Schema  # noqa: E402, I100
 from mcap_ros2.decoder import DecoderFactory  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate  # noqa: E402
@@ -30,7 +44,11 @@ def _decoder(type_name: str):
 
 
 def _full_marker(rng, n_points: int) -> tuple[Marker, dict]:
-    """A Marker with every field set to something other than its default, and the same values as a layout dict."""
+    """
+    Return a Marker with every field set to something other than its default.
+
+    and the same values as a layout dict.
+    """
     points = rng.normal(size=(n_points, 3))
     colors = rng.uniform(size=(n_points, 4)).astype(np.float32)
     uv = rng.uniform(size=(2, 2)).astype(np.float32)
@@ -67,7 +85,7 @@ def test_marker_layout_writes_what_rclpy_serializes(rng, n_points):
     message, values = _full_marker(rng, n_points)
     writer = cdr.CdrWriter()
     writer.write(cdr.MARKER, values)
-    data = writer.bytes()        # rclpy leaves its padding bytes as they were: same length, same message
+    data = writer.to_bytes()     # rclpy leaves its padding bytes as they were: same length, same message
     assert len(data) == len(serialize_message(message)) and deserialize_message(data, Marker) == message
 
 
@@ -91,18 +109,19 @@ def test_mcap_ros2_decodes_what_the_writer_builds(rng):
     _, values = _full_marker(rng, 4)
     writer = cdr.CdrWriter()
     writer.write(cdr.MARKER, values)
-    decoded = _decoder('visualization_msgs/msg/Marker')(writer.bytes())
+    decoded = _decoder('visualization_msgs/msg/Marker')(writer.to_bytes())
     assert (decoded.ns, decoded.id, decoded.text, decoded.mesh_file.filename) == ('terrain-ns', -7, 'héllo', 'm.stl')
     assert (decoded.header.stamp.sec, decoded.header.stamp.nanosec, decoded.lifetime.sec) == (12, 345_000_000, 3)
     assert decoded.frame_locked and decoded.mesh_use_embedded_materials
     assert [(p.x, p.y, p.z) for p in decoded.points] == [tuple(p) for p in values['points'].tolist()]
-    assert list(decoded.texture.data) == [0, 1, 2, 3, 4] and decoded.uv_coordinates[1].v == values['uv_coordinates'][1, 1]
+    assert (list(decoded.texture.data) == [0, 1, 2, 3, 4]
+            and decoded.uv_coordinates[1].v == values['uv_coordinates'][1, 1])
 
 
 @pytest.mark.parametrize('n_t', [0, 1, 70])
 def test_mesh_marker_bytes_are_rclpys_and_read_back(rng, n_t):
     verts, tris, rgba = _mesh(rng, n_t=n_t)
-    kwargs = dict(stamp=12.5, frame_id='world', ns='body', marker_id=4)
+    kwargs = {'stamp': 12.5, 'frame_id': 'world', 'ns': 'body', 'marker_id': 4}
     data = cdr.triangle_list_marker_cdr(verts, tris, rgba, **kwargs)
     message = triangle_list_marker(verts, tris, rgba, **kwargs)
     assert len(data) == len(serialize_message(message)) and deserialize_message(data, Marker) == message

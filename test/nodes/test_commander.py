@@ -1,5 +1,23 @@
-"""IguanaCommander drives a real `iguana run` (four node processes over DDS): a goal the planner adopts and the
-body reaches, a push with its duration that moves the body sideways, and refusals as one clear error."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+IguanaCommander drives a real `iguana run` (four node processes over DDS).
+
+A goal the planner adopts and the body reaches, a push with its duration that moves the body sideways, and refusals as
+one clear error.
+"""
 import signal
 
 import numpy as np

@@ -1,20 +1,37 @@
-"""End to end: a lockstep run of the four node processes equals `pipeline.run` of the same scene bit for bit,
-its summary's gait figures (read from the bag) equal the library run's, and its bag replays to a real
-subscriber -- three tests reading one shared run (`shared_run`); the one-process, killed and realtime runs
-start their own."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+End to end.
+
+A lockstep run of the four node processes equals `pipeline.run` of the same scene bit for bit, its summary's gait
+figures (read from the bag) equal the library run's, and its bag replays to a real subscriber -- three tests reading one
+shared run (`shared_run`); the one-process, killed and realtime runs start their own.
+"""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import yaml
-from ros_harness import IGUANA, NodeProcess, spin_until
 
 from iguana_ros.bag.trajectory import read_root_trajectory
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.run_metrics import metrics_of_run
 from iguana_ros.scene import load_scene
-from iguana_ros.supervisor.run import RunOptions, run_scene
+from iguana_ros.supervisor.run import run_scene, RunOptions
+from ros_harness import IGUANA, NodeProcess, spin_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -22,7 +39,7 @@ FRAMES = 12
 
 
 def scene_file_text() -> str:
-    """The e2e scene: coarse body, gentle seeded hills (adaptation on), a goal ahead on the left."""
+    """Return the e2e scene: coarse body, gentle seeded hills (adaptation on), a goal ahead on the left."""
     return yaml.safe_dump({
         'name': 'e2e', 'model': {'resolution': 'coarse'},
         'terrain': {'kind': 'hills', 'amplitude': 0.02, 'wavelength': 1.0, 'seed': 3},
@@ -47,7 +64,7 @@ WALK_FRAMES = 60
 
 @pytest.fixture(scope='module')
 def walk_file(tmp_path_factory):
-    """The e2e hills and goal, 2 s: long enough for the gait figures (>= 2 strides) of the summary."""
+    """Return the e2e hills and goal, 2 s: long enough for the gait figures (>= 2 strides) of the summary."""
     raw = yaml.safe_load(scene_file_text())
     path = tmp_path_factory.mktemp('scene') / 'walk.yaml'
     path.write_text(yaml.safe_dump({**raw, 'name': 'walk', 'duration': WALK_FRAMES / FRAME_RATE}))
@@ -56,8 +73,11 @@ def walk_file(tmp_path_factory):
 
 @pytest.fixture(scope='module')
 def shared_run(walk_file, tmp_path_factory):
-    """One recorded lockstep run of the four node processes (`iguana run`), shared by the tests that only read
-    its summary and its bag: (summary, bag path)."""
+    """
+    One recorded lockstep run of the four node processes (`iguana run`).
+
+    shared by the tests that only read its summary and its bag: (summary, bag path).
+    """
     bag = tmp_path_factory.mktemp('run') / 'run'
     return run_scene(RunOptions(scene=str(walk_file), record=bag, timeout=240)), bag
 
@@ -68,7 +88,11 @@ def walk_library_run(walk_file):
 
 
 def _assert_roots_equal_library(bag, frames, library_run):
-    """The bag's iguana_state roots are the library run's, bit for bit (state k = the root after k frames)."""
+    """
+    Assert that the bag's iguana_state roots are the library run's, bit for bit.
+
+    (state k = the root after k frames).
+    """
     times, roots = read_root_trajectory(bag)
     assert np.allclose(times, np.arange(frames + 1) / FRAME_RATE)
     assert np.array_equal(roots[1:], library_run.root_positions)
@@ -102,7 +126,7 @@ def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(shared_run
                                    err_msg=name)
     lines = summary.lines()
     assert any(line.startswith('  stance fraction fl ') and '(clip ' in line for line in lines), lines
-    assert any(line.startswith("  speed: ") and "% of the clips'" in line for line in lines), lines
+    assert any(line.startswith('  speed: ') and "% of the clips'" in line for line in lines), lines
 
 
 def test_recorded_run_replays(shared_run, make_node, executor):

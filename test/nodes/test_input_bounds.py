@@ -1,21 +1,42 @@
-"""Finite but absurd input at the node boundary (issue 12, items 7 and 8), with real node processes: a goal far off
-the terrain is rejected by the simulator as by the planner (test/cli/test_goal.py) and not drawn, 1e6 m spring
-lengths and a 1e6 N push are rejected, and the lockstep simulator keeps running and never simulates the bad frame."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Finite but absurd input at the node boundary (issue 12, items 7 and 8), with real node processes.
+
+A goal far off the terrain is rejected by the simulator as by the planner (test/cli/test_goal.py) and not drawn, 1e6 m
+spring lengths and a 1e6 N push are rejected, and the lockstep simulator keeps running and never simulates the bad
+frame.
+"""
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from ros_harness import spin_until
-from test_nodes import Probe, _node, _scene, _state
 
 from iguana_ros.body.model import build_model
+from ros_harness import spin_until
+from test_nodes import _node, _scene, _state, Probe
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(150)]
 
 
 def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, make_node, executor):
-    """A goal at x = 1e9 (the planner's rule: test/cli/test_goal.py), lengths of 1e6 m, a 1e6 N push: each is
-    logged as rejected; the goal is not drawn, and frame 0 is simulated with the good lengths sent after."""
+    """
+    A goal at x = 1e9 (the planner's rule: test/cli/test_goal.py), lengths of 1e6 m, a 1e6 N push.
+
+    Each is logged as rejected; the goal is not drawn, and frame 0 is simulated with the good lengths sent after.
+    """
     from geometry_msgs.msg import WrenchStamped
 
     from iguana_ros.nodes.goal_sender import goal_message
@@ -62,9 +83,12 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
 
 
 def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make_node, executor):
-    """motion_clip is latched with depth 1: a reader that deep lost the planner's clip when another publisher's
-    messages came right after it while the node was busy (found by `iguana bench faults topics`: the lockstep run
-    stalled at that stride)."""
+    """
+    motion_clip is latched with depth 1.
+
+    A reader that deep lost the planner's clip when another publisher's messages came right after it while the node was
+    busy (found by `iguana bench faults topics`: the lockstep run stalled at that stride).
+    """
     from rclpy.serialization import serialize_message
 
     from iguana_ros.body.skeleton import iguana_skeleton

@@ -1,5 +1,23 @@
-"""Each node as a real process on an isolated DDS domain: feed it inputs, check its outputs and its
-handling of bad input (a clear log line, the input rejected, the node still running)."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Each node as a real process on an isolated DDS domain.
+
+Feed it inputs, check its outputs and its handling of bad input (a clear log line, the input rejected, the node still
+running).
+"""
 from __future__ import annotations
 
 import sys
@@ -7,19 +25,19 @@ import sys
 import numpy as np
 import pytest
 import yaml
-from ros_harness import NodeProcess, spin_until
 
 from iguana_ros.body.model import build_model
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.geometry import quat_from_yaw, yaw_of
 from iguana_ros.motion.clips import load_clip_library
 from iguana_ros.stages import motion_graph
+from ros_harness import NodeProcess, spin_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
 
 
 def _scene(tmp_path, **fields):
-    """A small scene file (coarse model) with `fields` overriding the defaults."""
+    """Return a small scene file (coarse model) with `fields` overriding the defaults."""
     raw = {'model': {'resolution': 'coarse'}, 'terrain': {'kind': 'flat'}, 'duration': 2.0, **fields}
     path = tmp_path / 'scene.yaml'
     path.write_text(yaml.safe_dump(raw))
@@ -27,7 +45,7 @@ def _scene(tmp_path, **fields):
 
 
 def _node(kind, scene, tmp_path, **params):
-    """A node process started with `scene` and extra parameters, waiting for its ready line."""
+    """Return a node process started with `scene` and extra parameters, waiting for its ready line."""
     args = [sys.executable, '-m', f'iguana_ros.nodes.{kind}', '--ros-args', '-p', f'scene:={scene}']
     for key, value in params.items():
         args += ['-p', f'{key}:={value}']
@@ -61,9 +79,12 @@ class Probe:
         assert spin_until(self.executor, lambda: self.pubs[key].get_subscription_count() >= count, timeout)
 
     def deliver(self, pub, msg, timeout=30.0):
-        """Publish `msg` with `pub` and spin until every matched reader acknowledged it: a reader matched from
-        the writer's side may not have matched the writer yet (discovery is not symmetric), so this is
-        what proves both sides see each other. Fast DDS acknowledges at its heartbeat (up to ~3 s)."""
+        """
+        Publish `msg` with `pub` and spin until every matched reader acknowledged it.
+
+        A reader matched from the writer's side may not have matched the writer yet (discovery is not symmetric), so
+        this is what proves both sides see each other. Fast DDS acknowledges at its heartbeat (up to ~3 s).
+        """
         from rclpy.duration import Duration
         pub.publish(msg)
         assert spin_until(self.executor, lambda: pub.wait_for_all_acked(Duration(seconds=0.005)),

@@ -1,6 +1,23 @@
-"""The gait part of `iguana run`'s summary, read from a bag: on a bag written (without DDS) from a library run's
-trajectories with the nodes' message conversions it equals `metrics_of_run`; on bags lacking topics it prints the
-figures it can and names what is missing."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The gait part of `iguana run`'s summary, read from a bag.
+
+On a bag written (without DDS) from a library run's trajectories with the nodes' message conversions it equals
+`metrics_of_run`; on bags lacking topics it prints the figures it can and names what is missing.
+"""
 from __future__ import annotations
 
 import math
@@ -10,7 +27,7 @@ import pytest
 import yaml
 
 pytest.importorskip('rclpy')
-from rclpy.serialization import serialize_message  # noqa: E402
+from rclpy.serialization import serialize_message  # noqa: E402, I100
 
 from iguana_ros.bag.schema import message_definition  # noqa: E402
 from iguana_ros.bag.storage import BagWriter  # noqa: E402
@@ -46,7 +63,7 @@ def walk(tmp_path_factory):
 
 
 def _messages(scene, result) -> dict[str, list]:
-    """The messages the four nodes publish for `result`, by topic key (frame 0's state: the first row's)."""
+    """Return the messages the four nodes publish for `result`, by topic key (frame 0's state: the first row's)."""
     model = build_model(scene.model.resolution, scene.model.stiffness)
     probe = FootProbe(model, terrain_from_spec(scene.terrain))
     n = len(result.times)
@@ -77,14 +94,14 @@ def _placed_clips(scene, result) -> list:
     out, previous = [], None
     for start, name in result.clip_history:
         root, quat = (root0, quat0) if start == 0 else (result.root_positions[start - 1],
-                                                       result.root_orientations[start - 1])
+                                                        result.root_orientations[start - 1])
         previous = graph.align(name, root[:2], float(yaw_of(quat)), previous=previous)
         out.append((start, previous))
     return out
 
 
 def _write_bag(path, messages: dict[str, list]):
-    """A bag of `messages` (topic key -> messages) as the recorder writes it."""
+    """Return a bag of `messages` (topic key -> messages) as the recorder writes it."""
     writer = BagWriter(path)
     for key, msgs in messages.items():
         spec = topic(key)
@@ -111,7 +128,7 @@ def test_gait_from_the_bag_equals_the_library_metrics(tmp_path, walk):
     assert math.isnan(gait.metrics.shape_error_median) and math.isnan(gait.metrics.shape_error_p90)
     text = '\n'.join(gait.lines())
     assert 'stance fraction fl ' in text and '(clip ' in text and 'swings)' in text
-    assert "speed: " in text and "shape error: not from a node run" in text
+    assert 'speed: ' in text and 'shape error: not from a node run' in text
     assert 'n/a' not in text and 'not in the bag' not in text
 
 
@@ -128,7 +145,7 @@ def test_an_old_bag_without_the_probe_topics_prints_what_it_can(tmp_path, walk):
     assert '  mid-swing clearance: n/a, needs foot_state, reference_stance' in lines
     assert '  slip per foot per stride: n/a, needs foot_positions, foot_state' in lines
     assert any(line.startswith('  not in the bag: foot_positions, foot_state, reference_stance') for line in lines)
-    assert any(line.strip().startswith("speed: ") and '%' in line for line in lines)
+    assert any(line.strip().startswith('speed: ') and '%' in line for line in lines)
 
 
 def test_a_bag_missing_single_topics_keeps_the_figures_of_the_others(tmp_path, walk):

@@ -1,22 +1,39 @@
-"""use_sim_time, set for every node by the standard params file: a node's clock follows /clock (here seen in the
-stamp of the planner's accepted_goals, the one output not stamped with a frame); with use_sim_time false it is the
-system clock and /clock is ignored."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+use_sim_time, set for every node by the standard params file.
+
+A node's clock follows /clock (here seen in the stamp of the planner's accepted_goals, the one output not stamped with a
+frame); with use_sim_time false it is the system clock and /clock is ignored.
+"""
 from __future__ import annotations
 
 import sys
 import time
 
 import pytest
-from ros_harness import NodeProcess, spin_until
 
 from iguana_ros.config import params_file
 from iguana_ros.ros.conversions import time_from_msg, time_to_msg
+from ros_harness import NodeProcess, spin_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
 
 
 def _planner(tmp_path, *params: str) -> NodeProcess:
-    """The planner as `iguana run` and the launch file start it: the standard params file, then `params`."""
+    """Return the planner as `iguana run` and the launch file start it: the standard params file, then `params`."""
     args = [sys.executable, '-m', 'iguana_ros.nodes.planner_node', '--ros-args', '--params-file', str(params_file()),
             '-p', 'scene:=flat_walk']
     for param in params:

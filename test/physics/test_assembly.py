@@ -1,16 +1,30 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Upper-triangle block storage of the symmetric system matrix: pattern, matrix–vector product, preconditioners."""
 import numpy as np
 import pytest
 
-from iguana_ros.physics.assembly import BlockPattern, block_matvec
+from iguana_ros.physics.assembly import block_matvec, BlockPattern
+from iguana_ros.physics.integrator import invert_diagonal
 from iguana_ros.physics.meshes import box_mesh
 from iguana_ros.physics.solver import block_jacobi_pcg
-from iguana_ros.physics.integrator import invert_diagonal
 
 
 @pytest.fixture(scope='module')
 def system():
-    """A 2×2×1-cube box's pattern with random symmetric, diagonally dominant values: (pattern, blocks, dense)."""
+    """Return a 2×2×1-cube box's pattern with random symmetric, diagonally dominant values: (pattern, blocks, dense)."""
     mesh = box_mesh(size=(0.2, 0.2, 0.1), cells=(2, 2, 1), total_mass=1.0, youngs_modulus=1e4, spring_stiffness=1e3)
     pat = BlockPattern.build(len(mesh.rest_positions), mesh.tets, mesh.springs)
     rng = np.random.default_rng(3)

@@ -1,8 +1,22 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Block Cholesky preconditioner: exact factor of the system matrix, simulator runs equal the direct LU's."""
 import numpy as np
 import pytest
 
-from iguana_ros.physics.cholesky import CholeskyPattern, block_cholesky, cholesky_solve
+from iguana_ros.physics.cholesky import block_cholesky, cholesky_solve, CholeskyPattern
 from iguana_ros.physics.meshes import box_mesh
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
@@ -10,13 +24,13 @@ from iguana_ros.terrain.heightfield import HeightField
 
 @pytest.fixture(scope='module')
 def bar():
-    """A 30 × 6 × 4 cm bar of 10 cubes (60 tets), 0.5 kg, stiff springs (1e5 N/m) as on the iguana's legs."""
+    """Return a 30 × 6 × 4 cm bar of 10 cubes (60 tets), 0.5 kg, stiff springs (1e5 N/m) as on the iguana's legs."""
     return box_mesh(size=(0.3, 0.06, 0.04), cells=(10, 1, 1), total_mass=0.5, youngs_modulus=1e4,
                     spring_stiffness=1e5)
 
 
 def _spd_system(bar, seed=0):
-    """The bar's pattern with random SPD block values: (pattern, blocks, dense matrix)."""
+    """Return the bar's pattern with random SPD block values: (pattern, blocks, dense matrix)."""
     sim = SoftBodySimulator(bar, terrain=None)
     pat = sim.pattern
     rng = np.random.default_rng(seed)
@@ -54,7 +68,11 @@ def test_indefinite_matrix_is_reported(bar):
 
 
 def _drop_bent_bar(bar, **kwargs) -> SoftBodySimulator:
-    """The bar dropped 5 cm onto hills with its springs shortened 3 %, run for 0.3 s (fall, touch-down, friction)."""
+    """
+    Return the bar dropped 5 cm onto hills with its springs shortened 3 %, run for 0.3 s.
+
+    (fall, touch-down, friction).
+    """
     terrain = HeightField.hills(amplitude=0.02, wavelength=0.3, seed=1, extent=1.0)
     sim = SoftBodySimulator(bar, terrain, 'balanced', **kwargs)
     sim.reset(np.asarray(bar.rest_positions) + [0.0, 0.0, 0.05])
@@ -87,8 +105,8 @@ def test_stale_factor_that_fails_is_refactorised_not_given_up(bar):
 def test_cholesky_cg_run_equals_direct_lu(bar):
     """A dropped, bent bar landing on hills: CG with a fresh factor each step tracks the direct solve to round-off."""
     runs = {name: _drop_bent_bar(bar, **kwargs) for name, kwargs in (
-        ('cholesky', dict(preconditioner='cholesky', factor_every=1)), ('direct', dict(solver='direct')),
-        ('jacobi', dict(preconditioner='jacobi')))}
+        ('cholesky', {'preconditioner': 'cholesky', 'factor_every': 1}), ('direct', {'solver': 'direct'}),
+        ('jacobi', {'preconditioner': 'jacobi'}))}
     assert runs['cholesky'].stats['cholesky_failures'] == 0
     assert runs['cholesky'].stats['nodes_in_contact'] > 0
     assert runs['cholesky'].stats['cg_iterations_per_step'] == pytest.approx(1.0)

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Sole pads (per-node contact offset), ground reaction forces, and the first-order hold of desired lengths."""
 import dataclasses
 
@@ -13,13 +27,13 @@ from iguana_ros.terrain.heightfield import HeightField
 
 @pytest.fixture(scope='module')
 def block():
-    """A 10 × 6 × 4 cm block of 12 cubes, 0.5 kg, resting on its bottom face (z = 0)."""
+    """Return a 10 × 6 × 4 cm block of 12 cubes, 0.5 kg, resting on its bottom face (z = 0)."""
     return box_mesh(size=(0.1, 0.06, 0.04), cells=(3, 2, 1), total_mass=0.5, youngs_modulus=1e5,
                     spring_stiffness=100.0)
 
 
 def _settled(model, seconds=1.0):
-    """The block after `seconds` on flat ground from its rest pose."""
+    """Return the block after `seconds` on flat ground from its rest pose."""
     sim = SoftBodySimulator(model, HeightField.flat(), 'balanced')
     sim.advance(seconds)
     return sim
@@ -35,8 +49,11 @@ def test_ground_forces_carry_the_weight_at_rest(block):
 
 
 def test_a_contact_offset_lifts_its_nodes_by_that_much(block):
-    """Nodes with offset d touch the ground d above it: a block whose bottom nodes all have offset 5 mm rests
-    5 mm higher (to the penalty sink of ~0.01 mm)."""
+    """
+    Nodes with offset d touch the ground d above it.
+
+    A block whose bottom nodes all have offset 5 mm rests 5 mm higher (to the penalty sink of ~0.01 mm).
+    """
     bottom = block.rest_positions[:, 2] < 1e-9
     padded = dataclasses.replace(block, contact_offset=np.where(bottom, 0.005, 0.0))
     plain, lifted = _settled(block), _settled(padded)
@@ -52,15 +69,19 @@ def test_bad_contact_offset_is_an_input_error(block):
 
 
 def _weightless(block, hold):
-    """A weightless block at rest under its rest lengths, after one step."""
+    """Return a weightless block at rest under its rest lengths, after one step."""
     sim = SoftBodySimulator(block, None, 'balanced', gravity=0.0, length_hold=hold, cg_tol=1e-10)
     sim.advance_frame(block.spring_rest_lengths, n_steps=1)
     return sim
 
 
 def test_first_order_hold_ramps_the_desired_lengths_within_a_call(block):
-    """With the linear hold, one call of n steps toward new lengths ends exactly where n one-step calls along the
-    linear ramp end; the zero hold applies the new lengths from the first step and ends elsewhere."""
+    """
+    With the linear hold.
+
+    one call of n steps toward new lengths ends exactly where n one-step calls along the linear ramp end; the zero hold
+    applies the new lengths from the first step and ends elsewhere.
+    """
     rest, n = block.spring_rest_lengths, 8
     target = rest * 1.1
     ramped = _weightless(block, 'linear')

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Simulator physics checks with known answers: free fall, conservation, friction on slopes, pushes, errors."""
 import numpy as np
 import pytest
@@ -10,12 +24,12 @@ from iguana_ros.physics.meshes import box_mesh
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
 
-NO_DAMPING = dict(rayleigh_alpha=0.0, rayleigh_beta=0.0)
+NO_DAMPING = {'rayleigh_alpha': 0.0, 'rayleigh_beta': 0.0}
 
 
 @pytest.fixture(scope='module')
 def block():
-    """A 10 × 6 × 4 cm block of 12 cubes (72 tets), 0.5 kg, E = 1e5 Pa."""
+    """Return a 10 × 6 × 4 cm block of 12 cubes (72 tets), 0.5 kg, E = 1e5 Pa."""
     return box_mesh(size=(0.1, 0.06, 0.04), cells=(3, 2, 1), total_mass=0.5, youngs_modulus=1e5,
                     spring_stiffness=100.0)
 
@@ -158,10 +172,10 @@ def test_solver_failure_is_named(block):
 
 
 @pytest.mark.parametrize('kwargs, words', [
-    (dict(fidelity='turbo'), 'unknown preset'),
-    (dict(dt=0.0), 'dt must be'),
-    (dict(solver='gauss'), 'solver must be'),
-    (dict(friction={'nose': 0.5}), 'unknown node tag'),
+    ({'fidelity': 'turbo'}, 'unknown preset'),
+    ({'dt': 0.0}, 'dt must be'),
+    ({'solver': 'gauss'}, 'solver must be'),
+    ({'friction': {'nose': 0.5}}, 'unknown node tag'),
 ])
 def test_bad_settings_raise_input_error(block, kwargs, words):
     with pytest.raises(InputError, match=words):
@@ -177,8 +191,12 @@ def test_bad_frame_inputs_raise_input_error(block):
 
 
 def test_free_fall_with_the_default_mass_damping_follows_the_damped_solution(block):
-    """α = 0.2 /s damps absolute motion (docs/METHODS.md, "Forces"): the drop in 1.5 s is (g/α)(t − (1 − e^(−αt))/α) =
-    10.0 m, not g t²/2 = 11.0 m; β K does not act on a rigid translation."""
+    """
+    α = 0.2 /s damps absolute motion (docs/METHODS.md, "Forces").
+
+    The drop in 1.5 s is (g/α)(t − (1 − e^(−αt))/α) = 10.0 m, not g t²/2 = 11.0 m; β K does not act on a rigid
+    translation.
+    """
     sim = SoftBodySimulator(block, terrain=None, fidelity='balanced', cg_tol=1e-10)
     z0 = sim.center_of_mass()[2]
     sim.advance(1.5)

@@ -1,9 +1,24 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Fixtures of the render tests."""
 import pytest
+
 from render_synthetic import write_synthetic_bag
 
 
 @pytest.fixture(scope='session')
 def synthetic_bag(tmp_path_factory):
-    """A 2 s synthetic bag with mesh, odometry and scene markers (written once per session)."""
+    """Return a 2 s synthetic bag with mesh, odometry and scene markers (written once per session)."""
     return write_synthetic_bag(tmp_path_factory.mktemp('render') / 'synthetic')

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Synthetic bags for the render tests: a box 'iguana' driving along an arc over a wavy terrain."""
 from __future__ import annotations
 
@@ -49,7 +63,7 @@ def terrain_mesh(n=24, half=3.0):
 
 
 def _scene_bytes(*goals):
-    """Serialized MarkerArray: the terrain (stamp 0, like the simulator's) and one sphere per goal."""
+    """Return serialized MarkerArray: the terrain (stamp 0, like the simulator's) and one sphere per goal."""
     from rclpy.serialization import serialize_message
     from visualization_msgs.msg import Marker
 

@@ -1,10 +1,24 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Camera projection and presets against hand-computed positions."""
 import numpy as np
 import pytest
 
 from iguana_ros.errors import InputError
-from iguana_ros.render.camera import (FOLLOW_OFFSET, ORBIT_HEIGHT, ORBIT_PERIOD, ORBIT_RADIUS, Camera,
-                                      heading_track, preset_cameras)
+from iguana_ros.render.camera import (Camera, FOLLOW_OFFSET, heading_track, ORBIT_HEIGHT, ORBIT_PERIOD, ORBIT_RADIUS,
+                                      preset_cameras)
 
 W, H = 200, 100
 

@@ -1,14 +1,28 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Bag -> RecordedRun: times, subsampling, root poses, terrain, goals and the MarkerArray CDR reader."""
 import math
 
 import numpy as np
 import pytest
-from render_synthetic import (GOAL, GOAL_DIAMETER, GOAL_RGBA, RATE, TERRAIN_RGBA, box_mesh, root_pose,
-                              write_synthetic_bag)
 
 from iguana_ros.bag.frames import match_topic, read_run
 from iguana_ros.errors import InputError
 from iguana_ros.ros.cdr import marker_array_from_cdr
+from render_synthetic import (box_mesh, GOAL, GOAL_DIAMETER, GOAL_RGBA, RATE, root_pose, TERRAIN_RGBA,
+                              write_synthetic_bag)
 
 
 def _box_corners(t):

@@ -1,14 +1,28 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Rendered pixels where the geometry says they are; `iguana render` outputs and its one-line errors."""
 import numpy as np
-import pytest
 from PIL import Image
-from render_synthetic import write_synthetic_bag
+import pytest
 
 from iguana_ros.bag.frames import read_run
 from iguana_ros.cli import main
 from iguana_ros.render.camera import preset_cameras
 from iguana_ros.render.output import gif_durations_ms
 from iguana_ros.render.renderer import Renderer
+from render_synthetic import write_synthetic_bag
 
 W, H = 240, 160
 

@@ -1,31 +1,48 @@
-"""The sweep engine on real Dask clusters: local clusters of 1 and 2 worker processes give the same table; a
-scheduler and two workers started as separate processes (as a cluster user starts them) give it too, and run the
-benchmark specs; a failing task is a row, an out-of-memory worker is a row, --resume runs only what is missing,
-and no process is left running."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The sweep engine on real Dask clusters.
+
+Local clusters of 1 and 2 worker processes give the same table; a scheduler and two workers started as separate
+processes (as a cluster user starts them) give it too, and run the benchmark specs; a failing task is a row, an
+out-of-memory worker is a row, --resume runs only what is missing, and no process is left running.
+"""
 import json
+from pathlib import Path
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import cloudpickle
 import numpy as np
 import psutil
 import pytest
 
+from iguana_ros.bench.sim import TRADEOFF_SETTINGS
+from iguana_ros.bench.stability import run_scenario
+from iguana_ros.bench.workload import bench_model
 from iguana_ros.cli import main
 from iguana_ros.locomotion_bench import random_scenes, run_task
 from iguana_ros.supervisor.process import stop_all
-from iguana_ros.bench.sim import TRADEOFF_SETTINGS
-from iguana_ros.bench.workload import bench_model
-from iguana_ros.bench.stability import run_scenario
-from iguana_ros.sweep.engine import Cluster, Task, run_tasks
+from iguana_ros.sweep.engine import Cluster, run_tasks, Task
 from iguana_ros.sweep.scene_task import TIMING_COLUMNS
 from ros_harness import IGUANA, NodeProcess, wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(400)]   # a hung cluster fails, not the suite
 
-SPEC = '''
+SPEC = """
 name: engine_test
 scenes: [flat_walk, hills]
 grid:
@@ -35,13 +52,16 @@ cases:
   - {model.resolution: coarse, duration: 0.4, friction: {wings: 0.1}}
 plots:
   - {x: fidelity.cg_tol, y: path_length, by: scene}
-'''
+"""
 DASK = str(Path(sys.executable).with_name('dask'))
 
 
 def _children() -> set:
-    """Pids of this process's living descendants (but multiprocessing's resource tracker, which lives as long as
-    this process by design)."""
+    """
+    Pids of this process's living descendants.
+
+    (but multiprocessing's resource tracker, which lives as long as this process by design).
+    """
     pids = set()
     for p in psutil.Process().children(recursive=True):
         try:
@@ -53,12 +73,12 @@ def _children() -> set:
 
 
 def _rows(out: Path) -> list[dict]:
-    """The rows of a results.json."""
+    """Return the rows of a results.json."""
     return json.loads((out / 'results.json').read_text())['rows']
 
 
 def _table(out: Path, timing: tuple = TIMING_COLUMNS) -> list[dict]:
-    """The rows of a results.json without the timing columns."""
+    """Return the rows of a results.json without the timing columns."""
     return [{k: v for k, v in row.items() if k not in timing} for row in _rows(out)]
 
 
@@ -75,7 +95,7 @@ def spec_file(tmp_path_factory):
 
 @pytest.fixture(scope='module')
 def local_tables(spec_file, tmp_path_factory):
-    """The sweep run by `iguana sweep` on local clusters of 1 and 2 workers: {workers: results folder}."""
+    """Return the sweep run by `iguana sweep` on local clusters of 1 and 2 workers: {workers: results folder}."""
     root = tmp_path_factory.mktemp('local')
     before = _children()
     for workers in (1, 2):
@@ -86,8 +106,11 @@ def local_tables(spec_file, tmp_path_factory):
 
 @pytest.fixture(scope='module')
 def scheduler(tmp_path_factory):
-    """A `dask scheduler` and two `dask worker` processes on localhost, each in its own process group; all of
-    them (and their children) stopped and checked gone at teardown, also when a test fails. Yields the address."""
+    """
+    Yield a `dask scheduler` and two `dask worker` processes on localhost, each in its own process group.
+
+    All of them (and their children) stopped and checked gone at teardown, also when a test fails. Yields the address.
+    """
     tmp = tmp_path_factory.mktemp('cluster')
     scheduler_file = tmp / 'scheduler.json'
     procs = []
@@ -131,8 +154,11 @@ def test_same_table_with_one_and_two_workers_failures_as_rows(local_tables):
 
 
 def test_scheduler_and_workers_as_separate_processes_resume(scheduler, spec_file, local_tables, tmp_path, capsys):
-    """`iguana sweep --scheduler ADDRESS` in a process of its own runs on the two `dask worker` processes: the
-    same table; with the log cut short, --resume runs only the two missing tasks."""
+    """
+    `iguana sweep --scheduler ADDRESS` in a process of its own runs on the two `dask worker` processes.
+
+    The same table; with the log cut short, --resume runs only the two missing tasks.
+    """
     out = tmp_path / 'cluster'
     iguana = NodeProcess(IGUANA + ['sweep', spec_file, '-o', out, '--scheduler', scheduler], 'iguana', tmp_path)
     assert iguana.start().wait(timeout=240) == 0, iguana.tail()
@@ -149,12 +175,12 @@ def test_scheduler_and_workers_as_separate_processes_resume(scheduler, spec_file
 
 def test_the_benchmarks_run_through_iguana_sweep(scheduler, tmp_path, capsys):
     """The locomotion, stability and tradeoff benchmarks as specs: the rows the benchmarks compute."""
-    loco = _spec(tmp_path, '''
+    loco = _spec(tmp_path, """
         random_terrains: {count: 1, seed: 3, kinds: [hills], duration: 1.0, mesh: coarse}
         grid: {adaptation: [true, false]}
         stop_after_goal: 2.0
         summary: locomotion
-        plots: [{x: kind, y: foot_slip_per_stride, by: mode}]''', 'loco')
+        plots: [{x: kind, y: foot_slip_per_stride, by: mode}]""", 'loco')
     assert main(['sweep', str(loco), '-o', str(tmp_path / 'loco'), '--scheduler', scheduler]) == 0
     assert 'with / without adaptation' in capsys.readouterr().out       # the benchmark's summary table
     scene = random_scenes(1, 3, 1.0, 'coarse', ('hills',))[0]
@@ -184,8 +210,11 @@ def _hold_memory(megabytes: int, seconds: float) -> int:
 
 
 def test_out_of_memory_worker_gives_an_error_row():
-    """A task that outgrows its worker's 1 GiB is stopped by Dask (the worker restarted, the task retried once)
-    and becomes a KilledWorker row; the next task runs."""
+    """
+    A task that outgrows its worker's 1 GiB is stopped by Dask.
+
+    (the worker restarted, the task retried once) and becomes a KilledWorker row; the next task runs.
+    """
     cloudpickle.register_pickle_by_value(sys.modules[__name__])          # _hold_memory runs on the workers
     before = _children()
     tasks = [Task('hog', _hold_memory, (1500, 30.0), {'task': 'hog'}, 'hog'),

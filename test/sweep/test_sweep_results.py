@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Sweep outputs: the finished-task log (refused without --resume, a cut line skipped), the CSV/JSON table, plots."""
 import csv
 import json
@@ -5,9 +19,8 @@ import json
 import pytest
 
 from iguana_ros.errors import IguanaError, InputError
-from iguana_ros.sweep.engine import Plan, Task, in_order, is_engine_failure, row_stream
-from iguana_ros.sweep.results import (ResultLog, check_plot_columns, flatten, plot_columns, plot_path,
-                                      write_table)
+from iguana_ros.sweep.engine import in_order, is_engine_failure, Plan, row_stream, Task
+from iguana_ros.sweep.results import check_plot_columns, flatten, plot_columns, plot_path, ResultLog, write_table
 from iguana_ros.sweep.spec import PlotSpec
 
 ROWS = [

@@ -1,15 +1,29 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Sweep specs: the shipped specs, expansion order and identity of tasks, stable keys, and one-line errors."""
 import textwrap
 
 import pytest
 
-from iguana_ros.errors import InputError
-from iguana_ros.locomotion_bench import benchmark_tasks, random_scenes, run_task
 from iguana_ros.bench.sim import TRADEOFF_SETTINGS
 from iguana_ros.bench.stability import SCENARIOS
-from iguana_ros.scene import SceneError, load_scene
-from iguana_ros.sweep.scene_task import RunOptions, run_scene
-from iguana_ros.sweep.spec import MAX_TASKS, SweepError, load_sweep, parse_sweep
+from iguana_ros.errors import InputError
+from iguana_ros.locomotion_bench import benchmark_tasks, random_scenes, run_task
+from iguana_ros.scene import load_scene, SceneError
+from iguana_ros.sweep.scene_task import run_scene, RunOptions
+from iguana_ros.sweep.spec import load_sweep, MAX_TASKS, parse_sweep, SweepError
 
 
 def _write(tmp_path, text: str, name: str = 'spec.yaml'):
@@ -34,7 +48,7 @@ def test_shipped_specs_expand_to_the_benchmarks_tasks():
 
 
 def test_grid_and_cases_expand_in_order_with_their_columns(tmp_path):
-    spec = load_sweep(str(_write(tmp_path, '''
+    spec = load_sweep(str(_write(tmp_path, """
         name: order
         scenes: [flat_walk, hills]
         grid:
@@ -43,7 +57,7 @@ def test_grid_and_cases_expand_in_order_with_their_columns(tmp_path):
         cases:
           - {model.resolution: coarse, duration: 0.5}
           - {model.stiffness: softer, model.resolution: coarse, adaptation: false}
-        ''')))
+        """)))
     tasks = spec.plan.tasks
     assert len(tasks) == 2 * 2 * 2 * 2 and spec.name == 'order'
     first = tasks[0].identity
@@ -54,7 +68,7 @@ def test_grid_and_cases_expand_in_order_with_their_columns(tmp_path):
     assert [t.identity['fidelity.dt'] for t in tasks[:4:2]] == [pytest.approx(1 / 600), 0.001]
     fifth = tasks[4]
     assert (fifth.identity['model.stiffness'], fifth.identity['adaptation'], fifth.identity['duration']) == \
-        ('softer', False, load_scene('flat_walk').duration)                              # the second case keeps the scene's
+        ('softer', False, load_scene('flat_walk').duration)                # the second case keeps the scene's
     scene, options, _ = tasks[1].args
     assert options.simulator_options() == {'dt': pytest.approx(1 / 600), 'friction': {'default': 1.0, 'foot_fl': 0.4}}
     assert tasks[8].identity['scene'] == 'hills'
@@ -108,10 +122,14 @@ def test_scene_overrides_are_checked_as_scene_files_are(tmp_path):
 
 
 def test_scene_task_row_and_run_time_failure():
-    """A scene task's row holds what ran and the metrics; a run-time error (an unknown friction tag) raises for
-    the engine to record, and locomotion's run_task records it itself."""
+    """
+    A scene task's row holds what ran and the metrics.
+
+    A run-time error (an unknown friction tag) raises for the engine to record, and locomotion's run_task records it
+    itself.
+    """
     spec = parse_sweep({'scenes': ['flat_walk'], 'cases': [{'duration': 0.2, 'model.resolution': 'coarse'},
-                                                            {'friction': {'wings': 0.2}, 'duration': 0.2}]})
+                                                           {'friction': {'wings': 0.2}, 'duration': 0.2}]})
     ok, bad = spec.plan.tasks
     row = run_scene(*ok.args)
     assert {k: row[k] for k in ('scene', 'kind', 'resolution', 'duration', 'mode')} == \

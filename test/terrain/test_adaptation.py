@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Terrain adaptation (Section VI): plane fitting, residual fitting, flat-ground no-op, warm starts."""
 import numpy as np
 import pytest
@@ -18,7 +32,7 @@ def skel():
 
 
 def _clip_pose(skel, frame, seed=0):
-    """A smooth trot-like clip pose at `frame` (30 Hz): oscillating joints, drooping tail, feet on z >= 0."""
+    """Return a smooth trot-like clip pose at `frame` (30 Hz): oscillating joints, drooping tail, feet on z >= 0."""
     rng = np.random.default_rng(seed)
     amp = rng.normal(scale=0.15, size=(skel.n_bones, 3))
     amp[0] = 0.0
@@ -40,11 +54,13 @@ def _stance(skel, clip):
 
 
 def _check_adapted(skel, terrain, clip, adapted, foot_tol=0.004, depth_tol=1e-4):
-    """Stance feet (their pivots) as far above the terrain as above the capture floor in the clip, within
-    `foot_tol`; no joint deeper than `depth_tol`, but the
-    feet's (the sole alignment turns a stance foot about its pivot, moving the foot joint, an end site in the
-    sole, up to 2.6 mm into a 15 deg slope) and the tail's, which a weight-bearing clip presses in as deep as
-    its tip's residual height (at most max_tail_press)."""
+    """
+    Stance feet (their pivots) as far above the terrain as above the capture floor in the clip, within `foot_tol`.
+
+    No joint deeper than `depth_tol`, but the feet's (the sole alignment turns a stance foot about its pivot, moving the
+    foot joint, an end site in the sole, up to 2.6 mm into a 15 deg slope) and the tail's, which a weight-bearing clip
+    presses in as deep as its tip's residual height (at most max_tail_press).
+    """
     feet_h, tail_h = ad.residual_heights_of(skel, *clip)
     p = adapted.joint_positions
     pivots = skel.indices(list(FOOT_PIVOTS))
@@ -210,8 +226,11 @@ def test_synthetic_trot_on_hills_and_bench_command(capsys):
 
 @pytest.mark.parametrize('slope_deg', [12.0, -15.0])
 def test_stance_soles_lie_parallel_to_the_terrain(skel, slope_deg):
-    """align_soles turns each stance foot's pivot bone so its up axis is the terrain normal; every joint but
-    the feet stays where residual fitting put it."""
+    """
+    align_soles turns each stance foot's pivot bone so its up axis is the terrain normal.
+
+    Every joint but the feet stays where residual fitting put it.
+    """
     terrain = HeightField.tilted_plane(slope_deg, direction=(1.0, 0.3))
     clip = _clip_pose(skel, 0)
     stance = _stance(skel, clip)

@@ -1,10 +1,24 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The generated `steps` and `noise` terrains: determinism per seed, ranges, the flat pad, scene fields."""
 import numpy as np
 import pytest
 
 from iguana_ros.errors import InputError
-from iguana_ros.scene import SceneError, TerrainSpec, parse_scene, terrain_from_spec
-from iguana_ros.terrain.heightfield import STEPS_PAD_RADIUS, HeightField
+from iguana_ros.scene import parse_scene, SceneError, terrain_from_spec, TerrainSpec
+from iguana_ros.terrain.heightfield import HeightField, STEPS_PAD_RADIUS
 
 
 def _node_xy(hf: HeightField) -> np.ndarray:

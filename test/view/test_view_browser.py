@@ -1,4 +1,19 @@
-"""`iguana view` in a real browser (headless Chromium driven by Selenium).
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana view` in a real browser (headless Chromium driven by Selenium).
 
 One `iguana run --view` of flat_walk (coarse model) with the four real node processes in realtime mode: the page
 shows the iguana (green mesh pixels), a click on the terrain sends a goal that the run's planner accepts, the push
@@ -9,19 +24,20 @@ IGUANA_UPDATE_SCREENSHOT=1 saves that bag-mode screenshot to docs/view_screensho
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 import math
 import os
+from pathlib import Path
 import re
 import signal
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
-from ros_harness import IGUANA, REPO, NodeProcess
-from view_harness import (click_button, click_canvas, green_pixels, dismiss_notifications, figure, find_browser,
+
+from ros_harness import IGUANA, NodeProcess, REPO
+from view_harness import (click_button, click_canvas, dismiss_notifications, figure, find_browser, green_pixels,
                           page_text, red_pixels, screenshot, start_browser, wait_until)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(600)]
@@ -66,7 +82,7 @@ def browser():
 
 
 def _url(output: str) -> str:
-    """The address in an `iguana view: http://...` line."""
+    """Return the address in an `iguana view: http://...` line."""
     return re.search(r'iguana view: (http://\S+)', output).group(1)
 
 
@@ -175,7 +191,7 @@ def test_the_viewer_is_a_child_of_the_run_and_stops_with_it(browser, live_run):
 
 @pytest.fixture(scope='module')
 def recorded_bag(live_run):
-    """The run's bag, once the run has stopped."""
+    """Return the run's bag, once the run has stopped."""
     if live_run.process.running:
         live_run.process.stop(timeout=60.0)
     assert (live_run.bag / 'metadata.yaml').exists(), live_run.process.tail()

@@ -1,11 +1,30 @@
-"""`iguana view` / `iguana run --view` on bad input: no bag, a bag without mesh frames, a port in use, a bad port;
-each is one line on stderr (no traceback) and exit status 1, and nothing is started."""
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+`iguana view` / `iguana run --view` on bad input.
+
+No bag, a bag without mesh frames, a port in use, a bad port; each is one line on stderr (no traceback) and exit status
+1, and nothing is started.
+"""
 from __future__ import annotations
 
 import socket
 import subprocess
 
 import pytest
+
 from ros_harness import IGUANA, REPO
 
 pytestmark = pytest.mark.timeout(120)
@@ -17,7 +36,7 @@ def _iguana(*args) -> subprocess.CompletedProcess:
 
 
 def _one_error_line(result: subprocess.CompletedProcess, command: str, *words: str) -> str:
-    """The single stderr line of a failed command, checked to name every one of `words`."""
+    """Return the single stderr line of a failed command, checked to name every one of `words`."""
     assert result.returncode == 1, (result.stdout, result.stderr)
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f'{command}: error: '), result.stderr
@@ -27,7 +46,7 @@ def _one_error_line(result: subprocess.CompletedProcess, command: str, *words: s
 
 
 def _bag_without_mesh(directory):
-    """A bag holding iguana_state messages only."""
+    """Return a bag holding iguana_state messages only."""
     from rclpy.serialization import serialize_message
 
     from iguana_ros.bag.schema import message_definition
@@ -57,7 +76,7 @@ def test_a_bag_without_mesh_frames_is_one_line(tmp_path):
 
 @pytest.fixture
 def busy_port():
-    """A port on 127.0.0.1 that another socket listens on."""
+    """Yield a port on 127.0.0.1 that another socket listens on."""
     with socket.socket() as sock:
         sock.bind(('127.0.0.1', 0))
         sock.listen()

@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The viewer's ROS-free parts: what is drawn at a time (RunView), the terrain click, clip names, the timeline."""
 from __future__ import annotations
 
@@ -9,8 +23,8 @@ import pytest
 from iguana_ros.metrics import slip_per_foot
 from iguana_ros.render.run import GoalSet
 from iguana_ros.view.playback import Playback
-from iguana_ros.view.scene import (ARROW_M_PER_N, ARROW_SHOW_S, PushEvent, RunView, Series, flank_push,
-                                   identify_clip, panel_lines, terrain_hit)
+from iguana_ros.view.scene import (ARROW_M_PER_N, ARROW_SHOW_S, flank_push, identify_clip, panel_lines, PushEvent,
+                                   RunView, Series, terrain_hit)
 
 SQUARE = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
 """Two triangles covering the square |x|, |y| <= 1 at z = 0."""

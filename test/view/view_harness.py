@@ -1,3 +1,17 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """Helpers of the viewer tests: headless Chromium through Selenium, the page's text and pixels."""
 from __future__ import annotations
 
@@ -41,7 +55,7 @@ def find_browser() -> tuple[str, str] | str:
 
 
 def start_browser(chromium: str, chromedriver: str):
-    """A headless Chromium WebDriver with a fresh profile."""
+    """Return a headless Chromium WebDriver with a fresh profile."""
     from selenium import webdriver
     from selenium.webdriver.chrome.options import Options
     from selenium.webdriver.chrome.service import Service
@@ -58,7 +72,7 @@ def start_browser(chromium: str, chromedriver: str):
 
 
 def wait_until(predicate, timeout: float, period: float = 0.25):
-    """The first truthy `predicate()` within `timeout` s, else None."""
+    """Return the first truthy `predicate()` within `timeout` s, else None."""
     deadline = time.monotonic() + timeout
     while True:
         value = predicate()
@@ -68,7 +82,7 @@ def wait_until(predicate, timeout: float, period: float = 0.25):
 
 
 def page_text(driver) -> str:
-    """The visible text of the page ('' when the busy browser did not answer in time)."""
+    """Return the visible text of the page ('' when the busy browser did not answer in time)."""
     from selenium.common.exceptions import TimeoutException
     try:
         return driver.execute_script('return document.body.innerText') or ''
@@ -77,7 +91,7 @@ def page_text(driver) -> str:
 
 
 def figure(driver, name: str) -> float | None:
-    """The number after `name` in the panel (e.g. 'simulated time'), None if it is not shown."""
+    """Return the number after `name` in the panel (e.g. 'simulated time'), None if it is not shown."""
     match = re.search(re.escape(name) + r' (-?[\d.]+)', page_text(driver))
     return float(match.group(1)) if match else None
 
@@ -100,17 +114,23 @@ GIZMO_PX = 110
 
 
 def green_pixels(pixels: np.ndarray, margin: int = 40) -> int:
-    """How many pixels have green at least `margin` above red and blue (the iguana's skin), outside the axes
-    gizmo's corner."""
+    """
+    How many pixels have green at least `margin` above red and blue (the iguana's skin).
+
+    outside the axes gizmo's corner.
+    """
     p = pixels.astype(int)
     p[-GIZMO_PX:, :GIZMO_PX] = 0
     return int(np.sum((p[..., 1] >= p[..., 0] + margin) & (p[..., 1] >= p[..., 2] + margin)))
 
 
 def red_pixels(pixels: np.ndarray, margin: int = 60, tint: int = 25) -> int:
-    """How many pixels are red: red at least `margin` above green and blue, which are within `tint` of each other
-    (the push arrows, shaded towards pink; not the orange path and contacts, whose green is far above their blue),
-    outside the axes gizmo's corner."""
+    """
+    How many pixels are red.
+
+    Red at least `margin` above green and blue, which are within `tint` of each other (the push arrows, shaded towards
+    pink; not the orange path and contacts, whose green is far above their blue), outside the axes gizmo's corner.
+    """
     p = pixels.astype(int)
     p[-GIZMO_PX:, :GIZMO_PX] = 0
     r, g, b = p[..., 0], p[..., 1], p[..., 2]
