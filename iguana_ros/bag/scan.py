@@ -470,6 +470,9 @@ class Scan:
             if end > limit:
                 pos = self._lost(pos, f'record of {length} bytes runs past the data section', past_end=True)
                 continue
+            if op != OP_CHUNK and self._runs_into_chunk(pos, end):
+                pos = self._lost(pos, f'record of {length} bytes runs into the next indexed chunk')
+                continue
             if op == OP_DATA_END:
                 if length != 4:
                     pos = self._lost(pos, 'DataEnd record of the wrong length')
@@ -494,6 +497,15 @@ class Scan:
                            else f'unexpected opcode 0x{op:02x}')
             pos = self._lost(pos, problem) if problem else end
         self._finish(pos)
+
+    def _runs_into_chunk(self, pos: int, end: int) -> bool:
+        """
+        Tell whether a record at `pos` ending at `end` covers the start of a chunk the summary indexes.
+
+        Its length is then damaged: only a chunk starts there, and trusting the length would skip an intact chunk.
+        """
+        k = bisect.bisect_right(self._hints, pos)
+        return k < len(self._hints) and self._hints[k] < end
 
     def _lost(self, pos: int, what: str, past_end: bool = False) -> int:
         """

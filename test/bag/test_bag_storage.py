@@ -136,6 +136,30 @@ def test_corrupted_chunk_loses_only_that_chunk(tmp_path):
     assert got == [_cdr_string(f'msg {i}') for i in range(60) if i != 30]
 
 
+@pytest.mark.parametrize('mask', [0x01, 0x02, 0x80])
+def test_a_damaged_message_index_length_loses_no_chunk(tmp_path, mask):
+    """
+    A flipped bit in the length of the message index after a chunk (found by `iguana bench faults bags`).
+
+    Trusting the length made the scan jump over the next chunk, and its intact messages were lost.
+    """
+    _write_bag(tmp_path / 'i', n=20, chunk_age_s=0.0)
+    path = tmp_path / 'i' / 'i.mcap'
+    with open(path, 'rb') as f:
+        chunk = make_reader(f).get_summary().chunk_indexes[5]
+    data = bytearray(path.read_bytes())
+    index_at = chunk.chunk_start_offset + chunk.chunk_length
+    assert data[index_at] == 0x07                                     # a MessageIndex record follows the chunk
+    for byte in range(1, 5):                                          # the low bytes of its 8-byte length
+        damaged = bytearray(data)
+        damaged[index_at + byte] ^= mask
+        path.write_bytes(bytes(damaged))
+        reader = BagReader(path)
+        got = [m.data for m in reader.messages()]
+        assert reader.damaged, byte
+        assert got == [_cdr_string(f'msg {i}') for i in range(20)], (byte, len(got), reader.problem)
+
+
 def _cli(argv, capsys):
     rc = main(argv)
     out, err = capsys.readouterr()
