@@ -26,8 +26,11 @@ browser:
 		echo "make: apt-get could not install chromium and chromium-driver; the browser tests will be skipped"; \
 	else echo "make: chromium and chromedriver are missing and cannot be installed here; the browser tests will be skipped"; fi
 
+# Two pytest workers (pytest-xdist), a module per worker at a time so module-scoped runs are shared; each worker
+# has its own ROS_DOMAIN_ID (test/conftest.py). `make test PYTEST_WORKERS=0` runs in one process.
+PYTEST_WORKERS ?= 2
 test: $(STAMP) browser
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadscope)
 
 demo: $(STAMP)
 	$(VENV)/bin/iguana demo

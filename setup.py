@@ -143,7 +143,7 @@ setup(
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
         'ros': ['ros-jazzy-rclpy', 'ros-jazzy-common-interfaces', 'ros-jazzy-rmw-fastrtps-cpp'],
         'test': [
-            'pytest>=7', 'pytest-timeout>=2.1',
+            'pytest>=7', 'pytest-timeout>=2.1', 'pytest-xdist>=3.5',
             # a real `colcon build` of the package (test/test_packaging.py)
             'colcon-core>=0.15', 'colcon-ros>=0.4',
             'selenium>=4.10',    # drives headless Chromium in the `iguana view` tests

@@ -26,7 +26,7 @@ import numpy as np
 
 CHROMIUM_FLAGS = ('--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
                   '--disable-background-networking', '--disable-component-update', '--disable-sync',
-                  '--window-size=900,640')
+                  '--window-size=860,500')
 """Flags that run Debian's Chromium here (a closed network: no background connections)."""
 
 APT_INSTALL_S = 600
