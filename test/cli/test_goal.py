@@ -97,6 +97,8 @@ def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path,
         assert spin_until(executor, lambda: not goal.running, 100), goal.output
         assert goal.proc.returncode == 0, goal.output + planner.output
         assert 'goal (1.50, -2.00) scheduled for t=0.000 s' in planner.output
+        # the listener acknowledged the goal before the sender exited; its callback runs when this process spins
+        assert spin_until(executor, lambda: received, 10), 'the second subscriber never got the goal'
         rejected = NodeProcess([*IGUANA, 'goal', '1e9', '0', '--timeout', '8'], 'rejected', tmp_path).start()
         assert rejected.wait(30) == 1
         later = NodeProcess([*IGUANA, 'goal', '1', '0.5', '--at', '2', '--timeout', '30'], 'later', tmp_path).start()
