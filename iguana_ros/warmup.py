@@ -68,13 +68,23 @@ def kernel_signatures() -> dict[str, list[str]]:
 
 
 def warm_loop(scene_name: str = WARM_SCENE, frames: int = WARM_FRAMES) -> float:
-    """Run `frames` frames of the library loop of `scene_name` (building and caching its model); wall seconds."""
+    """Run `frames` frames of the library loop of `scene_name` (caching its model) and a direct-solver frame; wall s."""
     from iguana_ros.pipeline import run
     from iguana_ros.scene import load_scene
 
     start = time.perf_counter()
     run(load_scene(scene_name), n_frames=frames)
+    warm_direct_solver()
     return time.perf_counter() - start
+
+
+def warm_direct_solver() -> None:
+    """One frame of the simulator with the direct solver (the frame loop steps with CG in one compiled call)."""
+    from iguana_ros.body.model import build_model
+    from iguana_ros.physics.simulator import SoftBodySimulator
+    from iguana_ros.terrain.heightfield import HeightField
+
+    SoftBodySimulator(build_model('coarse'), HeightField.flat(), 'balanced', solver='direct').advance_frame(None)
 
 
 def warm_render() -> float:

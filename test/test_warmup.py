@@ -52,6 +52,18 @@ def test_a_run_and_a_render_need_no_kernel_beyond_the_warm_up(tmp_path):
         'from iguana_ros.pipeline import run\nfrom iguana_ros.scene import parse_scene\n'
         "run(parse_scene({'terrain': {'kind': 'noise', 'seed': 3}, 'goals': [{'x': 1.0, 'y': 1.0}], 'pushes': "
         "[{'at': 0.0, 'force': [0.0, -40.0, 0.0], 'duration': 0.1, 'region': 'trunk_left'}]}), n_frames=4)\n"
+        'import numpy as np\nfrom iguana_ros.body.model import build_model\n'
+        'from iguana_ros.physics.simulator import SoftBodySimulator\n'
+        'from iguana_ros.terrain.heightfield import HeightField\n'
+        'import dataclasses\nmodel = build_model("coarse")\n'   # writable copies of its read-only arrays
+        'model = dataclasses.replace(model, **{f.name: np.array(getattr(model, f.name))'
+        ' for f in dataclasses.fields(model) if isinstance(getattr(model, f.name), np.ndarray)})\n'
+        'lengths = np.array(model.spring_rest_lengths)\nlengths.setflags(write=False)\n'   # as decoded from a message
+        'push = np.zeros((model.n_nodes, 3))\npush.setflags(write=False)\n'
+        "for terrain, friction in ((HeightField.flat(), 0.5), (None, {'default': 0.8})):\n"
+        "    sim = SoftBodySimulator(model, terrain, 'balanced', friction=friction)\n"
+        '    sim.advance_frame(lengths, push)\n    sim.advance_frame(None)\n'
+        "SoftBodySimulator(model, HeightField.flat(), 'balanced', solver='direct').advance_frame(lengths)\n"
         'from iguana_ros.cli import main\n'
         f"assert main(['render', {str(bag)!r}, '-o', {str(tmp_path / 'f.png')!r}, '-q']) == 0\n")
     assert 'iguana_ros.physics.integrator.run_steps_cg' in used and used, used   # the probe saw the simulator

@@ -27,6 +27,25 @@ from typing import NamedTuple
 import numpy as np
 
 
+def kernel_constant(array, dtype=np.float64) -> np.ndarray:
+    """
+    Return a private, read-only, C-contiguous copy of `array` as `dtype`: how every KernelModel field is passed.
+
+    numba compiles one specialisation per combination of array flags, and a specialisation compiled in a process
+    that loaded the others from the cache rounds differently (1e-16 m after one frame, then chaotic): two processes
+    of one run stepped differently. One array type per argument keeps every process on the kernels `iguana warm`
+    compiled together (`test/test_warmup.py`).
+    """
+    out = np.array(array, dtype=dtype, order='C', copy=True)
+    out.setflags(write=False)
+    return out
+
+
+def kernel_input(array, dtype=np.float64) -> np.ndarray:
+    """Return a private, writable, C-contiguous copy of `array` as `dtype`: how per-call kernel inputs are passed."""
+    return np.array(array, dtype=dtype, order='C', copy=True)
+
+
 class KernelModel(NamedTuple):
     """Static arrays of one soft body on one terrain (set up once by `SoftBodySimulator`)."""
 

@@ -35,7 +35,7 @@ from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.fidelity import Fidelity, get_fidelity
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
                                        shape_gradients)
-from iguana_ros.physics.kernel_data import empty_state, KernelModel
+from iguana_ros.physics.kernel_data import empty_state, kernel_constant, kernel_input, KernelModel
 from iguana_ros.physics.solver import DirectSolver, PRECONDITIONER_CODES
 
 LENGTH_HOLDS = ('linear', 'zero')
@@ -143,20 +143,21 @@ class SoftBodySimulator:
             raise InputError('simulator: model.node_mass must be (n_nodes,) positive masses in kg')
         self.pattern = BlockPattern.build(n, tets, springs)
         self.rest_positions = rest
-        self.desired_lengths_rest = np.ascontiguousarray(model.spring_rest_lengths, dtype=np.float64)
+        self.desired_lengths_rest = kernel_input(model.spring_rest_lengths)
         heights, ox, oy, spacing = terrain.kernel_args() if terrain is not None else (np.zeros((2, 2)), 0., 0., 1.)
         self.friction = friction_per_node(model, friction)
         self.contact_offset = contact_offsets(model)
-        self._model = KernelModel(
-            mass=mass, tets=tets, shape_gradients=grads, volume=volume, mu=np.ascontiguousarray(mu),
-            lam=np.ascontiguousarray(lam), springs=springs,
-            spring_stiffness=np.ascontiguousarray(np.broadcast_to(model.spring_stiffness, (len(springs),)),
-                                                  dtype=np.float64),
-            friction=self.friction, heights=heights, terrain_grid=np.array([ox, oy, spacing]),
-            row_ptr=self.pattern.row_ptr, cols=self.pattern.cols, diag=self.pattern.diag,
-            tet_blocks=self.pattern.tet_blocks, spring_blocks=self.pattern.spring_blocks,
-            contact_mass=np.maximum(mass, mass.mean()),      # light (sliver) nodes get the mean
-            contact_offset=self.contact_offset)
+        fields = {
+            'mass': mass, 'tets': tets, 'shape_gradients': grads, 'volume': volume, 'mu': mu, 'lam': lam,
+            'springs': springs,
+            'spring_stiffness': np.broadcast_to(model.spring_stiffness, (len(springs),)),
+            'friction': self.friction, 'heights': heights, 'terrain_grid': np.array([ox, oy, spacing]),
+            'row_ptr': self.pattern.row_ptr, 'cols': self.pattern.cols, 'diag': self.pattern.diag,
+            'tet_blocks': self.pattern.tet_blocks, 'spring_blocks': self.pattern.spring_blocks,
+            'contact_mass': np.maximum(mass, mass.mean()),      # light (sliver) nodes get the mean
+            'contact_offset': self.contact_offset}
+        self._model = KernelModel(**{name: kernel_constant(value, np.asarray(value).dtype)
+                                     for name, value in fields.items()})
 
     def _build_params(self, gravity, alpha, beta, kn, zeta, kt, max_speed, max_depth) -> None:
         """Float/int parameter vectors of the compiled kernels."""
@@ -229,8 +230,8 @@ class SoftBodySimulator:
                                  0.0)                                  # converge the element rotations
 
     def _checked(self, array, name: str) -> np.ndarray:
-        """`array` as finite `(n_nodes, 3)` floats, or InputError."""
-        a = np.asarray(array, dtype=np.float64)
+        """`array` as a private copy of finite `(n_nodes, 3)` floats, or InputError."""
+        a = kernel_input(array)
         if a.shape != self.rest_positions.shape or not np.all(np.isfinite(a)):
             raise InputError(f'simulator: {name} must be finite ({len(self.rest_positions)}, 3), got {a.shape}')
         return a
@@ -299,7 +300,7 @@ class SoftBodySimulator:
         """
         if self._diverged is not None:
             raise self._diverged
-        ld = self.desired_lengths_rest if desired_lengths is None else np.asarray(desired_lengths, np.float64)
+        ld = self.desired_lengths_rest if desired_lengths is None else kernel_input(desired_lengths)
         if ld.shape != self.desired_lengths_rest.shape or not np.all(np.isfinite(ld)) or np.any(ld < 0):
             raise InputError(f'simulator: desired_lengths must be ({len(self.desired_lengths_rest)},) finite '
                              f'lengths >= 0 m, got shape {ld.shape}')

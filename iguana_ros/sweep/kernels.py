@@ -26,20 +26,10 @@ import time
 from iguana_ros.jit import ensure_fresh_kernel_cache, kernel_cache_lock
 
 
-def _warm_direct_solver() -> None:
-    """One frame of the simulator with the direct solver (the frame loop of `iguana warm` uses CG)."""
-    from iguana_ros.bench.workload import bench_model
-    from iguana_ros.physics.simulator import SoftBodySimulator
-    from iguana_ros.terrain.heightfield import HeightField
-
-    model, _ = bench_model('coarse')
-    SoftBodySimulator(model, HeightField.flat(), 'balanced', solver='direct').advance_frame(None)
-
-
 @functools.lru_cache(maxsize=None)
 def warm_kernels() -> float:
     """
-    Compile or load the kernels of every sweep task (the frame loop of `iguana warm`, and the direct solver's step).
+    Compile or load the kernels of every sweep task (the frame loop of `iguana warm`, direct solver included).
 
     holding the kernel-cache lock; the seconds it took (done once per process, later calls return the first figure).
     """
@@ -49,5 +39,4 @@ def warm_kernels() -> float:
     ensure_fresh_kernel_cache()
     with kernel_cache_lock():
         warm_loop()
-        _warm_direct_solver()
     return time.perf_counter() - start

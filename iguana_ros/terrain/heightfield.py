@@ -102,7 +102,7 @@ class HeightField:
     spacing: float = 1.0
 
     def __post_init__(self) -> None:
-        heights = np.ascontiguousarray(self.heights, dtype=np.float64)
+        heights = np.array(self.heights, dtype=np.float64, order='C')   # a private copy: read-only below
         if heights.ndim != 2 or min(heights.shape) < 2:
             raise InputError(f'height field: heights must be a 2-D grid of at least 2x2, got shape {heights.shape}')
         if not np.all(np.isfinite(heights)):
