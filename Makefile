@@ -30,7 +30,7 @@ browser:
 # has its own ROS_DOMAIN_ID (test/conftest.py). `make test PYTEST_WORKERS=0` runs in one process.
 PYTEST_WORKERS ?= 2
 test: $(STAMP) browser
-	$(PY) -m pytest -q $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadscope)
+	$(PY) -m pytest -q --durations=15 $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadscope)
 
 demo: $(STAMP)
 	$(VENV)/bin/iguana demo
