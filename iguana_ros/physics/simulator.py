@@ -150,7 +150,7 @@ class SoftBodySimulator:
         fields = {
             'mass': mass, 'tets': tets, 'shape_gradients': grads, 'volume': volume, 'mu': mu, 'lam': lam,
             'springs': springs,
-            'spring_stiffness': np.broadcast_to(model.spring_stiffness, (len(springs),)),
+            'spring_stiffness': np.broadcast_to(np.asarray(model.spring_stiffness, np.float64), (len(springs),)),
             'friction': self.friction, 'heights': heights, 'terrain_grid': np.array([ox, oy, spacing]),
             'row_ptr': self.pattern.row_ptr, 'cols': self.pattern.cols, 'diag': self.pattern.diag,
             'tet_blocks': self.pattern.tet_blocks, 'spring_blocks': self.pattern.spring_blocks,

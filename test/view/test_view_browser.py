@@ -38,7 +38,7 @@ import yaml
 
 from ros_harness import IGUANA, NodeProcess, REPO
 from view_harness import (click_button, click_canvas, dismiss_notifications, figure, find_browser, green_pixels,
-                          page_text, red_pixels, screenshot, start_browser, wait_until)
+                          page_text, PIXEL_SCALE, red_pixels, screenshot, start_browser, wait_until)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(600)]
 
@@ -52,8 +52,9 @@ RUN_S = 600.0
 START_S = 300.0
 """Wall seconds the run gets to serve the page and simulate its first frames (a fresh clone compiles kernels)."""
 
-MIN_GREEN, MIN_RED = 800, 100
-"""Pixels of the iguana's green and of a push arrow's red that a screenshot must hold."""
+MIN_GREEN, MIN_RED = round(800 * PIXEL_SCALE ** 2), round(100 * PIXEL_SCALE ** 2)
+"""Pixels of the iguana's green and of a push arrow's red that a screenshot must hold (at 1 device pixel per CSS
+pixel; fewer at the tests' PIXEL_SCALE)."""
 
 SCREENSHOT = REPO / 'docs' / 'view_screenshot.png'
 
