@@ -55,7 +55,7 @@ RTF_MIN_WALL_S = 0.2
 """Fewer wall seconds than this in the window give no realtime factor."""
 
 PATH_MAX_POINTS = 2000
-"""Most points of the root's path drawn at once (a longer path is thinned evenly)."""
+"""Most points of the root's path drawn at once, besides the latest (a longer path is thinned, see `path_stride`)."""
 
 CLIP_MATCH_TOLERANCE = 1e-6
 """Largest 1 - |q . q_library| of a bone rotation for a motion_clip to be named after a library clip."""
@@ -162,6 +162,18 @@ class Series:
     def index_at(self, time: float) -> int:
         """Index of the last row at or before `time` s (-1 if there is none)."""
         return int(np.searchsorted(self.times, time, side='right')) - 1
+
+
+def path_stride(k: int) -> int:
+    """
+    Return every how many state rows a path up to row `k` keeps: the smallest power of two that keeps PATH_MAX_POINTS.
+
+    A power of two that doubles as the run grows: between doublings, the thinned path of a later row only adds points.
+    """
+    stride = 1
+    while k // stride + 1 > PATH_MAX_POINTS:
+        stride *= 2
+    return stride
 
 
 def _latest(items: list, time: float):
@@ -282,10 +294,16 @@ class RunView:
                 realtime_factor=self._realtime_factor(k), terrain_version=self.terrain_version)
 
     def _path(self, k: int) -> np.ndarray:
-        """Root positions `(<= PATH_MAX_POINTS, 3)` up to state row `k` (thinned evenly, the last one kept)."""
+        """
+        Root positions `(<= PATH_MAX_POINTS + 1, 3)` up to state row `k`.
+
+        Every `path_stride(k)`-th row, and row k.
+        """
         if k < 0:
             return np.zeros((0, 3))
-        idx = np.unique(np.linspace(0, k, min(k + 1, PATH_MAX_POINTS)).round().astype(int))
+        idx = np.arange(0, k + 1, path_stride(k))
+        if idx[-1] != k:
+            idx = np.append(idx, k)
         return self.states.values[idx, :3].copy()
 
     def _contacts(self, t: float) -> np.ndarray:

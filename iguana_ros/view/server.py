@@ -22,7 +22,7 @@ is back.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import socket
 import threading
 import time
@@ -37,6 +37,9 @@ from iguana_ros.view.scene import flank_push, panel_lines, PUSH_SIDES, RunView, 
 
 DRAW_HZ = 20.0
 """How often the page is redrawn, per wall second."""
+
+PATH_PIECE = 200
+"""Segments of the root's path per scene node: a growing path resends only its last piece."""
 
 CAMERA_OFFSET = np.array([-0.5, -0.65, 0.4])
 """Where the camera starts, relative to the root, m (behind-left and above, looking at the root)."""
@@ -94,7 +97,8 @@ class _Drawn:
 
     terrain_version: int = 0
     mesh_time: float | None = None
-    path_points: int = -1
+    path_pieces: list = field(default_factory=list)
+    """The points (as bytes) of each drawn piece of the root's path."""
     contacts: bytes = b'-'
     arrows: bytes = b'-'
     goals: object = None
@@ -252,9 +256,7 @@ class ViewerPage:
             if frame.mesh is not None and frame.mesh.time != drawn.mesh_time:
                 self._draw_mesh(frame)
                 drawn.mesh_time = frame.mesh.time
-            if len(frame.path) != drawn.path_points:
-                self._draw_path(frame.path)
-                drawn.path_points = len(frame.path)
+            self._draw_path(frame.path)
             self._draw_points('contacts', frame.contacts, lambda p: scene.add_point_cloud(
                 '/contacts', p.astype(np.float32), colors=CONTACT_RGB, point_size=0.035, point_shape='circle',
                 precision='float32'))
@@ -320,14 +322,27 @@ class ViewerPage:
             flat_shading=True, side='double'))
 
     def _draw_path(self, path: np.ndarray) -> None:
-        """Draw the root's path so far, lifted a little off the ground."""
-        if len(path) < 2:
-            self._replace('path', None)
-            return
-        lifted = path + np.array([0.0, 0.0, TRAIL_LIFT])
-        segments = np.stack([lifted[:-1], lifted[1:]], axis=1).astype(np.float32)
-        self._replace('path', self.server.scene.add_line_segments(
-            '/path', segments, colors=tuple(int(c * 255) for c in TRAIL_RGB), thickness=0.012))
+        """
+        Draw the root's path so far `(n, 3)`, lifted a little off the ground, in pieces of PATH_PIECE segments.
+
+        Only the pieces whose points changed are sent: as a run goes on that is the last one (the path only grows
+        between the doublings of its thinning, `scene.path_stride`), not the whole path at every draw.
+        """
+        lifted = (np.asarray(path, float) + np.array([0.0, 0.0, TRAIL_LIFT])).astype(np.float32)
+        n_segments = max(len(lifted) - 1, 0)
+        pieces, drawn = -(-n_segments // PATH_PIECE), self.drawn.path_pieces
+        for c in range(pieces):
+            part = lifted[c * PATH_PIECE:min((c + 1) * PATH_PIECE, n_segments) + 1]
+            key = part.tobytes()
+            if c < len(drawn) and drawn[c] == key:
+                continue
+            self._replace(f'path/{c}', self.server.scene.add_line_segments(
+                f'/path/{c}', np.stack([part[:-1], part[1:]], axis=1),
+                colors=tuple(int(v * 255) for v in TRAIL_RGB), thickness=0.012))
+            drawn[c:c + 1] = [key]
+        for c in range(pieces, len(drawn)):
+            self._replace(f'path/{c}', None)
+        del drawn[pieces:]
 
     def _draw_points(self, name: str, values: np.ndarray, add) -> None:
         """Contacts or arrows: redrawn by `add(values)` when they changed, removed when there are none."""

@@ -23,8 +23,8 @@ import pytest
 from iguana_ros.metrics import slip_per_foot
 from iguana_ros.render.run import GoalSet
 from iguana_ros.view.playback import Playback
-from iguana_ros.view.scene import (ARROW_M_PER_N, ARROW_SHOW_S, flank_push, identify_clip, panel_lines, PushEvent,
-                                   RunView, Series, terrain_hit)
+from iguana_ros.view.scene import (ARROW_M_PER_N, ARROW_SHOW_S, flank_push, identify_clip, panel_lines,
+                                   PATH_MAX_POINTS, path_stride, PushEvent, RunView, Series, terrain_hit)
 
 SQUARE = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
 """Two triangles covering the square |x|, |y| <= 1 at z = 0."""
@@ -141,3 +141,41 @@ def test_playback_plays_pauses_scrubs_loops_and_stops_at_the_end():
     assert pb.advance(3.0) == 5.0 and not pb.playing               # stops at the end
     looping = Playback(0.0, 4.0, loop=True)
     assert looping.advance(5.0) == pytest.approx(1.0) and looping.playing
+
+
+def test_a_long_path_is_thinned_and_only_grows_between_doublings_of_its_stride():
+    """
+    The defect.
+
+    The path was thinned evenly to 2000 points, so past 2000 states (67 s) its length stayed 2000 and the page, which
+    redrew it when its length changed, froze it; thinned evenly it also changed everywhere at each state.
+    """
+    view = RunView()
+    for k in range(PATH_MAX_POINTS * 2 + 500):
+        view.add_state(k / 30.0, [0.01 * k, 0.0, 0.07], 0.0, 0.3)
+    paths = {k: view.frame(k / 30.0).path for k in (100, PATH_MAX_POINTS + 300, PATH_MAX_POINTS + 301,
+                                                    PATH_MAX_POINTS * 2 + 499)}
+    assert len(paths[100]) == 101                                             # short: every state
+    for k, path in paths.items():
+        assert len(path) <= PATH_MAX_POINTS + 1 and np.allclose(path[-1], [0.01 * k, 0.0, 0.07])   # ends at the root
+        assert np.allclose(path[0], [0.0, 0.0, 0.07])
+    assert path_stride(PATH_MAX_POINTS + 300) == 2 and path_stride(PATH_MAX_POINTS * 2 + 499) == 4
+    a, b = paths[PATH_MAX_POINTS + 300], paths[PATH_MAX_POINTS + 301]
+    assert len(b) >= len(a) and np.array_equal(b[:len(a) - 1], a[:-1])       # later: the same points, and more
+
+
+def test_a_growing_path_resends_only_its_last_piece():
+    from iguana_ros.view.server import PATH_PIECE, ViewerPage
+    server = ViewerPage(RunView(), port=0)
+    try:
+        path = np.column_stack([np.arange(2 * PATH_PIECE + 10) * 0.01, np.zeros(2 * PATH_PIECE + 10),
+                                np.zeros(2 * PATH_PIECE + 10)])
+        server._draw_path(path[:2 * PATH_PIECE + 5])
+        first = {name: server.handles[name] for name in ('path/0', 'path/1', 'path/2')}
+        server._draw_path(path)                                           # five more points
+        assert [server.handles[n] is first[n] for n in ('path/0', 'path/1', 'path/2')] == [True, True, False]
+        server._draw_path(path[:PATH_PIECE // 2])                         # scrubbed back: one short piece
+        assert sorted(n for n in server.handles if n.startswith('path/')) == ['path/0']
+        assert len(server.drawn.path_pieces) == 1
+    finally:
+        server.close()
