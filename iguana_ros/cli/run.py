@@ -41,6 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help='port of the viewer page (default 8080; 0 = any free port)')
     parser.add_argument('--view-host', default='127.0.0.1', metavar='HOST',
                         help='address the viewer serves on (default 127.0.0.1)')
+    parser.add_argument('--view-rate', type=float, default=None, metavar='HZ',
+                        help='redraws of the viewer page per second (default 20)')
     parser.set_defaults(func=run)
 
 
@@ -101,9 +103,11 @@ def run(args: argparse.Namespace) -> int:
     display = progress_display(args.progress_every)
     view = None
     if args.view:
-        from iguana_ros.view.server import check_port
+        from iguana_ros.view.server import check_draw_rate, check_port
         check_port(args.view_host, args.view_port)  # before anything starts: one line, exit 1
+        check_draw_rate(args.view_rate, '--view-rate')
         view = ['--port', str(args.view_port), '--host', args.view_host]
+        view += [] if args.view_rate is None else ['--rate', repr(float(args.view_rate))]
     return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
                                      single_process=args.single_process, timeout=args.timeout,
                                      extra_params=extra, view=view), 'iguana run', display)[1]

@@ -28,6 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--port', type=int, default=8080, help='port of the web page (default 8080; 0 = any free)')
     parser.add_argument('--host', default='127.0.0.1',
                         help='address to serve on (default 127.0.0.1: this machine only; 0.0.0.0 for every interface)')
+    parser.add_argument('--rate', type=float, default=None, metavar='HZ',
+                        help='redraws of the page per second (default 20; fewer spare a machine without a GPU)')
     parser.add_argument('--speed', type=float, default=1.0, help='bag mode: playback speed (default 1)')
     parser.add_argument('--loop', action='store_true', help='bag mode: start again at the end')
     parser.add_argument('--paused', action='store_true', help='bag mode: start paused')
@@ -39,10 +41,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def view(args: argparse.Namespace) -> int:
     """Serve the page until Ctrl-C / SIGTERM / SIGHUP; one line on stderr and status 1 for bad input."""
     from iguana_ros.errors import InputError
-    from iguana_ros.view.server import check_port
+    from iguana_ros.view.server import check_draw_rate, check_port
 
     if not args.speed > 0:
         raise InputError(f'--speed is {args.speed}; expected a positive factor')
+    check_draw_rate(args.rate)
     check_port(args.host, args.port)
     return _serve_bag(args) if args.bag is not None else _serve_live(args)
 
@@ -66,7 +69,7 @@ def _serve_bag(args: argparse.Namespace) -> int:
                         loop=args.loop)
     notes = tuple(([bag.damage] if bag.damage else []) + bag.notes)
     page = ViewerPage(bag.view, args.host, args.port, title=f'iguana view: {Path(args.bag).name}',
-                      playback=playback, notes=notes)
+                      playback=playback, notes=notes, draw_hz=args.rate)
     _announce(page.url, f'bag {args.bag}, {playback.end - playback.start:.1f} s', notes)
     return _until_stopped(page)
 
@@ -82,7 +85,7 @@ def _serve_live(args: argparse.Namespace) -> int:
     view = RunView(keep_meshes=1)
     live = LiveSource(view, library, push_duration)
     try:
-        page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live)
+        page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live, draw_hz=args.rate)
         _announce(page.url, f'live on ROS_DOMAIN_ID {current_domain_id()}', ())
         return _until_stopped(page)
     finally:

@@ -36,7 +36,10 @@ from iguana_ros.view.playback import Playback, SPEEDS
 from iguana_ros.view.scene import flank_push, panel_lines, PUSH_SIDES, RunView, terrain_hit, ViewFrame
 
 DRAW_HZ = 20.0
-"""How often the page is redrawn, per wall second."""
+"""How often the page is redrawn, per wall second, by default (`iguana view --rate`)."""
+
+MAX_DRAW_HZ = 60.0
+"""Most redraws per second a page may be asked for (a browser draws at most ~60 frames a second)."""
 
 PATH_PIECE = 200
 """Segments of the root's path per scene node: a growing path resends only its last piece."""
@@ -91,6 +94,19 @@ def check_port(host: str, port: int) -> None:
             raise InputError(f'port {port} on {host} {what}; choose another with --port (0 = any free port)') from None
 
 
+def check_draw_rate(rate: float | None, flag: str = '--rate') -> float:
+    """
+    Return the page's redraws per second (DRAW_HZ for None), or InputError naming `flag` unless in.
+
+    (0, MAX_DRAW_HZ].
+    """
+    if rate is None:
+        return DRAW_HZ
+    if not 0.0 < rate <= MAX_DRAW_HZ:
+        raise InputError(f'{flag} is {rate:g}; expected redraws per second in (0, {MAX_DRAW_HZ:g}]')
+    return float(rate)
+
+
 @dataclass
 class _Drawn:
     """What the page shows now, so only changes are sent."""
@@ -115,11 +131,12 @@ class ViewerPage:
     """
 
     def __init__(self, view: RunView, host: str = '127.0.0.1', port: int = 8080, title: str = 'iguana view',
-                 live=None, playback: Playback | None = None, notes: tuple = ()) -> None:
-        """Start the server on `host`:`port` (InputError if the port is taken) and lay out the page."""
+                 live=None, playback: Playback | None = None, notes: tuple = (), draw_hz: float | None = None) -> None:
+        """Start the server on `host`:`port` (InputError if the port is taken), redrawing `draw_hz` times a second."""
         import viser
 
         check_port(host, port)
+        self.draw_hz = check_draw_rate(draw_hz)
         self.view, self.live, self.playback, self.host = view, live, playback, host
         with _quiet():
             self.server = viser.ViserServer(host=host, port=port, verbose=False)  # its label: Connected / Connecting...
@@ -220,9 +237,9 @@ class ViewerPage:
 
     # ------------------------------------------------------------------------------------------ drawing
     def serve(self, stop: threading.Event) -> None:
-        """Advance the timeline (while a browser is connected) and redraw at DRAW_HZ until `stop` is set."""
+        """Advance the timeline (while a browser is connected) and redraw `draw_hz` times a second until `stop`."""
         last = time.monotonic()
-        while not stop.wait(1.0 / DRAW_HZ):
+        while not stop.wait(1.0 / self.draw_hz):
             now = time.monotonic()
             watched = bool(self.server.get_clients())
             t = self.playback.advance(now - last if watched else 0.0) if self.playback else None

@@ -93,3 +93,14 @@ def test_a_port_in_use_is_one_line_live_and_with_a_run(busy_port, tmp_path):
 
 def test_a_port_out_of_range_is_one_line():
     _one_error_line(_iguana('view', '--port', 70000), 'iguana view', 'port 70000', 'out of range')
+
+
+@pytest.mark.parametrize('rate', ['0', '61', 'nan'])
+def test_a_redraw_rate_out_of_range_is_one_line(rate):
+    _one_error_line(_iguana('view', '--rate', rate), 'iguana view', f'--rate is {float(rate):g}', '(0, 60]')
+
+
+def test_a_run_with_a_bad_view_rate_is_refused_before_it_starts(tmp_path):
+    result = _iguana('run', 'flat_walk', '--view', '--view-port', '0', '--view-rate', '-2', '--record', tmp_path / 'b')
+    _one_error_line(result, 'iguana run', '--view-rate is -2', 'redraws per second')
+    assert not (tmp_path / 'b').exists() and not result.stdout          # refused before anything started
