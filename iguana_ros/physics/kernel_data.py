@@ -32,7 +32,7 @@ def kernel_constant(array, dtype=np.float64) -> np.ndarray:
     Return a private, read-only, C-contiguous copy of `array` as `dtype`: how every KernelModel field is passed.
 
     numba compiles one specialisation per combination of array flags, and a specialisation compiled in a process
-    that loaded the others from the cache rounds differently (1e-16 m after one frame, then chaotic): two processes
+    that loaded the others from the cache rounds differently (1e-16 m within a second, then chaotic): two processes
     of one run stepped differently. One array type per argument keeps every process on the kernels `iguana warm`
     compiled together (`test/test_warmup.py`).
     """
