@@ -294,11 +294,7 @@ class RunView:
                 realtime_factor=self._realtime_factor(k), terrain_version=self.terrain_version)
 
     def _path(self, k: int) -> np.ndarray:
-        """
-        Root positions `(<= PATH_MAX_POINTS + 1, 3)` up to state row `k`.
-
-        Every `path_stride(k)`-th row, and row k.
-        """
+        """Root positions `(<= PATH_MAX_POINTS + 1, 3)` up to state row `k`: every `path_stride(k)`-th row and row k."""
         if k < 0:
             return np.zeros((0, 3))
         idx = np.arange(0, k + 1, path_stride(k))

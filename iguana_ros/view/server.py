@@ -95,11 +95,7 @@ def check_port(host: str, port: int) -> None:
 
 
 def check_draw_rate(rate: float | None, flag: str = '--rate') -> float:
-    """
-    Return the page's redraws per second (DRAW_HZ for None), or InputError naming `flag` unless in.
-
-    (0, MAX_DRAW_HZ].
-    """
+    """Return the page's redraws per second (DRAW_HZ for None); InputError naming `flag` outside (0, MAX_DRAW_HZ]."""
     if rate is None:
         return DRAW_HZ
     if not 0.0 < rate <= MAX_DRAW_HZ:

@@ -26,8 +26,9 @@ import time
 import numpy as np
 
 PIXEL_SCALE = 1.0 if os.environ.get('IGUANA_UPDATE_SCREENSHOT') == '1' else 0.5
-"""Device pixels per CSS pixel: software WebGL draws a quarter of the pixels at 0.5 (the six viewer tests of a
-loaded `make test` spent most of their 268 s waiting for SwiftShader frames); the README's screenshot is taken at 1."""
+"""Device pixels per CSS pixel: software WebGL draws a quarter of the pixels at 0.5 (the six viewer tests alone on a
+quiet machine: 108 s, against 144 s at 1; one run each, and no clear gain under a loaded `make test`); the README's
+screenshot is taken at 1."""
 
 CHROMIUM_FLAGS = ('--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
                   '--disable-background-networking', '--disable-component-update', '--disable-sync',
