@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 
-.PHONY: install browser test demo bench clean
+.PHONY: install browser test test-long demo bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -29,8 +29,14 @@ browser:
 # Two pytest workers (pytest-xdist), a module per worker at a time so module-scoped runs are shared; each worker
 # has its own ROS_DOMAIN_ID (test/conftest.py). `make test PYTEST_WORKERS=0` runs in one process.
 PYTEST_WORKERS ?= 2
+# `make test` leaves out the tests marked `long` (paper experiments, sweep engine, process and bag fault suites,
+# cold-cache determinism, examples driving a run, ...), which `make test-long` runs; .ci/run runs both.
+PYTEST := $(PY) -m pytest -q --durations=15 $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadscope)
 test: $(STAMP) browser
-	$(PY) -m pytest -q --durations=15 $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadscope)
+	$(PYTEST) -m 'not long'
+
+test-long: $(STAMP)
+	$(PYTEST) -m long
 
 demo: $(STAMP)
 	$(VENV)/bin/iguana demo

@@ -73,6 +73,7 @@ def driven(tmp_path_factory):
 
 @pytest.mark.ros
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.timeout(300)
 def test_drive_example_sends_a_goal_waits_for_it_and_pushes(driven):
     output, drive, code, _bag = driven
@@ -87,6 +88,7 @@ def test_drive_example_sends_a_goal_waits_for_it_and_pushes(driven):
 
 @pytest.mark.ros
 @pytest.mark.slow
+@pytest.mark.long
 def test_read_bag_example_reads_the_driven_run(driven, tmp_path):
     _output, _drive, code, bag = driven
     assert code == 0
@@ -108,6 +110,7 @@ def test_read_bag_example_reads_the_driven_run(driven, tmp_path):
 
 @pytest.mark.ros
 @pytest.mark.slow
+@pytest.mark.long
 def test_the_driven_run_named_its_phases_and_showed_its_progress(driven):
     """
     `iguana run` with stdout not a terminal.

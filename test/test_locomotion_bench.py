@@ -68,6 +68,7 @@ def _missing_map_scene(name: str):
     return dataclasses.replace(scene, name=name, terrain=TerrainSpec(kind='heightmap', file=f'/nonexistent/{name}.npy'))
 
 
+@pytest.mark.long
 def test_failing_runs_become_error_rows_in_a_fixed_order():
     row = run_task(_missing_map_scene('a'), True)
     assert row['error_type'] == 'InputError' and 'does not exist' in row['error'] and '\n' not in row['error']
@@ -146,6 +147,7 @@ def test_cli_kinds_match_the_library_and_bad_arguments_fail(capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_cli_end_to_end_two_terrains(tmp_path):
     """A real run: 2 terrains x 2 modes on 2 workers; JSON on stdout, one progress line per run on stderr."""
     iguana = Path(sys.executable).with_name('iguana')

@@ -27,6 +27,8 @@ from iguana_ros.push_experiment import PushSettings, run_push_experiment
 from iguana_ros.run_metrics import metrics_of_run
 from iguana_ros.scene import load_scene
 
+pytestmark = pytest.mark.long
+
 
 @pytest.fixture(scope='module')
 def hills_runs():

@@ -81,6 +81,7 @@ def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_
 
 
 @pytest.mark.ros
+@pytest.mark.long
 @pytest.mark.timeout(150)
 def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path, make_node, executor):
     """

@@ -29,7 +29,7 @@ from iguana_ros.cli import main
 from iguana_ros.faults.bag_files import reference, run_suite
 from ros_harness import helper, IGUANA, NodeProcess, read_dump
 
-pytestmark = [pytest.mark.ros, pytest.mark.slow]
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.long]
 
 TOPIC_KEYS = ['scene_markers', 'goal_pose', 'iguana_state', 'spring_rest_lengths', 'mesh_marker']
 TRIALS = 20

@@ -34,7 +34,7 @@ import yaml
 from iguana_ros.faults.processes import run_trial, TRIAL_SCENE
 from ros_harness import IGUANA, REPO, wait_for
 
-pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(240)]
+pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.long, pytest.mark.timeout(240)]
 
 
 def domain() -> str:

@@ -93,6 +93,7 @@ def test_every_fault_of_every_topic_is_refused_by_its_decoder(scene_file):
 
 @pytest.mark.ros
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.timeout(240)
 def test_a_lockstep_run_under_topic_faults_completes_unchanged(tmp_path, scene_file):
     from iguana_ros.faults.topic_fuzz import fuzz_run

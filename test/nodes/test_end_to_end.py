@@ -151,6 +151,7 @@ def test_recorded_run_replays(shared_run, make_node, executor):
     assert np.array_equal(replayed, read_root_trajectory(bag)[1])
 
 
+@pytest.mark.long
 def test_node_killed_mid_run_stops_the_run_and_keeps_the_bag(tmp_path, scene_file):
     from iguana_ros.bag.storage import summarize
     from iguana_ros.errors import IguanaError

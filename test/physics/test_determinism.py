@@ -24,6 +24,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 PIPELINE_SCRIPT = """
 import dataclasses, hashlib, json
 from iguana_ros.physics import integrator
@@ -40,6 +42,7 @@ print(json.dumps({'end': digest,
 """
 
 
+@pytest.mark.long
 def test_first_run_after_install_equals_later_runs(tmp_path):
     """
     The whole frame loop over hills (terrain adaptation's compiled IK and height-field kernels included).

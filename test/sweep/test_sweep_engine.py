@@ -40,7 +40,7 @@ from iguana_ros.sweep.engine import Cluster, run_tasks, Task
 from iguana_ros.sweep.scene_task import TIMING_COLUMNS
 from ros_harness import IGUANA, NodeProcess, wait_for
 
-pytestmark = [pytest.mark.slow, pytest.mark.timeout(400)]   # a hung cluster fails, not the suite
+pytestmark = [pytest.mark.slow, pytest.mark.long, pytest.mark.timeout(400)]   # a hung cluster fails, not the suite
 
 SPEC = """
 name: engine_test
