@@ -134,7 +134,6 @@ setup(
         'imageio-ffmpeg>=0.4.9',
         'pillow>=9',
         'tqdm>=4.60',
-        'threadpoolctl>=3.1',
         'viser>=1.0,<2',     # `iguana view`: the web page and its client (shipped in the wheel)
         'dask>=2024.1',             # the sweep engine (iguana sweep): Dask's config and sizes ...
         'distributed>=2024.1',      # ... and its scheduler, workers, LocalCluster

@@ -47,14 +47,16 @@ def quat_normalize(q: np.ndarray) -> np.ndarray:
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a * b of quaternions `(..., 4)` (apply b first, then a)."""
-    ax, ay, az, aw = np.moveaxis(np.asarray(a, dtype=float), -1, 0)
-    bx, by, bz, bw = np.moveaxis(np.asarray(b, dtype=float), -1, 0)
-    return np.stack([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ], axis=-1)
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = aw * bx + ax * bw + ay * bz - az * by
+    out[..., 1] = aw * by - ax * bz + ay * bw + az * bx
+    out[..., 2] = aw * bz + ax * by - ay * bx + az * bw
+    out[..., 3] = aw * bw - ax * bx - ay * by - az * bz
+    return out
 
 
 def quat_conjugate(q: np.ndarray) -> np.ndarray:
@@ -64,14 +66,23 @@ def quat_conjugate(q: np.ndarray) -> np.ndarray:
     return q
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products `(..., 3)` of vectors `(..., 3)` (broadcast): np.cross's arithmetic, without its overhead."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors `v (..., 3)` by unit quaternions `q (..., 4)`."""
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     u = q[..., :3]
     w = q[..., 3:4]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * cross(u, v)
+    return v + w * t + cross(u, t)
 
 
 def quat_from_rotvec(rotvec: np.ndarray) -> np.ndarray:
@@ -98,12 +109,13 @@ def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrices `(..., 3, 3)` from unit quaternions `(..., 4)`."""
-    x, y, z, w = np.moveaxis(quat_normalize(q), -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
-    ], axis=-2)
+    q = quat_normalize(q)
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    m = np.empty(q.shape[:-1] + (3, 3))
+    m[..., 0, 0], m[..., 0, 1], m[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    m[..., 1, 0], m[..., 1, 1], m[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    m[..., 2, 0], m[..., 2, 1], m[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    return m
 
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
@@ -209,14 +221,29 @@ def quat_between(a: np.ndarray, b: np.ndarray, min_angle: float = 1e-9) -> np.nd
 
     None when they are less than `min_angle` rad apart (opposite vectors turn about an axis perpendicular to `a`).
     """
+    q, turned = quats_between(np.asarray(a, dtype=float)[None], np.asarray(b, dtype=float)[None], min_angle)
+    return q[0] if turned[0] else None
+
+
+def quats_between(a: np.ndarray, b: np.ndarray, min_angle: float = 1e-9) -> tuple:
+    """
+    Smallest rotations `(n, 4)` taking unit vectors `a (n, 3)` to `b (n, 3)`, and whether each turns `(n,)` bool.
+
+    A pair less than `min_angle` rad apart does not turn (its rotation is the identity); opposite vectors turn about
+    an axis perpendicular to `a`.
+    """
     a = np.asarray(a, dtype=float)
-    axis = np.cross(a, b)
-    angle = np.arctan2(np.linalg.norm(axis), float(a @ b))
-    if angle < min_angle:
-        return None
-    if not np.linalg.norm(axis) > 0.0:                   # opposite: any axis perpendicular to a
-        axis = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
-    return quat_from_rotvec(axis / np.linalg.norm(axis) * angle)
+    axis = cross(a, b)
+    sin = np.sqrt(np.einsum('ij,ij->i', axis, axis))
+    angle = np.arctan2(sin, np.einsum('ij,ij->i', a, b))
+    turned = angle >= min_angle
+    opposite = turned & ~(sin > 0.0)
+    if np.any(opposite):                                 # any axis perpendicular to a
+        axis[opposite] = cross(a[opposite], np.eye(3)[np.argmin(np.abs(a[opposite]), axis=1)])
+        sin[opposite] = np.sqrt(np.einsum('ij,ij->i', axis[opposite], axis[opposite]))
+    q = quat_identity((len(a),))
+    q[turned] = quat_from_rotvec(axis[turned] / sin[turned, None] * angle[turned, None])
+    return q, turned
 
 
 COLLINEAR_RATIO = 1e-6

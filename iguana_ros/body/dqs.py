@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from iguana_ros.errors import InputError
@@ -74,30 +75,59 @@ def dual_quaternion_skinning(rest_positions: np.ndarray, skin_bones: np.ndarray,
     `rest_positions (n_nodes, 3)`, `skin_bones (n_nodes, k)` int, `skin_weights (n_nodes, k)` (rows sum to
     1), bone transforms as `(rotations (n_bones, 4), translations (n_bones, 3))`.
     """
-    rest_positions = np.asarray(rest_positions, dtype=float)
-    skin_bones = np.asarray(skin_bones, dtype=np.int64)
-    skin_weights = np.asarray(skin_weights, dtype=float)
+    rest_positions = np.ascontiguousarray(rest_positions, dtype=float)
+    skin_bones = np.ascontiguousarray(skin_bones, dtype=np.int64)
+    skin_weights = np.ascontiguousarray(skin_weights, dtype=float)
     motion = skinning_transforms(bone_rest_transforms, bone_pose_transforms)
     _check_binding(rest_positions, skin_bones, skin_weights, len(motion.rotations))
-    real, dual = to_dual_quaternions(motion)
-    node_real = real[skin_bones]  # (n, k, 4)
-    node_dual = dual[skin_bones]
-    # antipodality: flip each influence into the hemisphere of the node's dominant bone
-    pivot = node_real[np.arange(len(skin_bones)), np.argmax(skin_weights, axis=1)]  # (n, 4)
-    sign = np.where(np.einsum('nkc,nc->nk', node_real, pivot) < 0.0, -1.0, 1.0)
-    w = skin_weights * sign
-    b_real = np.einsum('nk,nkc->nc', w, node_real)
-    b_dual = np.einsum('nk,nkc->nc', w, node_dual)
-    norm = np.linalg.norm(b_real, axis=1, keepdims=True)
-    if np.any(norm < 1e-9):
+    real, dual = (np.ascontiguousarray(a) for a in to_dual_quaternions(motion))
+    out = np.empty_like(rest_positions)
+    if not _blend_dual_quaternions(real, dual, skin_bones, skin_weights, rest_positions, out):
         raise InputError('dual_quaternion_skinning: a node has zero total skin weight; each row of '
                          'skin_weights must sum to 1')
-    c_real, c_dual = b_real / norm, b_dual / norm
-    # translation = 2 * vec(c_dual * conj(c_real)), valid for a non-unit blended dual part
-    v0, w0 = c_real[:, :3], c_real[:, 3:]
-    ve, we = c_dual[:, :3], c_dual[:, 3:]
-    translation = 2.0 * (w0 * ve - we * v0 + np.cross(v0, ve))
-    return quat_rotate(c_real, rest_positions) + translation
+    return out
+
+
+@numba.njit(cache=True)
+def _blend_dual_quaternions(real, dual, skin_bones, skin_weights, rest_positions, out):
+    """
+    Blend each node's bone dual quaternions `(n_bones, 4)` and move its rest position `(n_nodes, 3)` into `out`.
+
+    Each influence is flipped into the hemisphere of the node's dominant bone (antipodality); the blend is
+    normalised by its real part, translation = 2 vec(c_dual conj(c_real)). False if a node's blend is zero.
+    """
+    for n in range(rest_positions.shape[0]):
+        dominant = skin_bones[n, np.argmax(skin_weights[n])]
+        br0 = br1 = br2 = br3 = bd0 = bd1 = bd2 = bd3 = 0.0
+        for k in range(skin_bones.shape[1]):
+            b = skin_bones[n, k]
+            dot = (real[b, 0] * real[dominant, 0] + real[b, 1] * real[dominant, 1] + real[b, 2] * real[dominant, 2]
+                   + real[b, 3] * real[dominant, 3])
+            w = -skin_weights[n, k] if dot < 0.0 else skin_weights[n, k]
+            br0 += w * real[b, 0]
+            br1 += w * real[b, 1]
+            br2 += w * real[b, 2]
+            br3 += w * real[b, 3]
+            bd0 += w * dual[b, 0]
+            bd1 += w * dual[b, 1]
+            bd2 += w * dual[b, 2]
+            bd3 += w * dual[b, 3]
+        norm = np.sqrt(br0 * br0 + br1 * br1 + br2 * br2 + br3 * br3)
+        if norm < 1e-9:
+            return False
+        x, y, z, w0 = br0 / norm, br1 / norm, br2 / norm, br3 / norm
+        ex, ey, ez, we = bd0 / norm, bd1 / norm, bd2 / norm, bd3 / norm
+        tx = 2.0 * (w0 * ex - we * x + (y * ez - z * ey))
+        ty = 2.0 * (w0 * ey - we * y + (z * ex - x * ez))
+        tz = 2.0 * (w0 * ez - we * z + (x * ey - y * ex))
+        px, py, pz = rest_positions[n, 0], rest_positions[n, 1], rest_positions[n, 2]
+        cx = 2.0 * (y * pz - z * py)                  # v + w t + u × t with t = 2 u × v
+        cy = 2.0 * (z * px - x * pz)
+        cz = 2.0 * (x * py - y * px)
+        out[n, 0] = px + w0 * cx + (y * cz - z * cy) + tx
+        out[n, 1] = py + w0 * cy + (z * cx - x * cz) + ty
+        out[n, 2] = pz + w0 * cz + (x * cy - y * cx) + tz
+    return True
 
 
 def linear_blend_skinning(rest_positions: np.ndarray, skin_bones: np.ndarray, skin_weights: np.ndarray,
