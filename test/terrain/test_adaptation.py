@@ -265,9 +265,10 @@ def test_bounded_gauss_newton_beats_lbfgsb_and_reaches_its_tight_minimum(skel, s
     """
     The compiled solver stays in the box and ends as low as scipy's L-BFGS-B at the same settings (0.2 % slack).
 
-    L-BFGS-B is what it replaced. The targets lie off the clip pose and some joints start below ground, so the residuals stay large: harder than
-    a trot frame, where it needs 3-4 evaluations. Run to a tight tolerance it reaches the minimum a tight L-BFGS-B
-    reaches (a kink of the bilinear terrain under a pressed joint can keep the projected gradient from vanishing).
+    L-BFGS-B is what it replaced. The targets lie off the clip pose and some joints start below ground, so the
+    residuals stay large: harder than a trot frame, where it needs 3-4 evaluations. Run to a tight tolerance it
+    reaches the minimum a tight L-BFGS-B reaches (a kink of the bilinear terrain under a pressed joint can keep the
+    projected gradient from vanishing).
     """
     from scipy.optimize import Bounds, minimize
 
