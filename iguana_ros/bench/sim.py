@@ -84,7 +84,8 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
         'springs': len(sim.desired_lengths_rest), 'preset': preset if isinstance(preset, str) else 'custom',
         'dt': fid.dt, 'solver': fid.solver, 'preconditioner': fid.preconditioner, 'cg_tol': fid.cg_tol,
         'jacobian_every': fid.effective_jacobian_every, 'factor_every': fid.factor_every,
-        'polar_iters': fid.polar_iters, 'simulated_s': sim.time, 'steps': steps,
+        'polar_iters': fid.polar_iters, 'elastic_integration': sim.stats['elastic_integration'],
+        'elastic_stiffness_ratio': sim.elastic_ratio, 'simulated_s': sim.time, 'steps': steps,
         'realtime_factor': sim.time / timing['sim_wall_s'],
         'realtime_factor_cpu': sim.time / max(cpu_s - timing['gait_wall_s'], 1e-12),
         'ms_per_step': 1e3 * timing['sim_wall_s'] / steps,
@@ -176,10 +177,11 @@ TRADEOFF_SETTINGS = (
     + [('jacobian_every', f'jacobian_every={k}', {'jacobian_every': k}) for k in (1, 2, 4)]
     + [('factor_every', f'factor_every={k}', {'factor_every': k}) for k in (1, 2, 4, 8, 16)]
     + [('polar_iters', f'polar_iters={k}', {'polar_iters': k}) for k in (1, 2, 8)]
+    + [('elastic', f'elastic={how}', {'elastic_integration': how}) for how in ('implicit', 'explicit')]
     + [('preset', name, {'preset': name}) for name in ('fast', 'balanced', 'accurate')]
 )
 REFERENCE = {'dt': 1.0 / 4800.0, 'cg_tol': 1e-8, 'cg_max_iter': 1000, 'jacobian_every': 1, 'factor_every': 1,
-             'polar_iters': 20}
+             'polar_iters': 20, 'elastic_integration': 'implicit'}
 """The finest run every other run is compared with."""
 
 

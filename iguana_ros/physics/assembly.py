@@ -124,6 +124,49 @@ def block_matvec(row_ptr, cols, blocks, x, out):
 
 
 @numba.njit(cache=True)
+def block_matvec_pair(row_ptr, cols, blocks, x, y, out_x, out_y):
+    """`out_x` = A x and `out_y` = A y in one pass over the blocks (each bitwise as `block_matvec`); `(n_nodes, 3)`."""
+    n = row_ptr.shape[0] - 1
+    out_x[:] = 0.0
+    out_y[:] = 0.0
+    for i in range(n):
+        x0, x1, x2 = x[i, 0], x[i, 1], x[i, 2]
+        y0, y1, y2 = y[i, 0], y[i, 1], y[i, 2]
+        k = row_ptr[i]
+        s0 = blocks[k, 0, 0] * x0 + blocks[k, 0, 1] * x1 + blocks[k, 0, 2] * x2
+        s1 = blocks[k, 1, 0] * x0 + blocks[k, 1, 1] * x1 + blocks[k, 1, 2] * x2
+        s2 = blocks[k, 2, 0] * x0 + blocks[k, 2, 1] * x1 + blocks[k, 2, 2] * x2
+        t0 = blocks[k, 0, 0] * y0 + blocks[k, 0, 1] * y1 + blocks[k, 0, 2] * y2
+        t1 = blocks[k, 1, 0] * y0 + blocks[k, 1, 1] * y1 + blocks[k, 1, 2] * y2
+        t2 = blocks[k, 2, 0] * y0 + blocks[k, 2, 1] * y1 + blocks[k, 2, 2] * y2
+        for k in range(row_ptr[i] + 1, row_ptr[i + 1]):
+            j = cols[k]
+            b00, b01, b02 = blocks[k, 0, 0], blocks[k, 0, 1], blocks[k, 0, 2]
+            b10, b11, b12 = blocks[k, 1, 0], blocks[k, 1, 1], blocks[k, 1, 2]
+            b20, b21, b22 = blocks[k, 2, 0], blocks[k, 2, 1], blocks[k, 2, 2]
+            u0, u1, u2 = x[j, 0], x[j, 1], x[j, 2]
+            s0 += b00 * u0 + b01 * u1 + b02 * u2
+            s1 += b10 * u0 + b11 * u1 + b12 * u2
+            s2 += b20 * u0 + b21 * u1 + b22 * u2
+            out_x[j, 0] += b00 * x0 + b10 * x1 + b20 * x2
+            out_x[j, 1] += b01 * x0 + b11 * x1 + b21 * x2
+            out_x[j, 2] += b02 * x0 + b12 * x1 + b22 * x2
+            w0, w1, w2 = y[j, 0], y[j, 1], y[j, 2]
+            t0 += b00 * w0 + b01 * w1 + b02 * w2
+            t1 += b10 * w0 + b11 * w1 + b12 * w2
+            t2 += b20 * w0 + b21 * w1 + b22 * w2
+            out_y[j, 0] += b00 * y0 + b10 * y1 + b20 * y2
+            out_y[j, 1] += b01 * y0 + b11 * y1 + b21 * y2
+            out_y[j, 2] += b02 * y0 + b12 * y1 + b22 * y2
+        out_x[i, 0] += s0
+        out_x[i, 1] += s1
+        out_x[i, 2] += s2
+        out_y[i, 0] += t0
+        out_y[i, 1] += t1
+        out_y[i, 2] += t2
+
+
+@numba.njit(cache=True)
 def invert_3x3(a, out):
     """`out` = a⁻¹ for a symmetric positive-definite 3×3 block (cofactor formula); returns the determinant."""
     c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]

@@ -20,9 +20,11 @@ and contact damping C_c:
 
     A Δv = b,   A = M(1 + hα) + h C_c + (hβ + h²) K_int + h² K_c,   b = h (f − αMv) − [(hβ + h²) K_int + h² K_c] v
 
-with `f` every force except the Rayleigh terms; then v ← v + Δv, x ← x + h v. A (and the CG preconditioner)
-is rebuilt every `jacobian_every` steps; the block Cholesky factor of A, when that is the preconditioner, every
-`factor_every` steps or sooner (see `run_steps_cg`); forces are always evaluated at the current state.
+with `f` every force except the Rayleigh terms; then v ← v + Δv, x ← x + h v. K_int holds the springs' stiffness
+and, unless the simulator evaluates the FEM force explicitly (`Fidelity.elastic_integration`), the FEM's. A (and
+the CG preconditioner) is rebuilt every `jacobian_every` steps; the block Cholesky factor of A, when that is the
+preconditioner, every `factor_every` steps or sooner (see `run_steps_cg`); forces are always evaluated at the
+current state.
 `run_steps_cg` advances many steps in one compiled call; `prepare_step` / `finish_step` split a step around an
 external (direct) linear solve. The kernels take the body as named structs (`physics.kernel_data.KernelModel`,
 `KernelState`, `physics.cholesky.CholeskyFactor`).
@@ -32,7 +34,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from iguana_ros.physics.assembly import block_matvec, invert_3x3
+from iguana_ros.physics.assembly import block_matvec_pair, invert_3x3
 from iguana_ros.physics.cholesky import block_cholesky
 from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
 from iguana_ros.physics.solver import preconditioned_cg
@@ -43,8 +45,8 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
 N_FP = 15
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
-    IP_REFACTOR_ITERS = range(7)
-N_IP = 7
+    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT = range(8)
+N_IP = 8
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS = range(6)
 N_COUNTERS = 6
@@ -80,7 +82,8 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     if refresh:
         blocks[:] = 0.0
     corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
-                             state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
+                             state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks,
+                             scale if ip[IP_ELASTIC_IMPLICIT] else 0.0)
     spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
                   scale)
     if ip[IP_HAS_GROUND]:
@@ -101,12 +104,12 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
         counters[C_REFRESHES] += 1
     elif ip[IP_HAS_GROUND]:
         _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha)
-    ap = state.cg_work[3]
-    block_matvec(model.row_ptr, model.cols, blocks, v, ap)   # ap = A v; (A − dextra) v is the stiffness part
+    # rhs = A v ((A − dextra) v is the stiffness part) and, in the same pass, cg_work[3] = A Δv: the CG's warm start
+    block_matvec_pair(model.row_ptr, model.cols, blocks, v, state.delta_v, rhs, state.cg_work[3])
     for i in range(n):
         for k in range(3):
             dv_k = dextra[i, k, 0] * v[i, 0] + dextra[i, k, 1] * v[i, 1] + dextra[i, k, 2] * v[i, 2]
-            rhs[i, k] = h * forces[i, k] - (ap[i, k] - dv_k)
+            rhs[i, k] = h * forces[i, k] - (rhs[i, k] - dv_k)
     return STATUS_OK, refresh
 
 
@@ -212,14 +215,19 @@ def _refactor(blocks, counters, chol):
 
 
 @numba.njit(cache=True)
-def _solve(model, state, fp, ip, chol, kind):
-    """Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold)."""
+def _solve(model, state, fp, ip, chol, kind, warm_product):
+    """
+    Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold).
+
+    With `warm_product`, `state.cg_work[3]` holds A Δv of the warm start (`prepare_step` computed it).
+    """
     step_kind = kind
     if kind == 2 and not chol.state[F_VALID]:       # no factor: block Jacobi
         step_kind = 0
         invert_diagonal(model.diag, state.matrix_blocks, state.diag_inv)
     return preconditioned_cg(model.row_ptr, model.cols, state.matrix_blocks, state.diag_inv, chol, state.rhs,
-                             state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state.cg_work, step_kind)
+                             state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state.cg_work, step_kind,
+                             warm_product)
 
 
 @numba.njit(cache=True)
@@ -257,13 +265,13 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
             return status, step
         if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
             _refactor(state.matrix_blocks, counters, chol)
-        iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
+        iters, res, threshold = _solve(model, state, fp, ip, chol, kind, True)
         failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:
             counters[C_CG_ITERS] += abs(iters)
             _refactor(state.matrix_blocks, counters, chol)   # a stale factor: refactorise and solve again
             state.delta_v[:] = 0.0
-            iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
+            iters, res, threshold = _solve(model, state, fp, ip, chol, kind, False)
             failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         counters[C_CG_ITERS] += abs(iters)
         factor_state[F_LAST_ITERS] = abs(iters)

@@ -32,9 +32,9 @@ from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.fidelity import Fidelity, get_fidelity
+from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
-                                       shape_gradients)
+                                       shape_gradients, spring_forces)
 from iguana_ros.physics.kernel_data import empty_state, kernel_constant, kernel_input, KernelModel
 from iguana_ros.physics.solver import DirectSolver, PRECONDITIONER_CODES
 
@@ -85,6 +85,37 @@ def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
     order = np.argsort(tets, axis=1, kind='stable')
     return (np.ascontiguousarray(np.take_along_axis(tets, order, axis=1)),
             np.ascontiguousarray(np.take_along_axis(grads, order[:, :, None], axis=1)))
+
+
+def elastic_stiffness_ratio(model, pattern: BlockPattern, rest_positions: np.ndarray, rest_lengths: np.ndarray,
+                            dt: float, alpha: float, beta: float) -> float:
+    """
+    h² λ_max(A⁻¹ K_e) at rest: how stiff the FEM is against the rest of the implicit step (`EXPLICIT_ELASTIC_LIMIT`).
+
+    K_e is the corotated FEM's stiffness at the rest shape, A = M(1 + hα) + (hβ + h²) K_s with the springs at their
+    rest lengths (axial stiffness only) and no contact; `model` a KernelModel over `pattern`. inf if the generalized
+    eigenvalue cannot be found (then the FEM stays implicit).
+    """
+    from scipy.sparse.linalg import ArpackError, eigsh
+
+    h = dt
+    x = np.array(rest_positions, dtype=float)
+    forces = np.zeros_like(x)
+    springs = np.zeros((pattern.n_blocks, 3, 3))
+    elastic = np.zeros_like(springs)
+    spring_forces(x, model.springs, model.spring_stiffness, rest_lengths, forces, springs, model.spring_blocks,
+                  h * beta + h * h)
+    springs[model.diag] += np.eye(3) * (model.mass * (1.0 + h * alpha))[:, None, None]
+    rotations = np.zeros((len(model.tets), 4))
+    rotations[:, 3] = 1.0
+    corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam, rotations, 1,
+                             forces, elastic, model.tet_blocks, 1.0)
+    try:
+        lam = eigsh(pattern.to_scipy(elastic), k=1, M=pattern.to_scipy(springs), which='LA',
+                    v0=np.ones(3 * len(x)), return_eigenvectors=False)[0]
+    except (ArpackError, RuntimeError):
+        return float('inf')
+    return float(h * h * max(lam, 0.0))
 
 
 class SoftBodySimulator:
@@ -185,6 +216,11 @@ class SoftBodySimulator:
         ip[itg.IP_PRECONDITIONER] = PRECONDITIONER_CODES[fid.preconditioner]
         ip[itg.IP_FACTOR_EVERY] = fid.factor_every
         ip[itg.IP_REFACTOR_ITERS] = fid.refactor_iters
+        self.elastic_ratio = None if fid.elastic_integration != 'auto' else elastic_stiffness_ratio(
+            self._model, self.pattern, self.rest_positions, self.desired_lengths_rest, fid.dt, alpha, beta)
+        self.elastic_implicit = (fid.elastic_integration == 'implicit' if self.elastic_ratio is None
+                                 else not self.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT)
+        ip[itg.IP_ELASTIC_IMPLICIT] = self.elastic_implicit
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
@@ -288,6 +324,7 @@ class SoftBodySimulator:
                 'cg_iterations_per_step': float(c[itg.C_CG_ITERS]) / max(steps, 1),
                 'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS]),
                 'direct_fallback_steps': self._fallback_steps,
+                'elastic_integration': 'implicit' if self.elastic_implicit else 'explicit',
                 'cholesky_failures': int(c[itg.C_FACTOR_FAILS]), 'factorisations': int(c[itg.C_FACTORS])}
 
     # -------------------------------------------------------------------------------------------- stepping

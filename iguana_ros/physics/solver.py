@@ -105,11 +105,11 @@ def _no_factor(n):
 def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, work, ssor=False):
     """`preconditioned_cg` with block Jacobi or, with `ssor`, symmetric block Gauss–Seidel."""
     return preconditioned_cg(row_ptr, cols, blocks, pinv, _no_factor(b.shape[0]), b, x, tol, atol, max_iter, work,
-                             1 if ssor else 0)
+                             1 if ssor else 0, False)
 
 
 @numba.njit(cache=True)
-def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind):
+def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind, warm_product):
     """
     Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
 
@@ -118,10 +118,12 @@ def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_it
     Gauss–Seidel (the diagonal block first in each row, columns ascending), or the block
     Cholesky factor `chol` (a `CholeskyFactor` of `iguana_ros.physics.cholesky`).
     With the factor at least one iteration is done (the warm start is not accepted as it is).
+    With `warm_product`, `work[3]` already holds A x of the warm start.
     Returns `(iterations, residual_norm, threshold)`; iterations = −k signals a breakdown (pᵀAp ≤ 0) at step k.
     """
     r, z, p, ap = work[0], work[1], work[2], work[3]
-    block_matvec(row_ptr, cols, blocks, x, ap)
+    if not warm_product:
+        block_matvec(row_ptr, cols, blocks, x, ap)
     for i in range(b.shape[0]):
         for k in range(3):
             r[i, k] = b[i, k] - ap[i, k]

@@ -1,0 +1,121 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""The FEM force evaluated explicitly where the springs carry the stiffness (`Fidelity.elastic_integration`)."""
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from iguana_ros.bench.workload import gait_for
+from iguana_ros.body.model import build_model
+from iguana_ros.errors import InputError
+from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, get_fidelity
+from iguana_ros.physics.meshes import box_mesh
+from iguana_ros.physics.simulator import elastic_stiffness_ratio, SoftBodySimulator
+from iguana_ros.terrain.heightfield import HeightField
+
+
+@pytest.fixture(scope='module')
+def medium():
+    return build_model('medium', 'normal')
+
+
+def _stiff_fem(model, factor):
+    """Return `model` with its Young's modulus times `factor` (the springs unchanged)."""
+    return dataclasses.replace(model, youngs_modulus=np.asarray(model.youngs_modulus) * factor)
+
+
+def test_auto_is_explicit_only_where_the_fem_is_negligible(medium):
+    """Medium iguana: explicit (h²λ ~1e-3); coarse (a mode its springs hardly hold) and a 1e4x stiffer FEM: implicit."""
+    sim = SoftBodySimulator(medium, None, 'balanced')
+    assert sim.elastic_ratio < 0.2 * EXPLICIT_ELASTIC_LIMIT and not sim.elastic_implicit
+    assert sim.stats['elastic_integration'] == 'explicit'
+    coarse = SoftBodySimulator(build_model('coarse', 'normal'), None, 'balanced')
+    assert coarse.elastic_ratio > EXPLICIT_ELASTIC_LIMIT and coarse.elastic_implicit
+    stiff = SoftBodySimulator(_stiff_fem(medium, 1e4), None, 'balanced')
+    assert stiff.elastic_ratio == pytest.approx(1e4 * sim.elastic_ratio, rel=1e-6) and stiff.elastic_implicit
+    forced = SoftBodySimulator(medium, None, 'balanced', elastic_integration='implicit')
+    assert forced.elastic_implicit and forced.elastic_ratio is None
+
+
+def test_elastic_stiffness_ratio_is_the_largest_generalized_eigenvalue():
+    """The sparse estimate equals a dense generalized eigensolve of (K_e, A) on a small block."""
+    block = box_mesh(size=(0.1, 0.06, 0.04), cells=(3, 2, 1), total_mass=0.5, youngs_modulus=1e4,
+                     spring_stiffness=1e4)
+    sim = SoftBodySimulator(block, None, 'balanced', elastic_integration='implicit')
+    h, alpha, beta = sim.fidelity.dt, sim._fp[1], sim._fp[2]
+    ratio = elastic_stiffness_ratio(sim._model, sim.pattern, sim.rest_positions, sim.desired_lengths_rest, h, alpha,
+                                    beta)
+    with_fem = SoftBodySimulator(block, None, 'balanced', elastic_integration='implicit', rayleigh_beta=0.0)
+    without = SoftBodySimulator(block, None, 'balanced', elastic_integration='explicit', rayleigh_beta=0.0)
+    k_e = _stiffness_matrix(with_fem) - _stiffness_matrix(without)     # the FEM's share of h² K
+    a = _system_matrix(sim, explicit=True)
+    dense = scipy.linalg.eigh(k_e, a, eigvals_only=True)[-1]
+    assert ratio == pytest.approx(dense, rel=1e-6)
+
+
+def _stiffness_matrix(sim):
+    """Return h² K of an unstepped simulator's first system matrix (full, dense), its mass part removed."""
+    sim.advance_frame(n_steps=1)
+    full = sim.pattern.to_scipy(sim._state.matrix_blocks).toarray()
+    mass = np.repeat(sim._model.mass * (1.0 + sim.fidelity.dt * sim._fp[1]), 3)
+    return full - np.diag(mass)
+
+
+def _system_matrix(sim, explicit):
+    """Return A = M(1 + hα) + (hβ + h²) K_springs of a fresh simulator's first step (dense)."""
+    fresh = SoftBodySimulator(sim.model, None, 'balanced', elastic_integration='explicit' if explicit else 'implicit')
+    fresh.advance_frame(n_steps=1)
+    return fresh.pattern.to_scipy(fresh._state.matrix_blocks).toarray()
+
+
+def test_explicit_fem_walks_like_the_implicit_step(medium):
+    """0.5 s of the bench gait on hills: the two schemes stay within 0.5 mm (the dt 1/1200 error is ~17 mm)."""
+    terrain = HeightField.hills(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
+    gait = gait_for(medium)
+    runs = {}
+    for scheme in ('implicit', 'explicit'):
+        sim = SoftBodySimulator(medium, terrain, 'balanced', elastic_integration=scheme)
+        start = sim.rest_positions + [0.0, 0.0, 0.05]
+        sim.reset(start)
+        for _ in range(15):
+            sim.advance_frame(gait.desired_lengths(sim.time))
+        runs[scheme] = sim.positions
+        moved = np.sqrt(np.mean(np.sum((sim.positions - start) ** 2, axis=1)))
+    gap = np.sqrt(np.mean(np.sum((runs['explicit'] - runs['implicit']) ** 2, axis=1)))
+    assert moved > 0.01 and gap < 5e-4
+
+
+def test_a_stiff_fem_forced_explicit_diverges_where_auto_stays_stable(medium):
+    """The rule matters: E x1e4 explicit at dt 1/300 blows up within a frame; auto keeps it implicit and stable."""
+    stiff = _stiff_fem(medium, 1e4)
+    start = medium.rest_positions * [1.02, 1.0, 0.98]
+    forced = SoftBodySimulator(stiff, None, 'fast', elastic_integration='explicit', gravity=0.0)
+    forced.reset(start)
+    with pytest.raises(SimulationDiverged):
+        for _ in range(10):
+            forced.advance_frame()
+    auto = SoftBodySimulator(stiff, None, 'fast', gravity=0.0)
+    auto.reset(start)
+    for _ in range(10):
+        auto.advance_frame()
+    assert auto.elastic_implicit and np.all(np.isfinite(auto.positions))
+
+
+def test_a_bad_elastic_integration_is_one_clear_error():
+    with pytest.raises(InputError, match='elastic_integration'):
+        get_fidelity('balanced', elastic_integration='sometimes')
