@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
 import dataclasses
+from typing import Callable
 
 import numpy as np
 
@@ -252,15 +253,35 @@ class StrideLookahead:
         lengths = None if self.springs is None else self.springs.lengths_from_bones(rotations, joints)
         return ReferenceFrame(joints, rotations, lengths)
 
-    def start(self, clip: AlignedClip, start: int) -> None:
-        """Begin the stride of `clip` placed at frame `start` (frames of an earlier stride not taken are dropped)."""
+    def start(self, clip: AlignedClip, start: int, on_ready: Callable[[], None] | None = None) -> None:
+        """
+        Begin the stride of `clip` placed at frame `start` (frames of an earlier stride not taken are dropped).
+
+        `on_ready` (optional) is called on the worker thread each time one of its frames is computed.
+        """
         for future in self._pending.values():
             future.cancel()
         self._pending.clear()
         self._clip, self._start = clip, int(start)
         if self._executor is not None:
-            for frame in range(self._start, self._start + max(len(clip.root_positions) - 1, 1)):
+            for frame in self.frames:
                 self._pending[frame] = self._executor.submit(self.compute, clip, frame - self._start)
+                if on_ready is not None:
+                    self._pending[frame].add_done_callback(lambda _future: on_ready())
+
+    @property
+    def frames(self) -> range:
+        """Return the frames of the current stride (`start … start + len(clip) − 2`; empty before any clip)."""
+        if self._clip is None:
+            return range(0)
+        return range(self._start, self._start + max(len(self._clip.root_positions) - 1, 1))
+
+    def ready(self, frame: int) -> bool:
+        """Whether `frame` of the current stride can be taken without waiting (computed, or computed on demand)."""
+        if frame not in self.frames:
+            return False
+        future = self._pending.get(frame)
+        return self._executor is None or (future is not None and future.done() and not future.cancelled())
 
     def take(self, frame: int, clip: AlignedClip | None = None, start: int | None = None) -> ReferenceFrame:
         """

@@ -31,7 +31,7 @@ from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import resolve
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.scene import load_scene, Scene
-from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_REPEAT, FRAME_STALE
+from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
 
 _PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterType.PARAMETER_DOUBLE,
                 'integer': ParameterType.PARAMETER_INTEGER, 'bool': ParameterType.PARAMETER_BOOL}
@@ -130,34 +130,43 @@ class IguanaNode(Node):
         return wrapper
 
 
+RESEND_FRAMES = 100
+"""Replies a node keeps for re-sending to a repeated input frame: inputs run up to the terrain adaptation's lookahead
+(at most 90 frames) ahead of the frame the simulator waits for."""
+
+
 class FrameGate:
     """
-    Frame gating of one input topic: the newest frame a node has handled from it, and its reply to that frame.
+    Frame gating of one input topic: the newest frame a node has handled from it, and its replies to recent frames.
 
     `admit(frame)` is True for a new frame. A repeated frame (a peer re-sends its input after a lockstep timeout)
-    gets the kept reply again, a stale one is logged and dropped, one too far ahead is an InputError (`check_frame`).
+    gets its kept reply again (the last `keep` replies are kept: inputs may run ahead of the frame a peer waits for),
+    a stale one is logged and dropped, one too far ahead is an InputError (`check_frame`).
     """
 
-    def __init__(self, node: Node, what: str, publisher=None) -> None:
-        """Gate topic `what` of `node`; replies (if any) go out on `publisher`."""
-        self.node, self.what, self.publisher = node, what, publisher
+    def __init__(self, node: Node, what: str, publisher=None, keep: int = 1) -> None:
+        """Gate topic `what` of `node`; replies (if any) go out on `publisher`, the last `keep` kept for repeats."""
+        self.node, self.what, self.publisher, self.keep = node, what, publisher, keep
         self.last_frame = -1
-        self.reply = None
+        self.replies: dict[int, object] = {}
 
     def admit(self, frame: int) -> bool:
         """Whether a message of `frame` is new (to be handled); re-sends the reply to a repeated frame."""
+        if frame in self.replies:
+            self.publisher.publish(self.replies[frame])
+            return False
         order = check_frame(self.what, frame, self.last_frame)
         if order == FRAME_STALE:
             self.node.get_logger().warning(f'ignored stale {self.what} for frame {frame} (at {self.last_frame})')
-        elif order == FRAME_REPEAT and self.reply is not None:
-            self.publisher.publish(self.reply)
         return order == FRAME_NEW
 
     def handled(self, frame: int, reply=None) -> None:
         """Mark `frame` handled; publish `reply` (kept for a repeat of the frame) when given."""
         self.last_frame = frame
         if reply is not None:
-            self.reply = reply
+            self.replies[frame] = reply
+            while len(self.replies) > self.keep:
+                del self.replies[next(iter(self.replies))]
             self.publisher.publish(reply)
 
 

@@ -76,10 +76,10 @@ class SimulatorNode(IguanaNode):
         self.end_frame = int(round(duration * FRAME_RATE))
         self.n_springs = len(self.model.springs)
         self.half_extent = scene.terrain.extent / 2.0
-        self.latest_frame = -1
         self.rejected_lengths = ''
         self.probe = FootProbe(self.model, self.terrain)
         self.latest_lengths: np.ndarray | None = None
+        self.pending_lengths: dict[int, np.ndarray] = {}
         self.live_pushes: list[PushSpec] = []
         self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals]
         self.started = False
@@ -89,6 +89,7 @@ class SimulatorNode(IguanaNode):
         self.wait_since = time.monotonic()
         self.wall_start = time.monotonic()
         self._make_io()
+        self.advance_signal = self.create_guard_condition(self.advance_due)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         period = WATCHDOG_PERIOD if self.mode == 'lockstep' else 1.0 / FRAME_RATE
         self.timer = self.create_timer(period, self.on_timer, clock=steady)
@@ -112,29 +113,43 @@ class SimulatorNode(IguanaNode):
     # ------------------------------------------------------------------------------------------ inputs
     def on_lengths(self, msg) -> None:
         """
-        Lockstep.
+        Keep a frame's lengths until the simulator reaches that frame; lockstep: advance once the current frame's are.
 
-        Advance when the current frame's lengths arrive. Realtime: keep the latest. Lengths outside the model's bounds
-        are rejected: the frame is not simulated with them (lockstep waits on).
+        Lengths may arrive ahead of their frame (the terrain adaptation adapts a stride ahead); the first lengths of a
+        frame are the ones simulated. Realtime: each frame takes the newest lengths not ahead of it. Lengths outside
+        the model's bounds are rejected: the frame is not simulated with them (lockstep waits on).
         """
         try:
             frame, lengths = lengths_from_msg(msg, self.n_springs, self.model.spring_rest_lengths)
         except IguanaError as exc:
             self.rejected_lengths = f'frame {stamp_frame(msg.header.stamp)}: {exc}'
             raise
-        if self.mode == 'realtime':
-            if check_frame('spring_rest_lengths', frame, self.latest_frame) != FRAME_STALE:
-                self.latest_frame, self.latest_lengths = frame, lengths
-            return
-        if frame != self.stage.frame:
-            if frame < self.stage.frame:
+        if check_frame('spring_rest_lengths', frame, self.stage.frame) == FRAME_STALE:
+            if self.mode == 'lockstep':
                 self.get_logger().warning(f'ignored stale spring_rest_lengths for frame {frame} '
                                           f'(simulating frame {self.stage.frame})')
-            else:
-                self.get_logger().error(f'ignored spring_rest_lengths for future frame {frame} '
-                                        f'(simulating frame {self.stage.frame})')
+            return
+        self.pending_lengths.setdefault(frame, lengths)
+        if self.mode == 'lockstep' and frame == self.stage.frame:
+            self.advance_signal.trigger()
+
+    def advance_due(self) -> None:
+        """Lockstep: simulate the current frame if its lengths are in; one frame per call, so input is read between."""
+        lengths = self.pending_lengths.pop(self.stage.frame, None) if self.started else None
+        if lengths is None or self.exit_code or self.stage.frame >= self.end_frame:
             return
         self.advance(lengths)
+        if self.stage.frame in self.pending_lengths:
+            self.advance_signal.trigger()
+
+    def realtime_lengths(self) -> np.ndarray | None:
+        """Return the newest kept lengths not ahead of the current frame (dropping older ones), else the last used."""
+        due = [f for f in self.pending_lengths if f <= self.stage.frame]
+        if due:
+            self.latest_lengths = self.pending_lengths[max(due)]
+            for f in due:
+                del self.pending_lengths[f]
+        return self.latest_lengths
 
     def on_push(self, msg) -> None:
         """Apply a push (world-frame force on the tagged region named by header.frame_id) from the next frame."""
@@ -160,7 +175,7 @@ class SimulatorNode(IguanaNode):
             self.try_start()
             return
         if self.mode == 'realtime':
-            self.advance(self.latest_lengths)
+            self.advance(self.realtime_lengths())
             return
         waited = time.monotonic() - self.wait_since
         if waited > self.param('lockstep_timeout'):
@@ -173,6 +188,7 @@ class SimulatorNode(IguanaNode):
             self.started = True
             self.wall_start = self.wait_since = time.monotonic()
             self.publish_state()
+            self.advance_signal.trigger()                 # lengths of frame 0 may be in already
             return
         if time.monotonic() - self.wall_start > self.param('start_timeout'):
             self.fail(f'not started within {self.param("start_timeout"):g} s: still waiting for {missing} '

@@ -12,10 +12,10 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Spring-length node (Section VII): reference_pose in, desired spring lengths (JointState) out."""
+"""Spring-length node (Section VII): reference_pose in, desired spring lengths (JointState) out, frame by frame."""
 from __future__ import annotations
 
-from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
+from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
 from iguana_ros.ros.messages import lengths_to_msg, reference_pose_from_msg
 from iguana_ros.stages import scene_model, spring_stage
 from iguana_ros.validation import check_desired_lengths, world_bound
@@ -36,7 +36,7 @@ class SpringLengthNode(IguanaNode):
         self.rest_lengths = model.spring_rest_lengths
         self.bound = world_bound(self.scene.terrain.extent)
         self.lengths_pub = self.publisher('spring_rest_lengths')
-        self.pose_gate = FrameGate(self, 'reference_pose', self.lengths_pub)
+        self.pose_gate = FrameGate(self, 'reference_pose', self.lengths_pub, keep=RESEND_FRAMES)
         self.subscription('reference_pose', self.guarded('reference_pose', self.on_pose))
         self.get_logger().info(f'spring lengths ready: {self.computer.n_springs} springs, '
                                f'{model.n_nodes} nodes')

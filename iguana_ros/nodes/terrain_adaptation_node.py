@@ -12,17 +12,14 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out each frame."""
+"""Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out for every frame."""
 from __future__ import annotations
 
-from iguana_ros.errors import InputError
-from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
+from iguana_ros.errors import IguanaError, InputError
+from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
 from iguana_ros.ros.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
-from iguana_ros.stages import adaptation_stage, stride_ended, StrideLookahead
+from iguana_ros.stages import adaptation_stage, StrideLookahead
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
-
-MAX_CLIPS = 4
-"""Placed clips kept (by start frame) for frames that arrive late."""
 
 CLIP_QUEUE_DEPTH = 10
 """History depth of the motion_clip reader: the topic's depth 1 (latched) would let a burst from another publisher
@@ -30,7 +27,15 @@ push the planner's clip out of the queue before it is taken (the lockstep run th
 
 
 class TerrainAdaptationNode(IguanaNode):
-    """Samples the current clip at each state's frame, adapts it to the terrain, publishes bone frames."""
+    """
+    Adapts each stride's clip to the terrain and publishes its bone frames, frame by frame.
+
+    A stride's poses depend only on its clip and the adaptation's warm start, never on the body, so they are adapted
+    on a worker thread as soon as the clip arrives (`StrideLookahead`) and published in frame order up to
+    `lookahead_frames` past the latest iguana_state: the spring lengths are then waiting at the simulator when it
+    reaches their frame. A repeated iguana_state (the simulator re-sends it after a lockstep timeout) gets its frame's
+    pose again.
+    """
 
     KIND = 'terrain_adaptation_node'
 
@@ -40,57 +45,55 @@ class TerrainAdaptationNode(IguanaNode):
         choice = self.param('adaptation')
         self.stage = adaptation_stage(self.scene, None if choice == 'scene' else choice == 'on')
         self.skeleton = self.stage.skeleton
-        self.lookahead = StrideLookahead(self.stage)   # a stride's poses adapted while the simulator steps
+        self.lookahead = StrideLookahead(self.stage)
+        self.lookahead_frames = self.param('lookahead_frames')
         self.bound = world_bound(self.scene.terrain.extent)
-        self.clips: dict[int, object] = {}
-        self.pending: int | None = None
+        self.newest_clip = -1
+        self.next_frame = 0
+        self.sent: dict[int, object] = {}
         self.pose_pub = self.publisher('reference_pose')
-        self.state_gate = FrameGate(self, 'iguana_state', self.pose_pub)
+        self.state_gate = FrameGate(self, 'iguana_state')
+        self.ready_signal = self.create_guard_condition(self.publish_ready)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
         self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
 
     def on_clip(self, msg) -> None:
-        """Keep a placed clip by its start frame, then serve a frame that was waiting for it."""
+        """Adapt the new stride's frames on the worker thread; each is published once ready and due."""
         start, clip = clip_from_msg(msg, self.skeleton, self.bound)
-        newest, served = max(self.clips, default=-1), self.state_gate.last_frame
-        if check_frame('motion_clip', start, max(newest, served)) != FRAME_NEW:
-            raise InputError(f'motion_clip starts at frame {start}, not after the newest clip (frame {newest}) '
-                             f'and the last frame served ({served}): stale')
-        self.clips[start] = clip
-        for old in sorted(self.clips)[:-MAX_CLIPS]:
-            del self.clips[old]
-        self.lookahead.start(clip, start)
-        self._serve_pending()
+        newest = max(self.newest_clip, self.next_frame - 1)
+        if check_frame('motion_clip', start, newest) != FRAME_NEW:
+            raise InputError(f'motion_clip starts at frame {start}, not after the newest clip (frame '
+                             f'{self.newest_clip}) and the last frame published ({self.next_frame - 1}): stale')
+        self.newest_clip = start
+        self.next_frame = start
+        self.lookahead.start(clip, start, on_ready=self.ready_signal.trigger)
+        self.publish_ready()
 
     def on_state(self, msg) -> None:
-        """Publish the reference pose of the state's frame (re-send it for a repeated frame)."""
+        """Let the poses up to `lookahead_frames` past this frame go out; re-send the pose of a repeated frame."""
         frame, _root, _orientation = state_from_msg(msg, self.bound)
-        if not self.state_gate.admit(frame):
-            return
-        self.pending = frame
-        self._serve_pending()
+        if self.state_gate.admit(frame):
+            self.state_gate.handled(frame)
+            self.publish_ready()
+        elif frame == self.state_gate.last_frame and frame in self.sent:
+            self.pose_pub.publish(self.sent[frame])
 
-    def _clip_for(self, frame: int):
-        """(clip, start) whose stride covers `frame`, or None while the planner's next clip is due."""
-        starts = [s for s in self.clips if s <= frame]
-        if not starts:
-            return None
-        start = max(starts)
-        clip = self.clips[start]
-        return None if stride_ended(start, len(clip.root_positions), frame) else (clip, start)
-
-    def _serve_pending(self) -> None:
-        """Adapt and publish the waiting frame once its clip is known."""
-        if self.pending is None:
-            return
-        found = self._clip_for(self.pending)
-        if found is None:
-            return
-        clip, start = found
-        frame, self.pending = self.pending, None
-        reference = self.lookahead.take(frame, clip, start)
-        self.state_gate.handled(frame, reference_pose_to_msg(reference.joints, reference.rotations, frame))
+    def publish_ready(self) -> None:
+        """Publish, in frame order, every adapted pose of the stride that is due (at most lookahead_frames ahead)."""
+        due = max(self.state_gate.last_frame, 0) + self.lookahead_frames
+        while self.next_frame <= due and self.lookahead.ready(self.next_frame):
+            frame = self.next_frame
+            self.next_frame = frame + 1
+            try:
+                reference = self.lookahead.take(frame)
+            except IguanaError as exc:
+                self.get_logger().error(f'no reference pose for frame {frame}: {exc}')
+                continue
+            self.sent[frame] = reference_pose_to_msg(reference.joints, reference.rotations, frame)
+            while len(self.sent) > RESEND_FRAMES:
+                del self.sent[next(iter(self.sent))]
+            self.pose_pub.publish(self.sent[frame])
 
     def destroy_node(self) -> None:
         """Stop the lookahead's worker thread, then leave the graph."""

@@ -176,6 +176,39 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
     assert np.all(depth[tail] > -AdaptationSettings().max_tail_press - 2e-3) and np.all(depth[foot] > -3e-3)
 
 
+def test_terrain_node_publishes_a_stride_ahead_up_to_lookahead_frames(tmp_path, make_node, executor):
+    """
+    A clip's stride goes out in frame order as it is adapted, at most lookahead_frames past the latest iguana_state.
+
+    A repeated state gets its frame's pose again, after the poses published before it (one writer's messages arrive
+    in order, so nothing past the bound was sent before that repeat).
+    """
+    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
+    skeleton = iguana_skeleton()
+    clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('reference_pose')
+    clip_pub, state_pub = probe.pub('motion_clip'), probe.pub('iguana_state')
+
+    def frames():
+        return [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']]
+    with _node('terrain_adaptation_node', scene_file, tmp_path, lookahead_frames=5) as node:
+        probe.wait_matched('motion_clip')
+        probe.wait_matched('iguana_state')
+        clip_pub.publish(clip_to_msg(clip, skeleton, 0))
+        assert spin_until(executor, lambda: 5 in frames(), 30), node.output     # no state yet: frames 0..5
+        probe.deliver(state_pub, _state(3))
+        assert spin_until(executor, lambda: 8 in frames(), 30), node.output
+        state_pub.publish(_state(3))                                            # a repeat: pose 3 again
+        assert spin_until(executor, lambda: frames().count(3) == 2, 30), node.output
+        assert frames() == list(range(9)) + [3]
+        state_pub.publish(_state(14))
+        assert spin_until(executor, lambda: 19 in frames(), 30), node.output
+        assert node.running
+    assert frames() == list(range(9)) + [3] + list(range(9, 20))
+
+
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
     from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
@@ -232,7 +265,6 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
         push.header.frame_id = 'trunk_left'
         push_pub.publish(push)
         lengths_pub.publish(lengths_to_msg(np.ones(7), 0))  # wrong length: rejected, still waiting
-        lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 5))  # future frame
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
         markers = probe.wait('mesh_marker', 2)
         scene = probe.wait('scene_markers')[0]
@@ -255,9 +287,44 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     assert np.all(np.abs(heights) < 0.02) and contact.any()  # standing: soles on (or pressed into) the hills
     centroids = after_one['foot_positions'][1]
     assert np.all(np.abs(centroids[:, 2] - terrain.height(centroids[:, :2])) < 0.05)
-    assert 'rejected spring_rest_lengths' in sim.output and 'future frame 5' in sim.output
+    assert 'rejected spring_rest_lengths' in sim.output
     assert "rejected push: push region 'wing' is not a node tag" in sim.output
     assert 'push [0.0, -40.0, 0.0] N on trunk_left' in sim.output
+
+
+def test_simulator_keeps_lengths_that_arrive_ahead_and_simulates_them_in_order(tmp_path, make_node, executor):
+    """
+    Lengths for frames 2 and 1 sent before frame 0's (the adaptation runs a stride ahead): frames 0, 1, 2 step in order.
+
+    The first lengths of a frame count (a second, different message for frame 2 is ignored); the body ends where
+    the simulator stage ends with the same three frames; lengths for a frame already simulated are stale.
+    """
+    from iguana_ros.ros.messages import lengths_to_msg, state_from_msg
+    from iguana_ros.stages import SimulatorStage
+    from iguana_ros.terrain.heightfield import HeightField
+    model = build_model('coarse')
+    rest = np.array(model.spring_rest_lengths)
+    frames = [rest, rest * 1.01, rest * 0.99]
+    probe = Probe(make_node('probe'), executor)
+    probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
+    lengths_pub = probe.pub('spring_rest_lengths')
+    with _node('simulator_node', _scene(tmp_path), tmp_path, lockstep_timeout=1.0, lockstep_max_timeouts=100) as sim:
+        probe.wait('iguana_state', 1, timeout=60)
+        probe.wait_matched('spring_rest_lengths')
+        probe.deliver(lengths_pub, lengths_to_msg(frames[2], 2))
+        probe.deliver(lengths_pub, lengths_to_msg(rest * 1.05, 2))   # a second one for frame 2: ignored
+        probe.deliver(lengths_pub, lengths_to_msg(frames[1], 1))
+        assert all(state_from_msg(s)[0] == 0 for s in probe.got['iguana_state'])   # still waiting for frame 0
+        lengths_pub.publish(lengths_to_msg(frames[0], 0))
+        assert spin_until(executor, lambda: any(state_from_msg(s)[0] == 3 for s in probe.got['iguana_state']), 30)
+        lengths_pub.publish(lengths_to_msg(rest, 1))
+        assert sim.wait_for_output('ignored stale spring_rest_lengths for frame 1 (simulating frame 3)', 30), sim.output
+        assert sim.running
+    stage = SimulatorStage(model, HeightField.flat(), 'balanced')
+    for lengths in frames:
+        stage.advance(lengths)
+    after = next(s for s in probe.got['iguana_state'] if state_from_msg(s)[0] == 3)
+    assert np.array_equal(state_from_msg(after)[1], stage.root_pose()[0])
 
 
 def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
