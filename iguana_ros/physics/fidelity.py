@@ -34,6 +34,11 @@ with A / h² as the mass), so 0.01 leaves a 400x margin. Measured: medium 1.2e-3
 10 kPa FEM only keeps elements from degenerating; coarse 0.34 (a mode its springs hardly constrain) and any body
 with E = 1e8 Pa (x 1e4) stay implicit."""
 
+MAX_ELASTIC_EVERY = 4
+"""Most steps an explicit FEM force is held between evaluations (`elastic_every`, 'auto'): the largest k with
+(k h)² λ_max(A⁻¹ K_e) <= EXPLICIT_ELASTIC_LIMIT, the same margin as one step at h has: 2 on medium (dt 1/1200 and
+1/300), 3 on fine, capped at 4."""
+
 ELASTIC_INTEGRATIONS = ('auto', 'implicit', 'explicit')
 SOLVERS = ('cg', 'direct')
 PRECONDITIONERS = ('jacobi', 'ssor', 'cholesky')
@@ -55,7 +60,8 @@ class Fidelity:
     `elastic_integration`: the corotated FEM force enters the implicit step with its stiffness blocks
     ('implicit', the paper's scheme), is evaluated at the step's start only ('explicit': no FEM blocks to
     assemble, 78 instead of 150 µs per step on medium), or 'auto': explicit where the FEM is negligible
-    against the springs (EXPLICIT_ELASTIC_LIMIT), as on the shipped medium and fine bodies.
+    against the springs (EXPLICIT_ELASTIC_LIMIT), as on the shipped medium and fine bodies, and then evaluated
+    every `elastic_every` steps and held in between (MAX_ELASTIC_EVERY).
     """
 
     dt: float = SIM_DT

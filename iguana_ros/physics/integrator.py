@@ -45,8 +45,8 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
 N_FP = 15
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
-    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT = range(8)
-N_IP = 8
+    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY = range(9)
+N_IP = 9
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS = range(6)
 N_COUNTERS = 6
@@ -81,9 +81,11 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     scale = h * fp[FP_BETA] + h * h if refresh else 0.0
     if refresh:
         blocks[:] = 0.0
-    corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
-                             state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks,
-                             scale if ip[IP_ELASTIC_IMPLICIT] else 0.0)
+    if ip[IP_ELASTIC_IMPLICIT]:
+        corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
+                                 state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
+    else:
+        _explicit_elastic_forces(model, state, ip, counters[C_STEP], forces)
     spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
                   scale)
     if ip[IP_HAS_GROUND]:
@@ -111,6 +113,25 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
             dv_k = dextra[i, k, 0] * v[i, 0] + dextra[i, k, 1] * v[i, 1] + dextra[i, k, 2] * v[i, 2]
             rhs[i, k] = h * forces[i, k] - (rhs[i, k] - dv_k)
     return STATUS_OK, refresh
+
+
+@numba.njit(cache=True)
+def _explicit_elastic_forces(model, state, ip, step, forces):
+    """
+    Add the FEM force evaluated explicitly: anew every `elastic_every` steps (at the step's start), held in between.
+
+    `state.elastic_forces (n, 3)` keeps it; no stiffness blocks are assembled.
+    """
+    held = state.elastic_forces
+    if step % ip[IP_ELASTIC_EVERY] == 0:
+        held[:] = 0.0
+        corotated_elastic_forces(state.positions, model.tets, model.shape_gradients, model.volume, model.mu,
+                                 model.lam, state.element_rotations, ip[IP_POLAR_ITERS], held, state.matrix_blocks,
+                                 model.tet_blocks, 0.0)
+    for i in range(forces.shape[0]):
+        forces[i, 0] += held[i, 0]
+        forces[i, 1] += held[i, 1]
+        forces[i, 2] += held[i, 2]
 
 
 @numba.njit(cache=True)

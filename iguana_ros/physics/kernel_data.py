@@ -82,6 +82,7 @@ class KernelState(NamedTuple):
     diag_mass_damping: np.ndarray  # (n, 3, 3), M(1 + hα) + h C_c: the part of A_ii that is not stiffness
     diag_inv: np.ndarray           # (n, 3, 3), A_ii⁻¹ for the block Jacobi preconditioner
     forces: np.ndarray             # (n, 3) N
+    elastic_forces: np.ndarray     # (n, 3) N, the FEM force of an explicit step, held for `elastic_every` steps
     rhs: np.ndarray                # (n, 3), right-hand side of A Δv = b
     cg_work: np.ndarray            # (4, n, 3), CG vectors r, z, p, Ap
     contact_stiffness: np.ndarray  # (n, 3, 3) N/m, K_c per node
@@ -97,5 +98,6 @@ def empty_state(n_nodes: int, n_tets: int, n_blocks: int) -> KernelState:
         element_rotations=np.zeros((n_tets, 4)), friction_anchors=np.zeros((n, 3)),
         contact_state=np.zeros(n, dtype=np.int64), matrix_blocks=np.zeros((n_blocks, 3, 3)),
         diag_mass_damping=np.zeros((n, 3, 3)), diag_inv=np.zeros((n, 3, 3)), forces=np.zeros((n, 3)),
+        elastic_forces=np.zeros((n, 3)),
         rhs=np.zeros((n, 3)), cg_work=np.zeros((4, n, 3)), contact_stiffness=np.zeros((n, 3, 3)),
         contact_damping=np.zeros((n, 3, 3)), contact_in_matrix=np.zeros((n, 3, 3)))

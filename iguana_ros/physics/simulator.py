@@ -32,7 +32,7 @@ from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity
+from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity, MAX_ELASTIC_EVERY
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
                                        shape_gradients, spring_forces)
 from iguana_ros.physics.kernel_data import empty_state, kernel_constant, kernel_input, KernelModel
@@ -221,6 +221,9 @@ class SoftBodySimulator:
         self.elastic_implicit = (fid.elastic_integration == 'implicit' if self.elastic_ratio is None
                                  else not self.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT)
         ip[itg.IP_ELASTIC_IMPLICIT] = self.elastic_implicit
+        self.elastic_every = 1 if self.elastic_implicit or self.elastic_ratio is None else int(np.clip(
+            np.floor(np.sqrt(EXPLICIT_ELASTIC_LIMIT / max(self.elastic_ratio, 1e-300)) + 1e-9), 1, MAX_ELASTIC_EVERY))
+        ip[itg.IP_ELASTIC_EVERY] = self.elastic_every
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
@@ -325,6 +328,7 @@ class SoftBodySimulator:
                 'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS]),
                 'direct_fallback_steps': self._fallback_steps,
                 'elastic_integration': 'implicit' if self.elastic_implicit else 'explicit',
+                'elastic_every': self.elastic_every,
                 'cholesky_failures': int(c[itg.C_FACTOR_FAILS]), 'factorisations': int(c[itg.C_FACTORS])}
 
     # -------------------------------------------------------------------------------------------- stepping

@@ -23,7 +23,7 @@ from iguana_ros.bench.workload import gait_for
 from iguana_ros.body.model import build_model
 from iguana_ros.errors import InputError
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, get_fidelity
+from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, get_fidelity, MAX_ELASTIC_EVERY
 from iguana_ros.physics.meshes import box_mesh
 from iguana_ros.physics.simulator import elastic_stiffness_ratio, SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
@@ -44,12 +44,15 @@ def test_auto_is_explicit_only_where_the_fem_is_negligible(medium):
     sim = SoftBodySimulator(medium, None, 'balanced')
     assert sim.elastic_ratio < 0.2 * EXPLICIT_ELASTIC_LIMIT and not sim.elastic_implicit
     assert sim.stats['elastic_integration'] == 'explicit'
+    every = sim.elastic_every                 # held while (k h)² λ stays within the limit, k + 1 would not
+    assert every >= 2 and every ** 2 * sim.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT
+    assert every == MAX_ELASTIC_EVERY or (every + 1) ** 2 * sim.elastic_ratio > EXPLICIT_ELASTIC_LIMIT
     coarse = SoftBodySimulator(build_model('coarse', 'normal'), None, 'balanced')
     assert coarse.elastic_ratio > EXPLICIT_ELASTIC_LIMIT and coarse.elastic_implicit
     stiff = SoftBodySimulator(_stiff_fem(medium, 1e4), None, 'balanced')
     assert stiff.elastic_ratio == pytest.approx(1e4 * sim.elastic_ratio, rel=1e-6) and stiff.elastic_implicit
     forced = SoftBodySimulator(medium, None, 'balanced', elastic_integration='implicit')
-    assert forced.elastic_implicit and forced.elastic_ratio is None
+    assert forced.elastic_implicit and forced.elastic_ratio is None and forced.elastic_every == 1
 
 
 def test_elastic_stiffness_ratio_is_the_largest_generalized_eigenvalue():
@@ -84,20 +87,27 @@ def _system_matrix(sim, explicit):
 
 
 def test_explicit_fem_walks_like_the_implicit_step(medium):
-    """0.5 s of the bench gait on hills: the two schemes stay within 0.5 mm (the dt 1/1200 error is ~17 mm)."""
+    """
+    Explicit FEM, every step and held as 'auto' holds it, stays within 0.5 mm of the implicit step.
+
+    0.5 s of the bench gait on hills; the dt 1/1200 error is ~17 mm.
+    """
+    from iguana_ros.physics import integrator as itg
     terrain = HeightField.hills(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
     gait = gait_for(medium)
     runs = {}
-    for scheme in ('implicit', 'explicit'):
+    for name, scheme in (('implicit', 'implicit'), ('explicit', 'explicit'), ('held', 'auto')):
         sim = SoftBodySimulator(medium, terrain, 'balanced', elastic_integration=scheme)
+        assert name != 'held' or sim._ip[itg.IP_ELASTIC_EVERY] >= 2
         start = sim.rest_positions + [0.0, 0.0, 0.05]
         sim.reset(start)
         for _ in range(15):
             sim.advance_frame(gait.desired_lengths(sim.time))
-        runs[scheme] = sim.positions
+        runs[name] = sim.positions
         moved = np.sqrt(np.mean(np.sum((sim.positions - start) ** 2, axis=1)))
-    gap = np.sqrt(np.mean(np.sum((runs['explicit'] - runs['implicit']) ** 2, axis=1)))
-    assert moved > 0.01 and gap < 5e-4
+    for name in ('explicit', 'held'):
+        gap = np.sqrt(np.mean(np.sum((runs[name] - runs['implicit']) ** 2, axis=1)))
+        assert moved > 0.01 and gap < 5e-4, name
 
 
 def test_a_stiff_fem_forced_explicit_diverges_where_auto_stays_stable(medium):
