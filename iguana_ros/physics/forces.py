@@ -283,6 +283,70 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
     _add_block(blocks, spring_blocks[s, 2], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
 
 
+@numba.njit(cache=True, fastmath=FASTMATH)
+def spring_forces_gathered(x, springs, stiffness, desired_lengths, forces, blocks, spring_blocks, diag, node_ptr,
+                           node_springs, spring_k, scale):
+    """
+    `spring_forces` where the springs alone make the matrix's blocks: each off-diagonal block is one spring's.
+
+    Writes (not adds) every stored block: spring s's off-diagonal block −scale·K_s directly, and each node's diagonal
+    block the sum of its springs' scale·K_s, gathered over `node_springs[node_ptr[i]:node_ptr[i + 1]]` in ascending
+    spring order (no read-modify-write chains, no zeroing). `spring_k (n_springs, 6)` is work space for the K_s
+    (xx yy zz xy xz yz). Forces are added as `spring_forces` adds them.
+    """
+    for s in range(springs.shape[0]):
+        i = springs[s, 0]
+        j = springs[s, 1]
+        d0 = x[j, 0] - x[i, 0]
+        d1 = x[j, 1] - x[i, 1]
+        d2 = x[j, 2] - x[i, 2]
+        length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if length < 1e-12:
+            for c in range(6):
+                spring_k[s, c] = 0.0
+            _set_block(blocks, spring_blocks[s, 2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            continue
+        u0, u1, u2 = d0 / length, d1 / length, d2 / length
+        a = stiffness[s]
+        mag = a * (length - desired_lengths[s])
+        forces[i, 0] += mag * u0
+        forces[i, 1] += mag * u1
+        forces[i, 2] += mag * u2
+        forces[j, 0] -= mag * u0
+        forces[j, 1] -= mag * u1
+        forces[j, 2] -= mag * u2
+        if scale != 0.0:
+            geo = max(0.0, 1.0 - desired_lengths[s] / length)
+            ka = scale * a
+            c = ka * (1.0 - geo)
+            k00, k11, k22 = c * u0 * u0 + ka * geo, c * u1 * u1 + ka * geo, c * u2 * u2 + ka * geo
+            k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
+            spring_k[s, 0], spring_k[s, 1], spring_k[s, 2] = k00, k11, k22
+            spring_k[s, 3], spring_k[s, 4], spring_k[s, 5] = k01, k02, k12
+            _set_block(blocks, spring_blocks[s, 2], -k00, -k11, -k22, -k01, -k02, -k12)
+    if scale == 0.0:
+        return
+    for n in range(diag.shape[0]):
+        s00 = s11 = s22 = s01 = s02 = s12 = 0.0
+        for q in range(node_ptr[n], node_ptr[n + 1]):
+            s = node_springs[q]
+            s00 += spring_k[s, 0]
+            s11 += spring_k[s, 1]
+            s22 += spring_k[s, 2]
+            s01 += spring_k[s, 3]
+            s02 += spring_k[s, 4]
+            s12 += spring_k[s, 5]
+        _set_block(blocks, diag[n], s00, s11, s22, s01, s02, s12)
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _set_block(blocks, p, k00, k11, k22, k01, k02, k12):
+    """blocks[p] = the symmetric [[k00, k01, k02], [k01, k11, k12], [k02, k12, k22]]."""
+    blocks[p, 0, 0], blocks[p, 0, 1], blocks[p, 0, 2] = k00, k01, k02
+    blocks[p, 1, 0], blocks[p, 1, 1], blocks[p, 1, 2] = k01, k11, k12
+    blocks[p, 2, 0], blocks[p, 2, 1], blocks[p, 2, 2] = k02, k12, k22
+
+
 # ----------------------------------------------------------------------------------------------- contact
 @numba.njit(cache=True, fastmath=FASTMATH)
 def contact_forces(x, v, contact_mass, contact_offset, friction, heights, ox, oy, spacing, kn, cn, kt, ct,

@@ -36,7 +36,8 @@ import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec_pair, invert_3x3
 from iguana_ros.physics.cholesky import block_cholesky
-from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
+from iguana_ros.physics.forces import (contact_forces, corotated_elastic_forces, spring_forces,
+                                       spring_forces_gathered)
 from iguana_ros.physics.solver import preconditioned_cg
 
 # indices of the float parameter vector `fp`
@@ -45,8 +46,8 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
 N_FP = 15
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
-    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY = range(9)
-N_IP = 9
+    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_SPRING_GATHER = range(10)
+N_IP = 10
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS = range(6)
 N_COUNTERS = 6
@@ -79,15 +80,21 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
         forces[i, 1] = m * (fp[FP_GY] - alpha * v[i, 1]) + external[i, 1]
         forces[i, 2] = m * (fp[FP_GZ] - alpha * v[i, 2]) + external[i, 2]
     scale = h * fp[FP_BETA] + h * h if refresh else 0.0
-    if refresh:
+    gather = ip[IP_SPRING_GATHER] != 0              # the springs write every block themselves
+    if refresh and not gather:
         blocks[:] = 0.0
     if ip[IP_ELASTIC_IMPLICIT]:
         corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
                                  state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
     else:
         _explicit_elastic_forces(model, state, ip, counters[C_STEP], forces)
-    spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
-                  scale)
+    if gather:
+        spring_forces_gathered(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks,
+                               model.spring_blocks, model.diag, model.node_spring_ptr, model.node_springs,
+                               state.spring_k, scale)
+    else:
+        spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
+                      scale)
     if ip[IP_HAS_GROUND]:
         n_contact, deepest, depth = contact_forces(
             x, v, model.contact_mass, model.contact_offset, model.friction, model.heights, terrain[0], terrain[1],

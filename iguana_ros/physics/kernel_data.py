@@ -65,6 +65,8 @@ class KernelModel(NamedTuple):
     diag: np.ndarray              # (n,) int64, index of each diagonal block A_ii
     tet_blocks: np.ndarray        # (n_tets, 16) int64, stored block of node pair (a, b) of a tet at 4 a + b
     spring_blocks: np.ndarray     # (n_springs, 3) int64, blocks (i, i), (j, j) and the stored (i, j)
+    node_spring_ptr: np.ndarray   # (n + 1,) int64, CSR rows of the springs at each node ...
+    node_springs: np.ndarray      # (2 n_springs,) int64, ... ascending (forces.spring_forces_gathered)
     contact_mass: np.ndarray      # (n,) kg, node mass for the contact damping (light nodes get the mean)
     contact_offset: np.ndarray    # (n,) m, contact offset below each node (sole pads)
 
@@ -83,6 +85,7 @@ class KernelState(NamedTuple):
     diag_inv: np.ndarray           # (n, 3, 3), A_ii⁻¹ for the block Jacobi preconditioner
     forces: np.ndarray             # (n, 3) N
     elastic_forces: np.ndarray     # (n, 3) N, the FEM force of an explicit step, held for `elastic_every` steps
+    spring_k: np.ndarray           # (n_springs, 6), each spring's stiffness block (xx yy zz xy xz yz), gathered
     rhs: np.ndarray                # (n, 3), right-hand side of A Δv = b
     cg_work: np.ndarray            # (4, n, 3), CG vectors r, z, p, Ap
     contact_stiffness: np.ndarray  # (n, 3, 3) N/m, K_c per node
@@ -90,14 +93,14 @@ class KernelState(NamedTuple):
     contact_in_matrix: np.ndarray  # (n, 3, 3), h C_c + h² K_c as currently added to A_ii
 
 
-def empty_state(n_nodes: int, n_tets: int, n_blocks: int) -> KernelState:
-    """Zeroed KernelState for `n_nodes` nodes, `n_tets` tets and `n_blocks` matrix blocks."""
+def empty_state(n_nodes: int, n_tets: int, n_blocks: int, n_springs: int) -> KernelState:
+    """Zeroed KernelState for `n_nodes` nodes, `n_tets` tets, `n_blocks` matrix blocks and `n_springs` springs."""
     n = n_nodes
     return KernelState(
         positions=np.zeros((n, 3)), velocities=np.zeros((n, 3)), delta_v=np.zeros((n, 3)),
         element_rotations=np.zeros((n_tets, 4)), friction_anchors=np.zeros((n, 3)),
         contact_state=np.zeros(n, dtype=np.int64), matrix_blocks=np.zeros((n_blocks, 3, 3)),
         diag_mass_damping=np.zeros((n, 3, 3)), diag_inv=np.zeros((n, 3, 3)), forces=np.zeros((n, 3)),
-        elastic_forces=np.zeros((n, 3)),
+        elastic_forces=np.zeros((n, 3)), spring_k=np.zeros((n_springs, 6)),
         rhs=np.zeros((n, 3)), cg_work=np.zeros((4, n, 3)), contact_stiffness=np.zeros((n, 3, 3)),
         contact_damping=np.zeros((n, 3, 3)), contact_in_matrix=np.zeros((n, 3, 3)))

@@ -75,6 +75,15 @@ def contact_offsets(model) -> np.ndarray:
     return np.ascontiguousarray(offset)
 
 
+def _springs_by_node(n_nodes: int, springs: np.ndarray) -> dict:
+    """Return the springs at each node, ascending: `node_spring_ptr (n + 1,)`, `node_springs (2 n_springs,)` (CSR)."""
+    ends = np.concatenate([springs[:, 0], springs[:, 1]])
+    order = np.lexsort((np.tile(np.arange(len(springs)), 2), ends))
+    ptr = np.zeros(n_nodes + 1, dtype=np.int64)
+    np.add.at(ptr, ends + 1, 1)
+    return {'node_spring_ptr': np.cumsum(ptr), 'node_springs': np.tile(np.arange(len(springs)), 2)[order]}
+
+
 def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
     """
     Each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along.
@@ -185,6 +194,7 @@ class SoftBodySimulator:
             'friction': self.friction, 'heights': heights, 'terrain_grid': np.array([ox, oy, spacing]),
             'row_ptr': self.pattern.row_ptr, 'cols': self.pattern.cols, 'diag': self.pattern.diag,
             'tet_blocks': self.pattern.tet_blocks, 'spring_blocks': self.pattern.spring_blocks,
+            **_springs_by_node(n, springs),
             'contact_mass': np.maximum(mass, mass.mean()),      # light (sliver) nodes get the mean
             'contact_offset': self.contact_offset}
         self._model = KernelModel(**{name: kernel_constant(value, np.asarray(value).dtype)
@@ -224,12 +234,14 @@ class SoftBodySimulator:
         self.elastic_every = 1 if self.elastic_implicit or self.elastic_ratio is None else int(np.clip(
             np.floor(np.sqrt(EXPLICIT_ELASTIC_LIMIT / max(self.elastic_ratio, 1e-300)) + 1e-9), 1, MAX_ELASTIC_EVERY))
         ip[itg.IP_ELASTIC_EVERY] = self.elastic_every
+        ip[itg.IP_SPRING_GATHER] = (not self.elastic_implicit
+                                    and self.pattern.n_blocks == len(self.rest_positions) + len(self._model.springs))
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
         """Preallocated state and work arrays (`self._state`, a KernelState)."""
         n = len(self.rest_positions)
-        self._state = empty_state(n, len(self._model.tets), self.pattern.n_blocks)
+        self._state = empty_state(n, len(self._model.tets), self.pattern.n_blocks, len(self._model.springs))
         self._chol = self._build_factor()
         self._counters = np.zeros(itg.N_COUNTERS, dtype=np.int64)
         self._info = np.zeros(2)

@@ -129,3 +129,24 @@ def test_a_stiff_fem_forced_explicit_diverges_where_auto_stays_stable(medium):
 def test_a_bad_elastic_integration_is_one_clear_error():
     with pytest.raises(InputError, match='elastic_integration'):
         get_fidelity('balanced', elastic_integration='sometimes')
+
+
+def test_gathered_spring_blocks_equal_the_scattered_ones(medium):
+    """With the FEM explicit every block is one spring's (or a node's): the gathered matrix is the scattered one."""
+    from iguana_ros.physics import integrator as itg
+    from iguana_ros.physics.forces import spring_forces, spring_forces_gathered
+    sim = SoftBodySimulator(medium, None, 'balanced')
+    assert sim._ip[itg.IP_SPRING_GATHER] and not SoftBodySimulator(build_model('coarse'), None)._ip[
+        itg.IP_SPRING_GATHER]                 # coarse keeps its FEM implicit: its tets write blocks too
+    m = sim._model
+    rng = np.random.default_rng(0)
+    x = sim.rest_positions + rng.normal(scale=2e-3, size=sim.rest_positions.shape)
+    lengths = sim.desired_lengths_rest * rng.uniform(0.9, 1.1, len(sim.desired_lengths_rest))
+    scattered, gathered = np.zeros((2, sim.pattern.n_blocks, 3, 3))
+    gathered[:] = np.nan                      # every block is written, none is read
+    forces = np.zeros((2,) + x.shape)
+    spring_forces(x, m.springs, m.spring_stiffness, lengths, forces[0], scattered, m.spring_blocks, 1e-6)
+    spring_forces_gathered(x, m.springs, m.spring_stiffness, lengths, forces[1], gathered, m.spring_blocks, m.diag,
+                           m.node_spring_ptr, m.node_springs, np.zeros((len(m.springs), 6)), 1e-6)
+    assert np.array_equal(forces[0], forces[1])
+    np.testing.assert_allclose(gathered, scattered, rtol=0, atol=1e-12 * np.abs(scattered).max())
