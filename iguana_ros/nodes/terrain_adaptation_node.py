@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
-from iguana_ros.ros.messages import clip_from_msg, reference_pose_to_msg, state_from_msg
+from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_msg, state_from_msg
 from iguana_ros.stages import adaptation_stage, StrideLookahead
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
@@ -54,13 +54,13 @@ class TerrainAdaptationNode(IguanaNode):
         self.pose_pub = self.publisher('reference_pose')
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
-        self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), depth=CLIP_QUEUE_DEPTH)
+        self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
         self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
 
-    def on_clip(self, msg) -> None:
+    def on_clip(self, data: bytes) -> None:
         """Adapt the new stride's frames on the worker thread; each is published once ready and due."""
-        start, clip = clip_from_msg(msg, self.skeleton, self.bound)
+        start, clip = clip_from_cdr(data, self.skeleton, self.bound)    # serialized: read with numpy
         newest = max(self.newest_clip, self.next_frame - 1)
         if check_frame('motion_clip', start, newest) != FRAME_NEW:
             raise InputError(f'motion_clip starts at frame {start}, not after the newest clip (frame '

@@ -24,6 +24,7 @@ from iguana_ros.constants import FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
+from iguana_ros.ros.cdr import multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, Trajectory
 from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
                                         pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
@@ -41,13 +42,26 @@ def check_frame_id(what: str, frame_id: str) -> None:
 
 def clip_to_msg(clip: AlignedClip, skeleton, start_frame: int):
     """`MultiDOFJointTrajectory` of a placed clip: bone 0 carries the root pose, the others their offsets."""
+    trajectory = _clip_trajectory(clip, skeleton, start_frame)
+    msg = multi_dof_trajectory_msg(trajectory.times, trajectory.joint_names, trajectory.translations,
+                                   trajectory.rotations, stamp=frame_stamp(start_frame))
+    msg.header.frame_id = WORLD_FRAME
+    return msg
+
+
+def clip_to_cdr(clip: AlignedClip, skeleton, start_frame: int) -> bytes:
+    """Return the serialized bytes of `clip_to_msg`'s message, built from numpy (how the planner publishes a clip)."""
+    return multi_dof_trajectory_cdr(_clip_trajectory(clip, skeleton, start_frame))
+
+
+def _clip_trajectory(clip: AlignedClip, skeleton, start_frame: int) -> Trajectory:
+    """Return the `Trajectory` of a placed clip starting at frame `start_frame`."""
     n = len(clip.root_positions)
     translations = np.broadcast_to(skeleton.offsets, (n,) + skeleton.offsets.shape).copy()
     translations[:, 0] = clip.root_positions
-    msg = multi_dof_trajectory_msg(np.arange(n) / FRAME_RATE, skeleton.names, translations,
-                                   clip.local_rotations, stamp=frame_stamp(start_frame))
-    msg.header.frame_id = WORLD_FRAME
-    return msg
+    stamp = frame_stamp(start_frame)
+    return Trajectory((stamp.sec, stamp.nanosec), WORLD_FRAME, list(skeleton.names), np.arange(n) / FRAME_RATE,
+                      translations, np.asarray(clip.local_rotations, dtype=np.float64))
 
 
 def clip_from_msg(msg, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
@@ -57,15 +71,30 @@ def clip_from_msg(msg, skeleton, bound: float = math.inf) -> tuple[int, AlignedC
     InputError unless it fits `skeleton` (joint names, bone offsets, unit rotations, 2..MAX_CLIP_FRAMES points) with its
     root within `bound` m.
     """
-    check_frame_id('motion_clip', msg.header.frame_id)
     _times, names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
+    return _checked_clip(msg.header.frame_id, stamp_frame(msg.header.stamp), names, translations, rotations, skeleton,
+                         bound)
+
+
+def clip_from_cdr(data: bytes, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
+    """`clip_from_msg` of a serialized motion_clip message (decoded with numpy, checked the same way)."""
+    trajectory = multi_dof_trajectory_from_cdr(data)
+    frame = int(round((trajectory.stamp[0] + trajectory.stamp[1] * 1e-9) * FRAME_RATE))
+    return _checked_clip(trajectory.frame_id, frame, trajectory.joint_names, trajectory.translations,
+                         trajectory.rotations, skeleton, bound)
+
+
+def _checked_clip(frame_id: str, frame: int, names: list, translations: np.ndarray, rotations: np.ndarray, skeleton,
+                  bound: float) -> tuple[int, AlignedClip]:
+    """(start frame, placed clip) of a motion_clip's fields, or InputError (see `clip_from_msg`)."""
+    check_frame_id('motion_clip', frame_id)
     if tuple(names) != tuple(skeleton.names):
         raise InputError(f'motion_clip joint_names do not match the skeleton ({len(names)} names, '
                          f'expected {skeleton.n_bones} starting {skeleton.names[:3]})')
     translations, rotations = check_clip(translations, rotations, skeleton.offsets, bound, MAX_CLIP_FRAMES)
     clip = AlignedClip(name='motion_clip', root_positions=translations[:, 0].copy(),
                        local_rotations=rotations, contacts=np.zeros((len(rotations), 4), bool), source=None)
-    return stamp_frame(msg.header.stamp), clip
+    return frame, clip
 
 
 def stride_from_msg(msg) -> tuple[int, Stride]:

@@ -156,3 +156,50 @@ def test_mesh_reader_refuses_cut_or_foreign_bytes(rng):
             cdr.triangle_list_from_cdr(data[:cut])
     with pytest.raises(InputError, match='not little-endian CDR'):
         cdr.triangle_list_from_cdr(b'\x00\x00' + data[2:])
+
+
+@pytest.fixture(scope='module')
+def placed_clip():
+    from iguana_ros.body.skeleton import iguana_skeleton
+    from iguana_ros.stages import motion_graph
+    skeleton = iguana_skeleton()
+    return skeleton, motion_graph().align('turn_left', np.array([0.3, -1.2]), 0.7)
+
+
+@pytest.mark.parametrize('frame', [0, 17, 12345])
+def test_clip_bytes_are_the_message_rclpy_serializes(placed_clip, frame):
+    """`clip_to_cdr` (how the planner publishes) writes what rclpy serializes for `clip_to_msg`'s message."""
+    from trajectory_msgs.msg import MultiDOFJointTrajectory
+
+    from iguana_ros.ros.messages import clip_to_cdr, clip_to_msg
+    skeleton, clip = placed_clip
+    message, data = clip_to_msg(clip, skeleton, frame), clip_to_cdr(clip, skeleton, frame)
+    assert len(data) == len(serialize_message(message))
+    assert deserialize_message(data, MultiDOFJointTrajectory) == message
+
+
+def test_clip_from_cdr_reads_and_checks_as_clip_from_msg(placed_clip):
+    """The terrain adaptation node's numpy reading of motion_clip: same clip, same checks, one-line errors."""
+    from geometry_msgs.msg import Twist
+
+    from iguana_ros.ros.messages import clip_from_cdr, clip_from_msg, clip_to_msg
+    skeleton, clip = placed_clip
+    message = clip_to_msg(clip, skeleton, 40)
+    message.points[3].velocities = [Twist()] * 2            # twists (not used) are skipped
+    start, read = clip_from_cdr(serialize_message(message), skeleton)
+    expected_start, expected = clip_from_msg(message, skeleton)
+    assert start == expected_start == 40
+    assert np.array_equal(read.root_positions, expected.root_positions)
+    assert np.array_equal(read.local_rotations, expected.local_rotations)
+    wrong = clip_to_msg(clip, skeleton, 40)
+    wrong.header.frame_id = 'map'
+    with pytest.raises(InputError, match="frame_id 'map'"):
+        clip_from_cdr(serialize_message(wrong), skeleton)
+    short = clip_to_msg(clip, skeleton, 40)
+    short.points[2].transforms = short.points[2].transforms[:5]
+    with pytest.raises(InputError, match='hold 5 transforms, expected 34'):
+        clip_from_cdr(serialize_message(short), skeleton)
+    data = serialize_message(message)
+    for cut in (3, 40, len(data) // 2, len(data) - 3):
+        with pytest.raises(InputError, match='truncated or not a MultiDOFJointTrajectory|not little-endian CDR'):
+            clip_from_cdr(data[:cut], skeleton)
