@@ -16,7 +16,7 @@
 from __future__ import annotations
 
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
-from iguana_ros.ros.messages import lengths_to_msg, reference_pose_from_msg
+from iguana_ros.ros.messages import lengths_to_msg, reference_pose_from_cdr
 from iguana_ros.stages import scene_model, spring_stage
 from iguana_ros.validation import check_desired_lengths, world_bound
 
@@ -37,17 +37,17 @@ class SpringLengthNode(IguanaNode):
         self.bound = world_bound(self.scene.terrain.extent)
         self.lengths_pub = self.publisher('spring_rest_lengths')
         self.pose_gate = FrameGate(self, 'reference_pose', self.lengths_pub, keep=RESEND_FRAMES)
-        self.subscription('reference_pose', self.guarded('reference_pose', self.on_pose))
+        self.subscription('reference_pose', self.guarded('reference_pose', self.on_pose), raw=True)
         self.get_logger().info(f'spring lengths ready: {self.computer.n_springs} springs, '
                                f'{model.n_nodes} nodes')
 
-    def on_pose(self, msg) -> None:
+    def on_pose(self, data: bytes) -> None:
         """
         Publish the desired lengths of the pose's frame (re-send them for a repeated frame).
 
         Lengths the simulator would reject (`check_desired_lengths`) are not published.
         """
-        frame, positions, rotations = reference_pose_from_msg(msg, self.n_bones, self.skeleton, self.bound)
+        frame, positions, rotations = reference_pose_from_cdr(data, self.n_bones, self.skeleton, self.bound)
         if not self.pose_gate.admit(frame):
             return
         lengths = check_desired_lengths(self.computer.lengths_from_bones(rotations, positions), self.rest_lengths)

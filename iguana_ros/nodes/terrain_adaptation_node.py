@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
-from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_msg, state_from_msg
+from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_msg
 from iguana_ros.stages import adaptation_stage, StrideLookahead
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
@@ -90,7 +90,7 @@ class TerrainAdaptationNode(IguanaNode):
             except IguanaError as exc:
                 self.get_logger().error(f'no reference pose for frame {frame}: {exc}')
                 continue
-            self.sent[frame] = reference_pose_to_msg(reference.joints, reference.rotations, frame)
+            self.sent[frame] = reference_pose_to_cdr(reference.joints, reference.rotations, frame)
             while len(self.sent) > RESEND_FRAMES:
                 del self.sent[next(iter(self.sent))]
             self.pose_pub.publish(self.sent[frame])

@@ -17,7 +17,8 @@ The one CDR codec.
 
 Serialized ROS 2 messages (little-endian plain CDR, XCDR1, as rmw_fastrtps and rosbag2 write them) read and written with
 numpy, for the messages too large for the Python message classes (one object per point): visualization_msgs/Marker and
-MarkerArray, trajectory_msgs/MultiDOFJointTrajectory (a motion clip: one Transform object per bone and frame).
+MarkerArray, trajectory_msgs/MultiDOFJointTrajectory (a motion clip: one Transform object per bone and frame) and
+geometry_msgs/PoseArray (a reference pose, each frame).
 
 A layout lists a message's fields in wire order; `CdrWriter.write` and `CdrReader.read` walk the same layout, so
 the bytes built and the bytes read follow one definition (`MARKER`). Alignment is relative to the payload start,
@@ -68,6 +69,10 @@ MARKER = (
 """visualization_msgs/msg/Marker (Jazzy) in wire order; nested structs flattened: pose = position xyz then
 orientation xyzw, texture = sensor_msgs/CompressedImage (header stamp, frame_id, format, data), mesh_file =
 visualization_msgs/MeshFile (filename, data)."""
+
+
+POSE_ARRAY = (('stamp', 'iI'), ('frame_id', STRING), ('poses', Sequence('<f8', 7)))
+"""geometry_msgs/msg/PoseArray in wire order: each pose is position xyz then orientation xyzw."""
 
 
 def _alignment(fmt: str) -> int:
@@ -252,6 +257,25 @@ def multi_dof_trajectory_from_cdr(data: bytes, what: str = 'motion_clip') -> Tra
         raise InputError(f'{what}: message is truncated or not a MultiDOFJointTrajectory: {exc}') from exc
     stacked = np.array(frames, dtype=np.float64).reshape(n_points, n_names, 7)
     return Trajectory(stamp, frame_id, names, np.array(times), stacked[:, :, :3], stacked[:, :, 3:])
+
+
+def pose_array_cdr(stamp: tuple, frame_id: str, positions: np.ndarray, orientations: np.ndarray) -> bytes:
+    """Return serialized PoseArray bytes of positions `(n, 3)` and orientations `(n, 4)` xyzw stamped (sec, nanosec)."""
+    writer = CdrWriter()
+    writer.write(POSE_ARRAY, {'stamp': stamp, 'frame_id': frame_id,
+                              'poses': np.concatenate([positions, orientations], axis=1)})
+    return writer.to_bytes()
+
+
+def pose_array_from_cdr(data: bytes, what: str = 'PoseArray') -> tuple:
+    """(stamp (sec, nanosec), frame_id, positions `(n, 3)`, orientations `(n, 4)`) of PoseArray bytes, or InputError."""
+    reader = CdrReader(data, f'{what}: message')
+    try:
+        fields = reader.read(POSE_ARRAY)
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'{what}: message is truncated or not a PoseArray: {exc}') from exc
+    poses = np.array(fields['poses'], dtype=np.float64)
+    return fields['stamp'], fields['frame_id'], poses[:, :3], poses[:, 3:]
 
 
 def header_stamp_ns(data: bytes) -> int:

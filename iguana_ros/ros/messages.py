@@ -24,7 +24,8 @@ from iguana_ros.constants import FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
-from iguana_ros.ros.cdr import multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, Trajectory
+from iguana_ros.ros.cdr import (multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, pose_array_cdr,
+                                pose_array_from_cdr, Trajectory)
 from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
                                         pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
@@ -119,6 +120,14 @@ def reference_pose_to_msg(joint_positions: np.ndarray, joint_rotations: np.ndarr
     return pose_array_msg(joint_positions, joint_rotations, stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
 
 
+def reference_pose_to_cdr(joint_positions: np.ndarray, joint_rotations: np.ndarray, frame: int) -> bytes:
+    """Return the serialized bytes of `reference_pose_to_msg`'s message, from numpy (how the adaptation node sends)."""
+    stamp = frame_stamp(frame)
+    return pose_array_cdr((stamp.sec, stamp.nanosec), WORLD_FRAME,
+                          validate_array('reference_pose positions', joint_positions, (None, 3)),
+                          validate_array('reference_pose orientations', joint_rotations, (len(joint_positions), 4)))
+
+
 def reference_pose_from_msg(msg, n_bones: int, skeleton=None, bound: float = math.inf
                             ) -> tuple[int, np.ndarray, np.ndarray]:
     """
@@ -127,13 +136,28 @@ def reference_pose_from_msg(msg, n_bones: int, skeleton=None, bound: float = mat
     With `skeleton`, InputError unless the bone frames fit it (unit rotations, bone lengths) within `bound` m of the
     origin.
     """
-    check_frame_id('reference_pose', msg.header.frame_id)
     positions, rotations = pose_array_to_numpy(msg)
+    return _checked_reference_pose(msg.header.frame_id, stamp_frame(msg.header.stamp), positions, rotations, n_bones,
+                                   skeleton, bound)
+
+
+def reference_pose_from_cdr(data: bytes, n_bones: int, skeleton=None, bound: float = math.inf
+                            ) -> tuple[int, np.ndarray, np.ndarray]:
+    """`reference_pose_from_msg` of a serialized reference_pose message (read with numpy, checked the same way)."""
+    (sec, nsec), frame_id, positions, rotations = pose_array_from_cdr(data, 'reference_pose')
+    return _checked_reference_pose(frame_id, int(round((sec + nsec * 1e-9) * FRAME_RATE)), positions, rotations,
+                                   n_bones, skeleton, bound)
+
+
+def _checked_reference_pose(frame_id: str, frame: int, positions: np.ndarray, rotations: np.ndarray, n_bones: int,
+                            skeleton, bound: float) -> tuple[int, np.ndarray, np.ndarray]:
+    """(frame, positions, rotations) of a reference_pose's fields, or InputError (see `reference_pose_from_msg`)."""
+    check_frame_id('reference_pose', frame_id)
     validate_array('reference_pose positions', positions, (n_bones, 3))
     validate_array('reference_pose orientations', rotations, (n_bones, 4))
     if skeleton is not None:
         check_bone_frames('reference_pose', positions, rotations, skeleton.parents, skeleton.offsets, bound)
-    return stamp_frame(msg.header.stamp), positions, rotations
+    return frame, positions, rotations
 
 
 def lengths_to_msg(lengths: np.ndarray, frame: int):

@@ -203,3 +203,25 @@ def test_clip_from_cdr_reads_and_checks_as_clip_from_msg(placed_clip):
     for cut in (3, 40, len(data) // 2, len(data) - 3):
         with pytest.raises(InputError, match='truncated or not a MultiDOFJointTrajectory|not little-endian CDR'):
             clip_from_cdr(data[:cut], skeleton)
+
+
+def test_reference_pose_bytes_and_reading_match_the_message_path(rng, placed_clip):
+    """`reference_pose_to_cdr` writes what rclpy serializes; `reference_pose_from_cdr` reads and checks as from_msg."""
+    from geometry_msgs.msg import PoseArray
+
+    from iguana_ros.ros.messages import reference_pose_from_cdr, reference_pose_from_msg, reference_pose_to_cdr
+    from iguana_ros.ros.messages import reference_pose_to_msg
+    from iguana_ros.terrain.adaptation import pose_kinematics
+    skeleton, clip = placed_clip
+    joints, rotations = pose_kinematics(skeleton, clip.root_positions[4], clip.local_rotations[4])
+    message, data = reference_pose_to_msg(joints, rotations, 77), reference_pose_to_cdr(joints, rotations, 77)
+    assert len(data) == len(serialize_message(message)) and deserialize_message(data, PoseArray) == message
+    read = reference_pose_from_cdr(serialize_message(message), skeleton.n_bones, skeleton)
+    expected = reference_pose_from_msg(message, skeleton.n_bones, skeleton)
+    assert read[0] == expected[0] == 77
+    assert np.array_equal(read[1], expected[1]) and np.array_equal(read[2], expected[2])
+    bent = reference_pose_to_msg(joints + rng.normal(scale=0.01, size=joints.shape), rotations, 77)
+    with pytest.raises(InputError, match='reference_pose'):
+        reference_pose_from_cdr(serialize_message(bent), skeleton.n_bones, skeleton)      # bone lengths do not fit
+    with pytest.raises(InputError, match='truncated or not a PoseArray'):
+        reference_pose_from_cdr(data[:-9], skeleton.n_bones, skeleton)
