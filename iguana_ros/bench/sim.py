@@ -100,14 +100,25 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
     }
     if profile:
         result['profile_us'] = profile_step(sim)
+        cpu_us_per_step = 1e6 * fid.dt / result['realtime_factor_cpu']     # the parts are CPU times too
+        result['profile_us']['per_step_other'] = cpu_us_per_step - sum(
+            us for name, us in result['profile_us'].items() if name.startswith('per_step_'))
     return result
 
 
 def profile_step(sim, repeats: int = 100) -> dict:
-    """Microseconds per call of each part of a step, on copies of the simulator's current state."""
+    """
+    Microseconds per call of each part of a step, on copies of the simulator's current state, and per step.
+
+    The parts as this simulator runs them (the FEM force with or without its stiffness blocks, the springs'
+    blocks scattered or gathered) and the alternatives, then `per_step_*`: each part times how often a step runs it
+    (the FEM every `elastic_every` steps, CG iterations and factorisations per step), `per_step_other` the rest of
+    the measured step (diagonal terms, right-hand side, update and checks).
+    """
     from iguana_ros.physics import integrator as itg
-    from iguana_ros.physics.forces import contact_forces, corotated_elastic_forces, spring_forces
-    from iguana_ros.physics.solver import block_jacobi_pcg
+    from iguana_ros.physics.assembly import block_matvec_pair
+    from iguana_ros.physics.forces import (contact_forces, corotated_elastic_forces, spring_forces,
+                                           spring_forces_gathered)
 
     m = sim._model
     state = sim._state._replace(**{name: a.copy() for name, a in sim._state._asdict().items()})
@@ -125,23 +136,41 @@ def profile_step(sim, repeats: int = 100) -> dict:
             m.tet_blocks, scale),
         'spring_forces': lambda: spring_forces(x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks,
                                                0.0),
-        'spring_forces_and_stiffness': lambda: spring_forces(x, m.springs, m.spring_stiffness, ld, forces, blocks,
-                                                             m.spring_blocks, scale),
+        'spring_forces_and_stiffness': lambda: (blocks.fill(0.0), spring_forces(
+            x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks, scale)),
+        'spring_forces_and_stiffness_gathered': lambda: spring_forces_gathered(
+            x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks, m.diag, m.node_spring_ptr,
+            m.node_springs, state.spring_k, scale),
         'contact_forces': lambda: contact_forces(
             x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0], grid[1], grid[2], fp[itg.FP_KN],
             fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors, state.contact_state, forces,
             state.contact_stiffness, state.contact_damping),
     }
+    if not ip[itg.IP_SPRING_GATHER]:
+        del parts['spring_forces_and_stiffness_gathered']       # its blocks are not the matrix's alone
     out = {name: _time_us(fn, repeats) for name, fn in parts.items()}
+    live, work = sim._state, state.cg_work
+    out['matvec_pair'] = _time_us(lambda: block_matvec_pair(m.row_ptr, m.cols, live.matrix_blocks, v, state.delta_v,
+                                                            work[0], work[1]), repeats)
+    out.update(_solver_parts(sim, state, repeats))
+    return {**out, **_per_step(sim, out)}
+
+
+def _solver_parts(sim, state, repeats: int) -> dict:
+    """Microseconds of one CG iteration (matrix-vector product and preconditioner), and of the Cholesky factor."""
+    from iguana_ros.physics import integrator as itg
+    from iguana_ros.physics.solver import block_jacobi_pcg
+
+    m, live = sim._model, sim._state
     solution = np.zeros_like(state.delta_v)
-    pinv, live = state.diag_inv, sim._state
+    pinv = state.diag_inv
     itg.invert_diagonal(m.diag, live.matrix_blocks, pinv)
 
     def ten_cg_iterations():
         solution[:] = 0.0
         block_jacobi_pcg(m.row_ptr, m.cols, live.matrix_blocks, pinv, live.rhs, solution, 0.0, 0.0, 10, state.cg_work)
 
-    out['cg_iteration'] = _time_us(ten_cg_iterations, max(repeats // 10, 5)) / 10.0
+    out = {'cg_iteration': _time_us(ten_cg_iterations, max(repeats // 10, 5)) / 10.0}
     if sim.fidelity.preconditioner == 'cholesky':
         from iguana_ros.physics.cholesky import block_cholesky, cholesky_solve
 
@@ -152,8 +181,24 @@ def profile_step(sim, repeats: int = 100) -> dict:
         out['cholesky_solve'] = _time_us(lambda: cholesky_solve(chol.pattern, values, diag_inv, live.rhs, solution,
                                                                 work), repeats)
         out['cg_iteration'] += out['cholesky_solve']      # the preconditioner of each iteration
-    out['cg_per_step'] = out['cg_iteration'] * sim.stats['cg_iterations_per_step']
     return out
+
+
+def _per_step(sim, parts: dict) -> dict:
+    """`per_step_*` microseconds: each part as often as this simulator runs it in a step (see `profile_step`)."""
+    from iguana_ros.physics import integrator as itg
+
+    ip, stats = sim._ip, sim.stats
+    steps = max(stats['steps'], 1)
+    elastic = (parts['elastic_forces_and_stiffness'] if ip[itg.IP_ELASTIC_IMPLICIT]
+               else parts['elastic_forces'] / ip[itg.IP_ELASTIC_EVERY])
+    springs = parts.get('spring_forces_and_stiffness_gathered', parts['spring_forces_and_stiffness'])
+    per_step = {'per_step_elastic': elastic, 'per_step_springs': springs,
+                'per_step_contact': parts['contact_forces'] if sim.terrain is not None else 0.0,
+                'per_step_matvec_pair': parts['matvec_pair'],
+                'per_step_cg': parts['cg_iteration'] * stats['cg_iterations_per_step'],
+                'per_step_cholesky_factor': parts.get('cholesky_factor', 0.0) * stats['factorisations'] / steps}
+    return per_step
 
 
 def _time_us(fn, repeats: int) -> float:

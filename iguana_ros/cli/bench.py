@@ -122,7 +122,7 @@ def run_sim(args) -> int:
     print(f"compile/cache load {result['compile_s']:.2f} s; model build {result['model_build_s']:.2f} s; "
           f"peak RSS {result['peak_rss_mb']:.0f} MB; CPU {result['cpu_model']}")
     for name, us in result.get('profile_us', {}).items():
-        print(f'  {name:32s} {us:9.1f} us')
+        print(f'  {name:38s} {us:9.1f} us')
     return 0
 
 
