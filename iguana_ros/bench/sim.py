@@ -100,9 +100,6 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
     }
     if profile:
         result['profile_us'] = profile_step(sim)
-        cpu_us_per_step = 1e6 * fid.dt / result['realtime_factor_cpu']     # the parts are CPU times too
-        result['profile_us']['per_step_other'] = cpu_us_per_step - sum(
-            us for name, us in result['profile_us'].items() if name.startswith('per_step_'))
     return result
 
 
@@ -111,9 +108,10 @@ def profile_step(sim, repeats: int = 100) -> dict:
     Microseconds per call of each part of a step, on copies of the simulator's current state, and per step.
 
     The parts as this simulator runs them (the FEM force with or without its stiffness blocks, the springs'
-    blocks scattered or gathered) and the alternatives, then `per_step_*`: each part times how often a step runs it
-    (the FEM every `elastic_every` steps, CG iterations and factorisations per step), `per_step_other` the rest of
-    the measured step (diagonal terms, right-hand side, update and checks).
+    blocks scattered or gathered) and the alternatives, a whole step, then `per_step_*`: each part times how often a
+    step runs it (the FEM every `elastic_every` steps, CG iterations and factorisations per step), `per_step_other`
+    the rest of the whole step (diagonal terms, right-hand side, update and checks). The parts are timed in turns,
+    so a drift of the machine's speed moves them alike.
     """
     from iguana_ros.physics import integrator as itg
     from iguana_ros.physics.assembly import block_matvec_pair
@@ -145,19 +143,21 @@ def profile_step(sim, repeats: int = 100) -> dict:
             x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0], grid[1], grid[2], fp[itg.FP_KN],
             fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors, state.contact_state, forces,
             state.contact_stiffness, state.contact_damping),
+        'matvec_pair': lambda: block_matvec_pair(m.row_ptr, m.cols, sim._state.matrix_blocks, v, state.delta_v,
+                                                 state.cg_work[0], state.cg_work[1]),
     }
     if not ip[itg.IP_SPRING_GATHER]:
         del parts['spring_forces_and_stiffness_gathered']       # its blocks are not the matrix's alone
-    out = {name: _time_us(fn, repeats) for name, fn in parts.items()}
-    live, work = sim._state, state.cg_work
-    out['matvec_pair'] = _time_us(lambda: block_matvec_pair(m.row_ptr, m.cols, live.matrix_blocks, v, state.delta_v,
-                                                            work[0], work[1]), repeats)
-    out.update(_solver_parts(sim, state, repeats))
+    parts.update(_solver_parts(sim, state))
+    parts['step'] = _step_on_a_copy(sim)
+    out = _time_parts_us(parts, repeats)
+    out['cg_iteration'] = out.pop('ten_cg_iterations') / 10.0 + out.get('cholesky_solve', 0.0)
+    out['step'] /= sim.steps_per_frame
     return {**out, **_per_step(sim, out)}
 
 
-def _solver_parts(sim, state, repeats: int) -> dict:
-    """Microseconds of one CG iteration (matrix-vector product and preconditioner), and of the Cholesky factor."""
+def _solver_parts(sim, state) -> dict:
+    """Calls of ten CG matrix-vector iterations and, with a Cholesky preconditioner, of its factor and solve."""
     from iguana_ros.physics import integrator as itg
     from iguana_ros.physics.solver import block_jacobi_pcg
 
@@ -170,18 +170,47 @@ def _solver_parts(sim, state, repeats: int) -> dict:
         solution[:] = 0.0
         block_jacobi_pcg(m.row_ptr, m.cols, live.matrix_blocks, pinv, live.rhs, solution, 0.0, 0.0, 10, state.cg_work)
 
-    out = {'cg_iteration': _time_us(ten_cg_iterations, max(repeats // 10, 5)) / 10.0}
+    parts = {'ten_cg_iterations': ten_cg_iterations}
     if sim.fidelity.preconditioner == 'cholesky':
         from iguana_ros.physics.cholesky import block_cholesky, cholesky_solve
 
         chol = sim._chol
         values, diag_inv, work = chol.values.copy(), chol.diag_inv.copy(), chol.work.copy()
-        out['cholesky_factor'] = _time_us(lambda: block_cholesky(chol.pattern, live.matrix_blocks, values, diag_inv),
-                                          repeats)
-        out['cholesky_solve'] = _time_us(lambda: cholesky_solve(chol.pattern, values, diag_inv, live.rhs, solution,
-                                                                work), repeats)
-        out['cg_iteration'] += out['cholesky_solve']      # the preconditioner of each iteration
-    return out
+        parts['cholesky_factor'] = lambda: block_cholesky(chol.pattern, live.matrix_blocks, values, diag_inv)
+        parts['cholesky_solve'] = lambda: cholesky_solve(chol.pattern, values, diag_inv, live.rhs, solution, work)
+    return parts
+
+
+def _step_on_a_copy(sim):
+    """Return a call that advances a copy of the simulator's state by one frame of steps (its lengths held)."""
+    from iguana_ros.physics import integrator as itg
+
+    state = sim._state._replace(**{name: a.copy() for name, a in sim._state._asdict().items()})
+    chol = sim._chol._replace(values=sim._chol.values.copy(), diag_inv=sim._chol.diag_inv.copy(),
+                              work=sim._chol.work.copy(), state=sim._chol.state.copy())
+    counters, info = sim._counters.copy(), np.zeros(2)
+    lengths = np.array(sim._held_lengths if sim._held_lengths is not None else sim.desired_lengths_rest)
+    work, external = np.zeros_like(lengths), np.zeros_like(state.positions)
+
+    def frame():
+        itg.run_steps_cg(sim._model, state, sim._fp, sim._ip, counters, lengths, lengths, work, external,
+                         sim.steps_per_frame, info, chol, 0, 0)
+    return frame
+
+
+def _time_parts_us(parts: dict, repeats: int) -> dict:
+    """Median over 5 rounds of the CPU microseconds per call of each of `parts`; each round times them all in turn."""
+    for fn in parts.values():
+        fn()
+    rounds = {name: [] for name in parts}
+    for _ in range(5):
+        for name, fn in parts.items():
+            n = max(repeats // (10 if name in ('ten_cg_iterations', 'step') else 1), 5)
+            t0 = time.process_time()
+            for _ in range(n):
+                fn()
+            rounds[name].append((time.process_time() - t0) / n * 1e6)
+    return {name: float(np.median(times)) for name, times in rounds.items()}
 
 
 def _per_step(sim, parts: dict) -> dict:
@@ -192,25 +221,15 @@ def _per_step(sim, parts: dict) -> dict:
     steps = max(stats['steps'], 1)
     elastic = (parts['elastic_forces_and_stiffness'] if ip[itg.IP_ELASTIC_IMPLICIT]
                else parts['elastic_forces'] / ip[itg.IP_ELASTIC_EVERY])
-    springs = parts.get('spring_forces_and_stiffness_gathered', parts['spring_forces_and_stiffness'])
-    per_step = {'per_step_elastic': elastic, 'per_step_springs': springs,
+    per_step = {'per_step_elastic': elastic,
+                'per_step_springs': parts.get('spring_forces_and_stiffness_gathered',
+                                              parts['spring_forces_and_stiffness']),
                 'per_step_contact': parts['contact_forces'] if sim.terrain is not None else 0.0,
                 'per_step_matvec_pair': parts['matvec_pair'],
                 'per_step_cg': parts['cg_iteration'] * stats['cg_iterations_per_step'],
                 'per_step_cholesky_factor': parts.get('cholesky_factor', 0.0) * stats['factorisations'] / steps}
+    per_step['per_step_other'] = parts['step'] - sum(per_step.values())
     return per_step
-
-
-def _time_us(fn, repeats: int) -> float:
-    """Median over 5 batches of the CPU microseconds per call of `fn`."""
-    fn()
-    batches = []
-    for _ in range(5):
-        t0 = time.process_time()
-        for _ in range(repeats):
-            fn()
-        batches.append((time.process_time() - t0) / repeats * 1e6)
-    return float(np.median(batches))
 
 
 TRADEOFF_SETTINGS = (
