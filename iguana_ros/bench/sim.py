@@ -157,7 +157,7 @@ def profile_step(sim, repeats: int = 100) -> dict:
 
 
 def _solver_parts(sim, state) -> dict:
-    """Calls of ten CG matrix-vector iterations and, with a Cholesky preconditioner, of its factor and solve."""
+    """Return calls of ten CG matrix-vector iterations and, with a Cholesky preconditioner, of its factor and solve."""
     from iguana_ros.physics import integrator as itg
     from iguana_ros.physics.solver import block_jacobi_pcg
 
