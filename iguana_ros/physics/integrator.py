@@ -243,19 +243,18 @@ def _refactor(blocks, counters, chol):
 
 
 @numba.njit(cache=True)
-def _solve(model, state, fp, ip, chol, kind, warm_product):
+def _solve(model, state, fp, ip, chol, kind):
     """
     Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold).
 
-    With `warm_product`, `state.cg_work[3]` holds A Δv of the warm start (`prepare_step` computed it).
+    `state.cg_work[3]` holds A Δv of the warm start (`prepare_step` computed it).
     """
     step_kind = kind
     if kind == 2 and not chol.state[F_VALID]:       # no factor: block Jacobi
         step_kind = 0
         invert_diagonal(model.diag, state.matrix_blocks, state.diag_inv)
     return preconditioned_cg(model.row_ptr, model.cols, state.matrix_blocks, state.diag_inv, chol, state.rhs,
-                             state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state.cg_work, step_kind,
-                             warm_product)
+                             state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state.cg_work, step_kind)
 
 
 @numba.njit(cache=True)
@@ -293,13 +292,14 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
             return status, step
         if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
             _refactor(state.matrix_blocks, counters, chol)
-        iters, res, threshold = _solve(model, state, fp, ip, chol, kind, True)
+        iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
         failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:
             counters[C_CG_ITERS] += abs(iters)
             _refactor(state.matrix_blocks, counters, chol)   # a stale factor: refactorise and solve again
             state.delta_v[:] = 0.0
-            iters, res, threshold = _solve(model, state, fp, ip, chol, kind, False)
+            state.cg_work[3][:] = 0.0                       # A Δv of the zero start
+            iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
             failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         counters[C_CG_ITERS] += abs(iters)
         factor_state[F_LAST_ITERS] = abs(iters)

@@ -104,12 +104,13 @@ def _no_factor(n):
 @numba.njit(cache=True)
 def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, work, ssor=False):
     """`preconditioned_cg` with block Jacobi or, with `ssor`, symmetric block Gauss–Seidel."""
+    block_matvec(row_ptr, cols, blocks, x, work[3])
     return preconditioned_cg(row_ptr, cols, blocks, pinv, _no_factor(b.shape[0]), b, x, tol, atol, max_iter, work,
-                             1 if ssor else 0, False)
+                             1 if ssor else 0)
 
 
 @numba.njit(cache=True)
-def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind, warm_product):
+def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind):
     """
     Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
 
@@ -118,12 +119,10 @@ def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_it
     Gauss–Seidel (the diagonal block first in each row, columns ascending), or the block
     Cholesky factor `chol` (a `CholeskyFactor` of `iguana_ros.physics.cholesky`).
     With the factor at least one iteration is done (the warm start is not accepted as it is).
-    With `warm_product`, `work[3]` already holds A x of the warm start.
+    On entry `work[3]` holds A x of the warm start (the step computes it with its right-hand side, in one pass).
     Returns `(iterations, residual_norm, threshold)`; iterations = −k signals a breakdown (pᵀAp ≤ 0) at step k.
     """
     r, z, p, ap = work[0], work[1], work[2], work[3]
-    if not warm_product:
-        block_matvec(row_ptr, cols, blocks, x, ap)
     for i in range(b.shape[0]):
         for k in range(3):
             r[i, k] = b[i, k] - ap[i, k]
