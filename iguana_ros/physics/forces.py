@@ -250,34 +250,48 @@ def _add_block(blocks, p, k00, k01, k02, k10, k11, k12, k20, k21, k22):
 def spring_forces(x, springs, stiffness, desired_lengths, forces, blocks, spring_blocks, scale):
     """Add f = a (l_d − l) along each spring `(n_springs, 2)`; stiffness blocks with the compressive part clamped."""
     for s in range(springs.shape[0]):
-        i = springs[s, 0]
-        j = springs[s, 1]
-        d0 = x[j, 0] - x[i, 0]
-        d1 = x[j, 1] - x[i, 1]
-        d2 = x[j, 2] - x[i, 2]
-        length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        u0, u1, u2, length = _spring_pull(x, springs, stiffness, desired_lengths, forces, s)
         if length < 1e-12:
             continue
-        u0, u1, u2 = d0 / length, d1 / length, d2 / length
-        a = stiffness[s]
-        mag = a * (length - desired_lengths[s])       # tension > 0 pulls i toward j
-        forces[i, 0] += mag * u0
-        forces[i, 1] += mag * u1
-        forces[i, 2] += mag * u2
-        forces[j, 0] -= mag * u0
-        forces[j, 1] -= mag * u1
-        forces[j, 2] -= mag * u2
         if scale != 0.0:
             geo = max(0.0, 1.0 - desired_lengths[s] / length)   # clamp: keep the block positive semi-definite
-            _add_spring_stiffness(u0, u1, u2, scale * a, geo, blocks, spring_blocks, s)
+            _add_spring_stiffness(u0, u1, u2, scale * stiffness[s], geo, blocks, spring_blocks, s)
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _spring_pull(x, springs, stiffness, desired_lengths, forces, s):
+    """Add spring `s`'s force a (l − l_d) u to its ends; return its direction u and length (< 1e-12: no force)."""
+    i = springs[s, 0]
+    j = springs[s, 1]
+    d0 = x[j, 0] - x[i, 0]
+    d1 = x[j, 1] - x[i, 1]
+    d2 = x[j, 2] - x[i, 2]
+    length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if length < 1e-12:
+        return 0.0, 0.0, 0.0, length
+    u0, u1, u2 = d0 / length, d1 / length, d2 / length
+    mag = stiffness[s] * (length - desired_lengths[s])      # tension > 0 pulls i toward j
+    forces[i, 0] += mag * u0
+    forces[i, 1] += mag * u1
+    forces[i, 2] += mag * u2
+    forces[j, 0] -= mag * u0
+    forces[j, 1] -= mag * u1
+    forces[j, 2] -= mag * u2
+    return u0, u1, u2, length
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _spring_block(u0, u1, u2, a, geo):
+    """Entries (xx yy zz xy xz yz) of a spring's stiffness block a[u uᵀ + geo (I − u uᵀ)]."""
+    c = a * (1.0 - geo)
+    return (c * u0 * u0 + a * geo, c * u1 * u1 + a * geo, c * u2 * u2 + a * geo, c * u0 * u1, c * u0 * u2,
+            c * u1 * u2)
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
     """Add ±a[u uᵀ + geo (I − u uᵀ)] into spring `s`'s (ii, jj, ij) blocks (symmetric, so either triangle)."""
-    c = a * (1.0 - geo)
-    k00, k11, k22 = c * u0 * u0 + a * geo, c * u1 * u1 + a * geo, c * u2 * u2 + a * geo
-    k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
+    k00, k11, k22, k01, k02, k12 = _spring_block(u0, u1, u2, a, geo)
     _add_block(blocks, spring_blocks[s, 0], k00, k01, k02, k01, k11, k12, k02, k12, k22)
     _add_block(blocks, spring_blocks[s, 1], k00, k01, k02, k01, k11, k12, k02, k12, k22)
     _add_block(blocks, spring_blocks[s, 2], -k00, -k01, -k02, -k01, -k11, -k12, -k02, -k12, -k22)
@@ -295,32 +309,15 @@ def spring_forces_gathered(x, springs, stiffness, desired_lengths, forces, block
     (xx yy zz xy xz yz). Forces are added as `spring_forces` adds them.
     """
     for s in range(springs.shape[0]):
-        i = springs[s, 0]
-        j = springs[s, 1]
-        d0 = x[j, 0] - x[i, 0]
-        d1 = x[j, 1] - x[i, 1]
-        d2 = x[j, 2] - x[i, 2]
-        length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        u0, u1, u2, length = _spring_pull(x, springs, stiffness, desired_lengths, forces, s)
         if length < 1e-12:
             for c in range(6):
                 spring_k[s, c] = 0.0
             _set_block(blocks, spring_blocks[s, 2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
             continue
-        u0, u1, u2 = d0 / length, d1 / length, d2 / length
-        a = stiffness[s]
-        mag = a * (length - desired_lengths[s])
-        forces[i, 0] += mag * u0
-        forces[i, 1] += mag * u1
-        forces[i, 2] += mag * u2
-        forces[j, 0] -= mag * u0
-        forces[j, 1] -= mag * u1
-        forces[j, 2] -= mag * u2
         if scale != 0.0:
             geo = max(0.0, 1.0 - desired_lengths[s] / length)
-            ka = scale * a
-            c = ka * (1.0 - geo)
-            k00, k11, k22 = c * u0 * u0 + ka * geo, c * u1 * u1 + ka * geo, c * u2 * u2 + ka * geo
-            k01, k02, k12 = c * u0 * u1, c * u0 * u2, c * u1 * u2
+            k00, k11, k22, k01, k02, k12 = _spring_block(u0, u1, u2, scale * stiffness[s], geo)
             spring_k[s, 0], spring_k[s, 1], spring_k[s, 2] = k00, k11, k22
             spring_k[s, 3], spring_k[s, 4], spring_k[s, 5] = k01, k02, k12
             _set_block(blocks, spring_blocks[s, 2], -k00, -k11, -k22, -k01, -k02, -k12)
