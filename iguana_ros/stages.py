@@ -283,22 +283,19 @@ class StrideLookahead:
         future = self._pending.get(frame)
         return self._executor is None or (future is not None and future.done() and not future.cancelled())
 
-    def take(self, frame: int, clip: AlignedClip | None = None, start: int | None = None) -> ReferenceFrame:
+    def take(self, frame: int) -> ReferenceFrame:
         """
-        Return the reference frame of `frame`.
+        Return the reference frame of `frame` of the current stride (waiting for the worker if it is not done).
 
-        Of the current stride (waiting for the worker if it is not done), or of `clip` placed at `start` when given and
-        not the current stride (a late frame; computed on the worker too, so every adaptation call runs on one thread,
-        in the order asked).
+        A frame taken already, or not yet started, is computed on the worker too, so every adaptation call runs on one
+        thread, in the order asked.
         """
-        if clip is None or (clip is self._clip and start == self._start):
-            future = self._pending.pop(frame, None)
-            if future is not None:
-                return future.result()
-            clip, start = self._clip, self._start
+        future = self._pending.pop(frame, None)
+        if future is not None:
+            return future.result()
         if self._executor is None:
-            return self.compute(clip, frame - start)
-        return self._executor.submit(self.compute, clip, frame - start).result()
+            return self.compute(self._clip, frame - self._start)
+        return self._executor.submit(self.compute, self._clip, frame - self._start).result()
 
     def close(self) -> None:
         """Stop the worker thread (frames not yet computed are dropped)."""
