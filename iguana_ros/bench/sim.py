@@ -108,15 +108,15 @@ def profile_step(sim, repeats: int = 100) -> dict:
     Microseconds per call of each part of a step, on copies of the simulator's current state, and per step.
 
     The parts as this simulator runs them (the FEM force with or without its stiffness blocks, the springs'
-    blocks scattered or gathered) and the alternatives, a whole step, then `per_step_*`: each part times how often a
-    step runs it (the FEM every `elastic_every` steps, CG iterations and factorisations per step), `per_step_other`
-    the rest of the whole step (diagonal terms, right-hand side, update and checks). The parts are timed in turns,
-    so a drift of the machine's speed moves them alike.
+    blocks, or in a matrix-free step their force with the products K v and K Δv), a whole step, then `per_step_*`:
+    each part times how often a step runs it (the FEM every `elastic_every` steps, CG iterations, factorisations and
+    their matrix assembly per step), `per_step_other` the rest of the whole step (diagonal terms, right-hand side,
+    update and checks). The parts are timed in turns, so a drift of the machine's speed moves them alike.
     """
     from iguana_ros.physics import integrator as itg
     from iguana_ros.physics.assembly import block_matvec_pair
     from iguana_ros.physics.forces import (contact_forces, corotated_elastic_forces, spring_forces,
-                                           spring_forces_gathered)
+                                           spring_forces_operator)
 
     m = sim._model
     state = sim._state._replace(**{name: a.copy() for name, a in sim._state._asdict().items()})
@@ -136,18 +136,19 @@ def profile_step(sim, repeats: int = 100) -> dict:
                                                0.0),
         'spring_forces_and_stiffness': lambda: (blocks.fill(0.0), spring_forces(
             x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks, scale)),
-        'spring_forces_and_stiffness_gathered': lambda: spring_forces_gathered(
-            x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks, m.diag, m.node_spring_ptr,
-            m.node_springs, state.spring_k, scale),
+        'spring_forces_and_products': lambda: spring_forces_operator(
+            x, v, state.delta_v, m.springs, m.spring_stiffness, ld, forces, state.spring_coef, state.cg_work[0],
+            state.cg_work[1], scale),
         'contact_forces': lambda: contact_forces(
             x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0], grid[1], grid[2], fp[itg.FP_KN],
             fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors, state.contact_state, forces,
             state.contact_stiffness, state.contact_damping),
         'matvec_pair': lambda: block_matvec_pair(m.row_ptr, m.cols, sim._state.matrix_blocks, v, state.delta_v,
                                                  state.cg_work[0], state.cg_work[1]),
+        'assemble_matrix': lambda: itg.assemble_system_matrix(m, state),
     }
-    if not ip[itg.IP_SPRING_GATHER]:
-        del parts['spring_forces_and_stiffness_gathered']       # its blocks are not the matrix's alone
+    if not ip[itg.IP_MATRIX_FREE]:
+        del parts['spring_forces_and_products'], parts['assemble_matrix']   # the springs write their blocks
     parts.update(_solver_parts(sim, state))
     parts['step'] = _step_on_a_copy(sim)
     out = _time_parts_us(parts, repeats)
@@ -157,18 +158,22 @@ def profile_step(sim, repeats: int = 100) -> dict:
 
 
 def _solver_parts(sim, state) -> dict:
-    """Return calls of ten CG matrix-vector iterations and, with a Cholesky preconditioner, of its factor and solve."""
+    """Return calls of ten CG iterations as a step runs them and, with a Cholesky preconditioner, its factor, solve."""
     from iguana_ros.physics import integrator as itg
-    from iguana_ros.physics.solver import block_jacobi_pcg
 
     m, live = sim._model, sim._state
     solution = np.zeros_like(state.delta_v)
     pinv = state.diag_inv
+    if sim._ip[itg.IP_MATRIX_FREE]:
+        itg.assemble_system_matrix(m, live)
     itg.invert_diagonal(m.diag, live.matrix_blocks, pinv)
+    no_factor = sim._chol._replace(state=np.zeros(3, dtype=np.int64))
+    fp, ip = _ten_iterations(sim._fp, sim._ip)
 
-    def ten_cg_iterations():
+    def ten_cg_iterations():                         # block Jacobi on the step's matrix (or operator)
         solution[:] = 0.0
-        block_jacobi_pcg(m.row_ptr, m.cols, live.matrix_blocks, pinv, live.rhs, solution, 0.0, 0.0, 10, state.cg_work)
+        state.cg_work[3][:] = 0.0
+        itg.solve_system(m, state._replace(delta_v=solution, diag_inv=pinv, rhs=live.rhs), fp, ip, no_factor)
 
     parts = {'ten_cg_iterations': ten_cg_iterations}
     if sim.fidelity.preconditioner == 'cholesky':
@@ -179,6 +184,17 @@ def _solver_parts(sim, state) -> dict:
         parts['cholesky_factor'] = lambda: block_cholesky(chol.pattern, live.matrix_blocks, values, diag_inv)
         parts['cholesky_solve'] = lambda: cholesky_solve(chol.pattern, values, diag_inv, live.rhs, solution, work)
     return parts
+
+
+def _ten_iterations(fp: np.ndarray, ip: np.ndarray) -> tuple:
+    """Return copies of the parameters whose CG runs exactly ten block-Jacobi iterations (no tolerance)."""
+    from iguana_ros.physics import integrator as itg
+
+    fp, ip = fp.copy(), ip.copy()
+    fp[itg.FP_CG_TOL] = fp[itg.FP_CG_ATOL] = 0.0
+    ip[itg.IP_CG_MAX_ITER] = 10
+    ip[itg.IP_PRECONDITIONER] = 0
+    return fp, ip
 
 
 def _step_on_a_copy(sim):
@@ -222,12 +238,12 @@ def _per_step(sim, parts: dict) -> dict:
     elastic = (parts['elastic_forces_and_stiffness'] if ip[itg.IP_ELASTIC_IMPLICIT]
                else parts['elastic_forces'] / ip[itg.IP_ELASTIC_EVERY])
     per_step = {'per_step_elastic': elastic,
-                'per_step_springs': parts.get('spring_forces_and_stiffness_gathered',
-                                              parts['spring_forces_and_stiffness']),
+                'per_step_springs': parts.get('spring_forces_and_products', parts['spring_forces_and_stiffness']),
                 'per_step_contact': parts['contact_forces'] if sim.terrain is not None else 0.0,
-                'per_step_matvec_pair': parts['matvec_pair'],
+                'per_step_matvec_pair': 0.0 if ip[itg.IP_MATRIX_FREE] else parts['matvec_pair'],
                 'per_step_cg': parts['cg_iteration'] * stats['cg_iterations_per_step'],
-                'per_step_cholesky_factor': parts.get('cholesky_factor', 0.0) * stats['factorisations'] / steps}
+                'per_step_cholesky_factor': (parts.get('cholesky_factor', 0.0) + parts.get('assemble_matrix', 0.0))
+                * stats['factorisations'] / steps}
     per_step['per_step_other'] = parts['step'] - sum(per_step.values())
     return per_step
 

@@ -298,42 +298,104 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def spring_forces_gathered(x, springs, stiffness, desired_lengths, forces, blocks, spring_blocks, diag, node_ptr,
-                           node_springs, spring_k, scale):
+def spring_forces_operator(x, v, dv, springs, stiffness, desired_lengths, forces, coef, kv, kdv, scale):
     """
-    `spring_forces` where the springs alone make the matrix's blocks: each off-diagonal block is one spring's.
+    `spring_forces` for the matrix-free step: each spring's stiffness kept as K_s = c u uᵀ + g I and applied on the fly.
 
-    Writes (not adds) every stored block: spring s's off-diagonal block −scale·K_s directly, and each node's diagonal
-    block the sum of its springs' scale·K_s, gathered over `node_springs[node_ptr[i]:node_ptr[i + 1]]` in ascending
-    spring order (no read-modify-write chains, no zeroing). `spring_k (n_springs, 6)` is work space for the K_s
-    (xx yy zz xy xz yz). Forces are added as `spring_forces` adds them.
+    With `scale != 0` (a Jacobian refresh) writes `coef (n_springs, 5)` = (u, c, g) of scale · K_s, the block of
+    `spring_forces` (compressive part clamped); with 0 keeps the held ones. Adds the forces, and writes the springs'
+    stiffness products `kv` = K v and `kdv` = K dv `(n, 3)` (K = Σ_s K_s on (i, i), (j, j), −K_s on (i, j)).
     """
+    kv[:] = 0.0
+    kdv[:] = 0.0
     for s in range(springs.shape[0]):
         u0, u1, u2, length = _spring_pull(x, springs, stiffness, desired_lengths, forces, s)
-        if length < 1e-12:
-            for c in range(6):
-                spring_k[s, c] = 0.0
-            _set_block(blocks, spring_blocks[s, 2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-            continue
         if scale != 0.0:
-            geo = max(0.0, 1.0 - desired_lengths[s] / length)
-            k00, k11, k22, k01, k02, k12 = _spring_block(u0, u1, u2, scale * stiffness[s], geo)
-            spring_k[s, 0], spring_k[s, 1], spring_k[s, 2] = k00, k11, k22
-            spring_k[s, 3], spring_k[s, 4], spring_k[s, 5] = k01, k02, k12
-            _set_block(blocks, spring_blocks[s, 2], -k00, -k11, -k22, -k01, -k02, -k12)
-    if scale == 0.0:
-        return
+            if length < 1e-12:
+                c = g = 0.0
+            else:
+                a = scale * stiffness[s]
+                g = a * max(0.0, 1.0 - desired_lengths[s] / length)
+                c = a - g
+            coef[s, 0], coef[s, 1], coef[s, 2], coef[s, 3], coef[s, 4] = u0, u1, u2, c, g
+        _spring_product(springs, coef, s, v, kv)
+        _spring_product(springs, coef, s, dv, kdv)
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _spring_product(springs, coef, s, x, out):
+    """out_i += K_s (x_i − x_j), out_j −= the same, for spring `s` with `coef[s]` = (u, c, g): K_s = c u uᵀ + g I."""
+    i = springs[s, 0]
+    j = springs[s, 1]
+    u0, u1, u2, c, g = coef[s, 0], coef[s, 1], coef[s, 2], coef[s, 3], coef[s, 4]
+    w0 = x[i, 0] - x[j, 0]
+    w1 = x[i, 1] - x[j, 1]
+    w2 = x[i, 2] - x[j, 2]
+    p = c * (u0 * w0 + u1 * w1 + u2 * w2)
+    t0 = p * u0 + g * w0
+    t1 = p * u1 + g * w1
+    t2 = p * u2 + g * w2
+    out[i, 0] += t0
+    out[i, 1] += t1
+    out[i, 2] += t2
+    out[j, 0] -= t0
+    out[j, 1] -= t1
+    out[j, 2] -= t2
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def spring_operator_matvec(springs, coef, node_matrix, x, out):
+    """`out` = A x `(n, 3)` for A = blockdiag(`node_matrix (n, 3, 3)`) + the springs' K (`coef`, see above)."""
+    for i in range(x.shape[0]):
+        x0, x1, x2 = x[i, 0], x[i, 1], x[i, 2]
+        out[i, 0] = node_matrix[i, 0, 0] * x0 + node_matrix[i, 0, 1] * x1 + node_matrix[i, 0, 2] * x2
+        out[i, 1] = node_matrix[i, 1, 0] * x0 + node_matrix[i, 1, 1] * x1 + node_matrix[i, 1, 2] * x2
+        out[i, 2] = node_matrix[i, 2, 0] * x0 + node_matrix[i, 2, 1] * x1 + node_matrix[i, 2, 2] * x2
+    for s in range(springs.shape[0]):
+        _spring_product(springs, coef, s, x, out)
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def assemble_spring_matrix(coef, node_matrix, diag, spring_blocks, node_ptr, node_springs, blocks):
+    """
+    Write every block of A = blockdiag(`node_matrix`) + the springs' K where each off-diagonal block is one spring's.
+
+    Spring s's stored block −K_s, each node's diagonal block its `node_matrix` plus its springs' K_s, summed over
+    `node_springs[node_ptr[i]:node_ptr[i + 1]]` in ascending spring order (no read-modify-write chains, no zeroing).
+    """
+    for s in range(coef.shape[0]):
+        k00, k11, k22, k01, k02, k12 = _coef_block(coef, s)
+        _set_block(blocks, spring_blocks[s, 2], -k00, -k11, -k22, -k01, -k02, -k12)
     for n in range(diag.shape[0]):
         s00 = s11 = s22 = s01 = s02 = s12 = 0.0
         for q in range(node_ptr[n], node_ptr[n + 1]):
-            s = node_springs[q]
-            s00 += spring_k[s, 0]
-            s11 += spring_k[s, 1]
-            s22 += spring_k[s, 2]
-            s01 += spring_k[s, 3]
-            s02 += spring_k[s, 4]
-            s12 += spring_k[s, 5]
-        _set_block(blocks, diag[n], s00, s11, s22, s01, s02, s12)
+            k00, k11, k22, k01, k02, k12 = _coef_block(coef, node_springs[q])
+            s00 += k00
+            s11 += k11
+            s22 += k22
+            s01 += k01
+            s02 += k02
+            s12 += k12
+        d = diag[n]
+        for p in range(3):
+            for q in range(3):
+                blocks[d, p, q] = node_matrix[n, p, q]
+        blocks[d, 0, 0] += s00
+        blocks[d, 1, 1] += s11
+        blocks[d, 2, 2] += s22
+        blocks[d, 0, 1] += s01
+        blocks[d, 1, 0] += s01
+        blocks[d, 0, 2] += s02
+        blocks[d, 2, 0] += s02
+        blocks[d, 1, 2] += s12
+        blocks[d, 2, 1] += s12
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _coef_block(coef, s):
+    """Entries (xx yy zz xy xz yz) of K_s = c u uᵀ + g I from `coef[s]` = (u, c, g)."""
+    u0, u1, u2, c, g = coef[s, 0], coef[s, 1], coef[s, 2], coef[s, 3], coef[s, 4]
+    return c * u0 * u0 + g, c * u1 * u1 + g, c * u2 * u2 + g, c * u0 * u1, c * u0 * u2, c * u1 * u2
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)

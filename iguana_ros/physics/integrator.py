@@ -36,8 +36,9 @@ import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec_pair, invert_3x3
 from iguana_ros.physics.cholesky import block_cholesky
-from iguana_ros.physics.forces import (contact_forces, corotated_elastic_forces, spring_forces,
-                                       spring_forces_gathered)
+from iguana_ros.physics.forces import (assemble_spring_matrix, contact_forces, corotated_elastic_forces,
+                                       spring_forces, spring_forces_operator)
+from iguana_ros.physics.kernel_data import SpringOperator
 from iguana_ros.physics.solver import preconditioned_cg
 
 # indices of the float parameter vector `fp`
@@ -46,7 +47,7 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
 N_FP = 15
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
-    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_SPRING_GATHER = range(10)
+    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE = range(10)
 N_IP = 10
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS = range(6)
@@ -80,18 +81,18 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
         forces[i, 1] = m * (fp[FP_GY] - alpha * v[i, 1]) + external[i, 1]
         forces[i, 2] = m * (fp[FP_GZ] - alpha * v[i, 2]) + external[i, 2]
     scale = h * fp[FP_BETA] + h * h if refresh else 0.0
-    gather = ip[IP_SPRING_GATHER] != 0              # the springs write every block themselves
-    if refresh and not gather:
+    matrix_free = ip[IP_MATRIX_FREE] != 0            # the springs' stiffness applied on the fly, blocks on demand
+    if refresh and not matrix_free:
         blocks[:] = 0.0
     if ip[IP_ELASTIC_IMPLICIT]:
         corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
                                  state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
     else:
         _explicit_elastic_forces(model, state, ip, counters[C_STEP], forces)
-    if gather:
-        spring_forces_gathered(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks,
-                               model.spring_blocks, model.diag, model.node_spring_ptr, model.node_springs,
-                               state.spring_k, scale)
+    rhs, warm = state.rhs, state.cg_work[3]
+    if matrix_free:                                  # rhs ← K v, warm ← K Δv (the springs' part; diagonal below)
+        spring_forces_operator(x, v, state.delta_v, model.springs, model.spring_stiffness, desired_lengths, forces,
+                               state.spring_coef, rhs, warm, scale)
     else:
         spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
                       scale)
@@ -105,7 +106,11 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
             info[0] = deepest
             info[1] = depth
             return STATUS_PENETRATION, refresh
-    diag, in_a, rhs = model.diag, state.contact_in_matrix, state.rhs
+    if matrix_free:
+        _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, ip[IP_HAS_GROUND] != 0)
+        counters[C_REFRESHES] += refresh
+        return STATUS_OK, refresh
+    diag, in_a = model.diag, state.contact_in_matrix
     if refresh:
         _finish_matrix(mass, diag, blocks, dextra, diag_k, diag_c, in_a, h, alpha, ip[IP_HAS_GROUND] != 0)
         if ip[IP_PRECONDITIONER] != 2:               # the Cholesky path inverts only if its factor fails
@@ -114,12 +119,38 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     elif ip[IP_HAS_GROUND]:
         _update_contact_blocks(mass, diag, blocks, dextra, pinv, diag_k, diag_c, in_a, h, alpha)
     # rhs = A v ((A − dextra) v is the stiffness part) and, in the same pass, cg_work[3] = A Δv: the CG's warm start
-    block_matvec_pair(model.row_ptr, model.cols, blocks, v, state.delta_v, rhs, state.cg_work[3])
+    block_matvec_pair(model.row_ptr, model.cols, blocks, v, state.delta_v, rhs, warm)
     for i in range(n):
         for k in range(3):
             dv_k = dextra[i, k, 0] * v[i, 0] + dextra[i, k, 1] * v[i, 1] + dextra[i, k, 2] * v[i, 2]
             rhs[i, k] = h * forces[i, k] - (rhs[i, k] - dv_k)
     return STATUS_OK, refresh
+
+
+@numba.njit(cache=True)
+def _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, has_ground):
+    """
+    Finish a matrix-free step's system: `node_matrix` = M(1 + hα) + h C_c + h² K_c, rhs = h f − K v − h² K_c v.
+
+    and the warm start's product cg_work[3] = A Δv, from the springs' products `spring_forces_operator` left in
+    rhs (K v) and cg_work[3] (K Δv).
+    """
+    v, dv, forces, rhs = state.velocities, state.delta_v, state.forces, state.rhs
+    warm, node_matrix = state.cg_work[3], state.node_matrix
+    h2 = h * h
+    for i in range(mass.shape[0]):
+        m = mass[i] * (1.0 + h * alpha)
+        for p in range(3):
+            kv = 0.0
+            adv = 0.0
+            for q in range(3):
+                k = h2 * diag_k[i, p, q] if has_ground else 0.0
+                a = k + (h * diag_c[i, p, q] if has_ground else 0.0) + (m if p == q else 0.0)
+                node_matrix[i, p, q] = a
+                kv += k * v[i, q]
+                adv += a * dv[i, q]
+            rhs[i, p] = h * forces[i, p] - rhs[i, p] - kv
+            warm[i, p] += adv
 
 
 @numba.njit(cache=True)
@@ -232,10 +263,16 @@ def _factor_is_due(ip, counters, factor_state):
 
 
 @numba.njit(cache=True)
-def _refactor(blocks, counters, chol):
-    """Factorise the current system matrix into `chol`; counts it (and a failure, which leaves no factor)."""
+def _refactor(model, state, ip, counters, chol):
+    """
+    Factorise the current system matrix into `chol`; counts it (and a failure, which leaves no factor).
+
+    A matrix-free step assembles the matrix's blocks first.
+    """
+    if ip[IP_MATRIX_FREE]:
+        assemble_system_matrix(model, state)
     factor_state = chol.state
-    factor_state[F_VALID] = block_cholesky(chol.pattern, blocks, chol.values, chol.diag_inv)
+    factor_state[F_VALID] = block_cholesky(chol.pattern, state.matrix_blocks, chol.values, chol.diag_inv)
     factor_state[F_STEP] = counters[C_STEP]
     counters[C_FACTORS] += 1
     if not factor_state[F_VALID]:
@@ -243,18 +280,29 @@ def _refactor(blocks, counters, chol):
 
 
 @numba.njit(cache=True)
-def _solve(model, state, fp, ip, chol, kind):
+def assemble_system_matrix(model, state):
+    """Write the blocks of a matrix-free step's system matrix into `state.matrix_blocks` (for a factorisation)."""
+    assemble_spring_matrix(state.spring_coef, state.node_matrix, model.diag, model.spring_blocks,
+                           model.node_spring_ptr, model.node_springs, state.matrix_blocks)
+
+
+@numba.njit(cache=True)
+def solve_system(model, state, fp, ip, chol):
     """
     Preconditioned CG on the prepared system; returns (iterations (< 0: breakdown), residual, threshold).
 
-    `state.cg_work[3]` holds A Δv of the warm start (`prepare_step` computed it).
+    `state.cg_work[3]` holds A Δv of the warm start (`prepare_step` computed it). With no valid Cholesky factor
+    the preconditioner is block Jacobi.
     """
+    kind = ip[IP_PRECONDITIONER]
     step_kind = kind
     if kind == 2 and not chol.state[F_VALID]:       # no factor: block Jacobi
         step_kind = 0
         invert_diagonal(model.diag, state.matrix_blocks, state.diag_inv)
-    return preconditioned_cg(model.row_ptr, model.cols, state.matrix_blocks, state.diag_inv, chol, state.rhs,
-                             state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER], state.cg_work, step_kind)
+    operator = SpringOperator(model.springs, state.spring_coef, state.node_matrix, ip[IP_MATRIX_FREE])
+    return preconditioned_cg(model.row_ptr, model.cols, state.matrix_blocks, operator, state.diag_inv, chol,
+                             state.rhs, state.delta_v, fp[FP_CG_TOL], fp[FP_CG_ATOL], ip[IP_CG_MAX_ITER],
+                             state.cg_work, step_kind)
 
 
 @numba.njit(cache=True)
@@ -291,15 +339,15 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
         if status != STATUS_OK:
             return status, step
         if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
-            _refactor(state.matrix_blocks, counters, chol)
-        iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
+            _refactor(model, state, ip, counters, chol)
+        iters, res, threshold = solve_system(model, state, fp, ip, chol)
         failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:
             counters[C_CG_ITERS] += abs(iters)
-            _refactor(state.matrix_blocks, counters, chol)   # a stale factor: refactorise and solve again
+            _refactor(model, state, ip, counters, chol)   # a stale factor: refactorise and solve again
             state.delta_v[:] = 0.0
             state.cg_work[3][:] = 0.0                       # A Δv of the zero start
-            iters, res, threshold = _solve(model, state, fp, ip, chol, kind)
+            iters, res, threshold = solve_system(model, state, fp, ip, chol)
             failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         counters[C_CG_ITERS] += abs(iters)
         factor_state[F_LAST_ITERS] = abs(iters)

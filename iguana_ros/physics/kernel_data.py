@@ -66,7 +66,7 @@ class KernelModel(NamedTuple):
     tet_blocks: np.ndarray        # (n_tets, 16) int64, stored block of node pair (a, b) of a tet at 4 a + b
     spring_blocks: np.ndarray     # (n_springs, 3) int64, blocks (i, i), (j, j) and the stored (i, j)
     node_spring_ptr: np.ndarray   # (n + 1,) int64, CSR rows of the springs at each node ...
-    node_springs: np.ndarray      # (2 n_springs,) int64, ... ascending (forces.spring_forces_gathered)
+    node_springs: np.ndarray      # (2 n_springs,) int64, ... ascending (forces.assemble_spring_matrix)
     contact_mass: np.ndarray      # (n,) kg, node mass for the contact damping (light nodes get the mean)
     contact_offset: np.ndarray    # (n,) m, contact offset below each node (sole pads)
 
@@ -85,7 +85,8 @@ class KernelState(NamedTuple):
     diag_inv: np.ndarray           # (n, 3, 3), A_ii⁻¹ for the block Jacobi preconditioner
     forces: np.ndarray             # (n, 3) N
     elastic_forces: np.ndarray     # (n, 3) N, the FEM force of an explicit step, held for `elastic_every` steps
-    spring_k: np.ndarray           # (n_springs, 6), each spring's stiffness block (xx yy zz xy xz yz), gathered
+    spring_coef: np.ndarray        # (n_springs, 5), each spring's scaled stiffness K_s = c u uᵀ + g I as (u, c, g)
+    node_matrix: np.ndarray        # (n, 3, 3), M(1 + hα) + h C_c + h² K_c: A_ii without the springs (matrix-free)
     rhs: np.ndarray                # (n, 3), right-hand side of A Δv = b
     cg_work: np.ndarray            # (4, n, 3), CG vectors r, z, p, Ap
     contact_stiffness: np.ndarray  # (n, 3, 3) N/m, K_c per node
@@ -101,6 +102,19 @@ def empty_state(n_nodes: int, n_tets: int, n_blocks: int, n_springs: int) -> Ker
         element_rotations=np.zeros((n_tets, 4)), friction_anchors=np.zeros((n, 3)),
         contact_state=np.zeros(n, dtype=np.int64), matrix_blocks=np.zeros((n_blocks, 3, 3)),
         diag_mass_damping=np.zeros((n, 3, 3)), diag_inv=np.zeros((n, 3, 3)), forces=np.zeros((n, 3)),
-        elastic_forces=np.zeros((n, 3)), spring_k=np.zeros((n_springs, 6)),
+        elastic_forces=np.zeros((n, 3)), spring_coef=np.zeros((n_springs, 5)), node_matrix=np.zeros((n, 3, 3)),
         rhs=np.zeros((n, 3)), cg_work=np.zeros((4, n, 3)), contact_stiffness=np.zeros((n, 3, 3)),
         contact_damping=np.zeros((n, 3, 3)), contact_in_matrix=np.zeros((n, 3, 3)))
+
+
+class SpringOperator(NamedTuple):
+    """
+    The system matrix of a matrix-free step, A = blockdiag(node_matrix) + Σ_s K_s (`forces.spring_operator_matvec`).
+
+    `active` 0: the CG multiplies by the stored blocks instead (then the arrays may be empty).
+    """
+
+    springs: np.ndarray      # (n_springs, 2) int64
+    coef: np.ndarray         # (n_springs, 5), KernelState.spring_coef
+    node_matrix: np.ndarray  # (n, 3, 3), KernelState.node_matrix
+    active: int

@@ -32,7 +32,8 @@ from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.fidelity import EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity, MAX_ELASTIC_EVERY
+from iguana_ros.physics.fidelity import (EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity, HELD_ELASTIC_LIMIT,
+                                         MAX_ELASTIC_EVERY)
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
                                        shape_gradients, spring_forces)
 from iguana_ros.physics.kernel_data import empty_state, kernel_constant, kernel_input, KernelModel
@@ -232,10 +233,10 @@ class SoftBodySimulator:
                                  else not self.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT)
         ip[itg.IP_ELASTIC_IMPLICIT] = self.elastic_implicit
         self.elastic_every = 1 if self.elastic_implicit or self.elastic_ratio is None else int(np.clip(
-            np.floor(np.sqrt(EXPLICIT_ELASTIC_LIMIT / max(self.elastic_ratio, 1e-300)) + 1e-9), 1, MAX_ELASTIC_EVERY))
+            np.floor(np.sqrt(HELD_ELASTIC_LIMIT / max(self.elastic_ratio, 1e-300)) + 1e-9), 1, MAX_ELASTIC_EVERY))
         ip[itg.IP_ELASTIC_EVERY] = self.elastic_every
-        ip[itg.IP_SPRING_GATHER] = (not self.elastic_implicit
-                                    and self.pattern.n_blocks == len(self.rest_positions) + len(self._model.springs))
+        ip[itg.IP_MATRIX_FREE] = (not self.elastic_implicit and fid.solver == 'cg' and fid.preconditioner == 'cholesky'
+                                  and self.pattern.n_blocks == len(self.rest_positions) + len(self._model.springs))
         self._fp, self._ip = fp, ip
 
     def _build_state(self) -> None:
@@ -385,6 +386,8 @@ class SoftBodySimulator:
             done_total += done
             if status != itg.STATUS_SOLVER or self._fallback is None:
                 return status, done_total
+            if self._ip[itg.IP_MATRIX_FREE]:
+                itg.assemble_system_matrix(self._model, self._state)
             try:                                     # the failed step is prepared: matrix and rhs are current
                 self._fallback.factorize(self._state.matrix_blocks)
             except RuntimeError:

@@ -24,6 +24,8 @@ import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec, BlockPattern
 from iguana_ros.physics.cholesky import cholesky_solve, CholeskyArrays, CholeskyFactor
+from iguana_ros.physics.forces import spring_operator_matvec
+from iguana_ros.physics.kernel_data import SpringOperator
 
 PRECONDITIONER_CODES = {'jacobi': 0, 'ssor': 1, 'cholesky': 2}
 """Integer codes of the CG preconditioners in the compiled kernels."""
@@ -102,19 +104,35 @@ def _no_factor(n):
 
 
 @numba.njit(cache=True)
-def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, work, ssor=False):
-    """`preconditioned_cg` with block Jacobi or, with `ssor`, symmetric block Gauss–Seidel."""
-    block_matvec(row_ptr, cols, blocks, x, work[3])
-    return preconditioned_cg(row_ptr, cols, blocks, pinv, _no_factor(b.shape[0]), b, x, tol, atol, max_iter, work,
-                             1 if ssor else 0)
+def _no_operator():
+    """Return an inactive SpringOperator: the CG multiplies by the stored blocks."""
+    return SpringOperator(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 5)), np.zeros((0, 3, 3)), 0)
 
 
 @numba.njit(cache=True)
-def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_iter, work, kind):
+def block_jacobi_pcg(row_ptr, cols, blocks, pinv, b, x, tol, atol, max_iter, work, ssor=False):
+    """`preconditioned_cg` on the stored blocks with block Jacobi or, with `ssor`, symmetric block Gauss–Seidel."""
+    block_matvec(row_ptr, cols, blocks, x, work[3])
+    return preconditioned_cg(row_ptr, cols, blocks, _no_operator(), pinv, _no_factor(b.shape[0]), b, x, tol, atol,
+                             max_iter, work, 1 if ssor else 0)
+
+
+@numba.njit(cache=True)
+def _matvec(row_ptr, cols, blocks, operator, x, out):
+    """`out` = A x: by the SpringOperator when it is active, else by the stored upper-triangle blocks."""
+    if operator.active:
+        spring_operator_matvec(operator.springs, operator.coef, operator.node_matrix, x, out)
+    else:
+        block_matvec(row_ptr, cols, blocks, x, out)
+
+
+@numba.njit(cache=True)
+def preconditioned_cg(row_ptr, cols, blocks, operator, pinv, chol, b, x, tol, atol, max_iter, work, kind):
     """
     Solve A x = b (`x` holds the warm start, `(n, 3)`) to ‖r‖ ≤ max(tol ‖b‖, atol); `work (4, n, 3)`.
 
-    A is stored as its upper block triangle (`iguana_ros.physics.assembly`). Preconditioner `kind`
+    A is stored as its upper block triangle (`iguana_ros.physics.assembly`), or given as an active `operator` (a
+    `kernel_data.SpringOperator`; the blocks then serve the preconditioners only). Preconditioner `kind`
     (PRECONDITIONER_CODES): inverted diagonal blocks `pinv (n, 3, 3)` (block Jacobi), symmetric block
     Gauss–Seidel (the diagonal block first in each row, columns ascending), or the block
     Cholesky factor `chol` (a `CholeskyFactor` of `iguana_ros.physics.cholesky`).
@@ -134,7 +152,7 @@ def preconditioned_cg(row_ptr, cols, blocks, pinv, chol, b, x, tol, atol, max_it
     p[:] = z
     rz = _dot(r, z)
     for it in range(1, max_iter + 1):
-        block_matvec(row_ptr, cols, blocks, p, ap)
+        _matvec(row_ptr, cols, blocks, operator, p, ap)
         pap = _dot(p, ap)
         if not pap > 0.0:
             return -it, rnorm, threshold
