@@ -30,7 +30,7 @@ from iguana_ros.bag.qos import profile_to_dict, request_profile
 from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
-from iguana_ros.ros.endpoints import message_class, RECORDER_NODE_NAME
+from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, tool_node
 from iguana_ros.topics import default_topics
 
 DISCOVERY_PERIOD_S = 0.5
@@ -85,8 +85,7 @@ class Recorder:
         type_hash = str(getattr(endpoints[0], 'topic_type_hash', '') or '')
         channel = self.writer.add_topic(name, type_name, schema, qos_yaml, type_hash)
         qos = request_profile(offered)
-        self.node.create_subscription(
-            cls, name, lambda data, info, ch=channel: self._on_message(ch, data, info), qos, raw=True)
+        listener(self.node, cls, name, lambda data, info, ch=channel: self._on_message(ch, data, info), qos, raw=True)
         self.subscriptions[name] = channel
         self.log(f'subscribed {name} [{type_name}] {qos.reliability.name.lower()}/'
                  f'{qos.durability.name.lower()}')
@@ -121,7 +120,7 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
-        node = rclpy.create_node(RECORDER_NODE_NAME, context=context)
+        node = tool_node(RECORDER_NODE_NAME, context)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))

@@ -150,11 +150,11 @@ def profile_step(sim, repeats: int = 100) -> dict:
     if not ip[itg.IP_MATRIX_FREE]:
         del parts['spring_forces_and_products'], parts['assemble_matrix']   # the springs write their blocks
     parts.update(_solver_parts(sim, state))
-    parts['step'] = _step_on_a_copy(sim)
+    parts['step'], counters = _step_on_a_copy(sim)
     out = _time_parts_us(parts, repeats)
     out['cg_iteration'] = out.pop('ten_cg_iterations') / 10.0 + out.get('cholesky_solve', 0.0)
     out['step'] /= sim.steps_per_frame
-    return {**out, **_per_step(sim, out)}
+    return {**out, **_per_step(sim, out, counters)}
 
 
 def _solver_parts(sim, state) -> dict:
@@ -198,7 +198,11 @@ def _ten_iterations(fp: np.ndarray, ip: np.ndarray) -> tuple:
 
 
 def _step_on_a_copy(sim):
-    """Return a call that advances a copy of the simulator's state by one frame of steps (its lengths held)."""
+    """
+    Return a call that advances a copy of the simulator's state by one frame of steps (its lengths held).
+
+    and the copy's counters (integrator.C_*), which count what those steps did.
+    """
     from iguana_ros.physics import integrator as itg
 
     state = sim._state._replace(**{name: a.copy() for name, a in sim._state._asdict().items()})
@@ -211,7 +215,7 @@ def _step_on_a_copy(sim):
     def frame():
         itg.run_steps_cg(sim._model, state, sim._fp, sim._ip, counters, lengths, lengths, work, external,
                          sim.steps_per_frame, info, chol, 0, 0)
-    return frame
+    return frame, counters
 
 
 def _time_parts_us(parts: dict, repeats: int) -> dict:
@@ -229,21 +233,27 @@ def _time_parts_us(parts: dict, repeats: int) -> dict:
     return {name: float(np.median(times)) for name, times in rounds.items()}
 
 
-def _per_step(sim, parts: dict) -> dict:
-    """`per_step_*` microseconds: each part as often as this simulator runs it in a step (see `profile_step`)."""
+def _per_step(sim, parts: dict, counters: np.ndarray) -> dict:
+    """
+    `per_step_*` microseconds: each part as often as the timed steps ran it (see `profile_step`).
+
+    CG iterations and factorisations per step counted by `counters` over the steps of the whole-step timing.
+    """
     from iguana_ros.physics import integrator as itg
 
-    ip, stats = sim._ip, sim.stats
-    steps = max(stats['steps'], 1)
+    ip = sim._ip
+    steps = max(int(counters[itg.C_STEP] - sim._counters[itg.C_STEP]), 1)
+    iterations = (counters[itg.C_CG_ITERS] - sim._counters[itg.C_CG_ITERS]) / steps
+    factorisations = (counters[itg.C_FACTORS] - sim._counters[itg.C_FACTORS]) / steps
     elastic = (parts['elastic_forces_and_stiffness'] if ip[itg.IP_ELASTIC_IMPLICIT]
                else parts['elastic_forces'] / ip[itg.IP_ELASTIC_EVERY])
     per_step = {'per_step_elastic': elastic,
                 'per_step_springs': parts.get('spring_forces_and_products', parts['spring_forces_and_stiffness']),
                 'per_step_contact': parts['contact_forces'] if sim.terrain is not None else 0.0,
                 'per_step_matvec_pair': 0.0 if ip[itg.IP_MATRIX_FREE] else parts['matvec_pair'],
-                'per_step_cg': parts['cg_iteration'] * stats['cg_iterations_per_step'],
+                'per_step_cg': parts['cg_iteration'] * iterations,
                 'per_step_cholesky_factor': (parts.get('cholesky_factor', 0.0) + parts.get('assemble_matrix', 0.0))
-                * stats['factorisations'] / steps}
+                * factorisations}
     per_step['per_step_other'] = parts['step'] - sum(per_step.values())
     return per_step
 

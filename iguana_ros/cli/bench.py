@@ -181,7 +181,8 @@ def run_stability(args) -> int:
         elif r['outcome'] == 'stable':
             print(f"{r['scenario']:40s} stable    max speed {r['max_speed']:6.2f} m/s, end depth "
                   f"{1e3 * r['final_max_depth']:5.1f} mm, inverted tets {r['inverted_tets_at_start']}"
-                  f" -> {r['inverted_tets_at_end']}", flush=True)
+                  f" -> {r['inverted_tets_at_end']} ({r['inverted_tets_persisting']} all through the last 0.2 s)",
+                  flush=True)
         else:
             print(f"{r['scenario']:40s} DIVERGED  ({r['cause']}) {r['message']}", flush=True)
 

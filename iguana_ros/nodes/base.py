@@ -28,7 +28,7 @@ from rclpy.node import Node
 from iguana_ros.errors import IguanaError
 from iguana_ros.parameters import node_parameters, ParamSpec
 from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
-from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.scene import load_scene, Scene
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
@@ -106,7 +106,7 @@ class IguanaNode(Node):
     def publisher(self, key: str):
         """Return publisher for topic `key` of the topic table."""
         name, cls, qos = resolve(key)
-        return self.create_publisher(cls, name, qos)
+        return talker(self, cls, name, qos)
 
     def subscription(self, key: str, callback: Callable, raw: bool = False, depth: int | None = None):
         """
@@ -118,7 +118,7 @@ class IguanaNode(Node):
         name, cls, qos = resolve(key)
         if depth is not None:
             qos.depth = max(qos.depth, depth)
-        return self.create_subscription(cls, name, callback, qos, raw=raw)
+        return listener(self, cls, name, callback, qos, raw=raw)
 
     def guarded(self, what: str, callback: Callable) -> Callable:
         """Wrap a callback so bad input is logged and rejected instead of killing the node."""

@@ -26,7 +26,7 @@ from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.progress import EVENT_CLIP
-from iguana_ros.ros.messages import clip_to_cdr, goal_from_msg, reference_stance_to_msg, state_from_msg
+from iguana_ros.ros.messages import clip_to_cdr, goal_from_msg, reference_stance_to_msg, state_from_cdr
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
 
@@ -51,7 +51,7 @@ class PlannerNode(IguanaNode):
         self.clip_pub = self.publisher('motion_clip')
         self.stance_pub = self.publisher('reference_stance')
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
-        self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
+        self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
         self.accepted_pub = self.publisher('accepted_goals')
         self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
@@ -79,7 +79,7 @@ class PlannerNode(IguanaNode):
 
     def on_state(self, msg) -> None:
         """At a stride end, publish the next clip aligned to the body's root; then the frame's stance flags."""
-        frame, root, orientation = state_from_msg(msg, self.bound)
+        frame, root, orientation = state_from_cdr(msg, self.bound)
         if not self.state_gate.admit(frame):
             return
         if self.goals_received < self.param('wait_for_goals'):

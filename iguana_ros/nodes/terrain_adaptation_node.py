@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
-from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_msg
+from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_cdr
 from iguana_ros.stages import adaptation_stage, StrideLookahead
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
@@ -55,7 +55,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)
-        self.subscription('iguana_state', self.guarded('iguana_state', self.on_state))
+        self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
         self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
 
     def on_clip(self, data: bytes) -> None:
@@ -72,7 +72,7 @@ class TerrainAdaptationNode(IguanaNode):
 
     def on_state(self, msg) -> None:
         """Let the poses up to `lookahead_frames` past this frame go out; re-send the pose of a repeated frame."""
-        frame, _root, _orientation = state_from_msg(msg, self.bound)
+        frame, _root, _orientation = state_from_cdr(msg, self.bound)
         if self.state_gate.admit(frame):
             self.state_gate.handled(frame)
             self.publish_ready()

@@ -180,10 +180,17 @@ def _rotated_stress(r, f, two_mu, lam, vol):
 
 @numba.njit(cache=True, fastmath=FASTMATH)
 def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters, forces, blocks, tet_blocks, scale):
-    """Add corotated linear FEM forces of `tets (n_tets, 4)` at `x (n, 3)`; update `quats (n_tets, 4)`; stiffness."""
+    """
+    Add corotated linear FEM forces of `tets (n_tets, 4)` at `x (n, 3)`; update `quats (n_tets, 4)`; stiffness.
+
+    Returns how many tets are inverted or flat (det F <= 0).
+    """
     rg = np.empty((4, 3))
+    inverted = 0
     for t in range(tets.shape[0]):
         f = _deformation_gradient(x, tets, grads, t)
+        if _det3(f) <= 0.0:
+            inverted += 1
         q = _extract_quaternion(f, quats, t, polar_iters)
         r = _quat_rotation(q[0], q[1], q[2], q[3])
         vol = volume[t]
@@ -201,6 +208,14 @@ def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters
                 rg[a, 1] = r[3] * g0 + r[4] * g1 + r[5] * g2
                 rg[a, 2] = r[6] * g0 + r[7] * g1 + r[8] * g2
             _add_tet_stiffness(rg, vol * scale * mu[t], vol * scale * lam[t], blocks, tet_blocks, tets, t)
+    return inverted
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _det3(f):
+    """Return the determinant of the row-major 3×3 9-tuple `f`."""
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = f
+    return f00 * (f11 * f22 - f12 * f21) - f01 * (f10 * f22 - f12 * f20) + f02 * (f10 * f21 - f11 * f20)
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)

@@ -50,8 +50,8 @@ IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIO
     IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE = range(10)
 N_IP = 10
 # indices of the counter vector `counters`
-C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS = range(6)
-N_COUNTERS = 6
+C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS, C_INVERTED = range(7)
+N_COUNTERS = 7
 
 STATUS_OK = 0
 STATUS_NAN = 1
@@ -88,7 +88,7 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
         corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
                                  state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
     else:
-        _explicit_elastic_forces(model, state, ip, counters[C_STEP], forces)
+        _explicit_elastic_forces(model, state, ip, counters, forces)
     rhs, warm = state.rhs, state.cg_work[3]
     if matrix_free:                                  # rhs ← K v, warm ← K Δv (the springs' part; diagonal below)
         spring_forces_operator(x, v, state.delta_v, model.springs, model.spring_stiffness, desired_lengths, forces,
@@ -154,18 +154,20 @@ def _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, has_ground):
 
 
 @numba.njit(cache=True)
-def _explicit_elastic_forces(model, state, ip, step, forces):
+def _explicit_elastic_forces(model, state, ip, counters, forces):
     """
     Add the FEM force evaluated explicitly: anew every `elastic_every` steps (at the step's start), held in between.
 
-    `state.elastic_forces (n, 3)` keeps it; no stiffness blocks are assembled.
+    `state.elastic_forces (n, 3)` keeps it; no stiffness blocks are assembled. While any tet is inverted or flat
+    (`counters[C_INVERTED]`, from the last evaluation) the force is evaluated every step: holding is for the small
+    strains the springs carry, an inverted element recovers through its FEM force alone.
     """
     held = state.elastic_forces
-    if step % ip[IP_ELASTIC_EVERY] == 0:
+    if counters[C_STEP] % ip[IP_ELASTIC_EVERY] == 0 or counters[C_INVERTED] > 0:
         held[:] = 0.0
-        corotated_elastic_forces(state.positions, model.tets, model.shape_gradients, model.volume, model.mu,
-                                 model.lam, state.element_rotations, ip[IP_POLAR_ITERS], held, state.matrix_blocks,
-                                 model.tet_blocks, 0.0)
+        counters[C_INVERTED] = corotated_elastic_forces(
+            state.positions, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
+            state.element_rotations, ip[IP_POLAR_ITERS], held, state.matrix_blocks, model.tet_blocks, 0.0)
     for i in range(forces.shape[0]):
         forces[i, 0] += held[i, 0]
         forces[i, 1] += held[i, 1]

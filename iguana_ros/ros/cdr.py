@@ -72,6 +72,9 @@ visualization_msgs/MeshFile (filename, data)."""
 
 
 POSE_ARRAY = (('stamp', 'iI'), ('frame_id', STRING), ('poses', Sequence('<f8', 7)))
+ODOMETRY = (('stamp', 'iI'), ('frame_id', STRING), ('child_frame_id', STRING), ('pose', '7d'),
+            ('pose_covariance', '36d'), ('twist', '6d'), ('twist_covariance', '36d'))
+"""nav_msgs/Odometry: header, child frame, pose (position, xyzw) and twist (linear, angular) with covariances."""
 """geometry_msgs/msg/PoseArray in wire order: each pose is position xyz then orientation xyzw."""
 
 
@@ -276,6 +279,20 @@ def pose_array_from_cdr(data: bytes, what: str = 'PoseArray') -> tuple:
         raise InputError(f'{what}: message is truncated or not a PoseArray: {exc}') from exc
     poses = np.array(fields['poses'], dtype=np.float64)
     return fields['stamp'], fields['frame_id'], poses[:, :3], poses[:, 3:]
+
+
+def odometry_from_cdr(data: bytes, what: str = 'Odometry') -> tuple:
+    """
+    (stamp (sec, nanosec), frame_id, pose `(7,)` position + xyzw, twist `(6,)` linear + angular) of Odometry bytes.
+
+    InputError if they are not one.
+    """
+    reader = CdrReader(data, f'{what}: message')
+    try:
+        fields = reader.read(ODOMETRY)
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'{what}: message is truncated or not an Odometry: {exc}') from exc
+    return fields['stamp'], fields['frame_id'], np.array(fields['pose']), np.array(fields['twist'])
 
 
 def header_stamp_ns(data: bytes) -> int:

@@ -24,8 +24,8 @@ from iguana_ros.constants import FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
-from iguana_ros.ros.cdr import (multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, pose_array_cdr,
-                                pose_array_from_cdr, Trajectory)
+from iguana_ros.ros.cdr import (multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, odometry_from_cdr,
+                                pose_array_cdr, pose_array_from_cdr, Trajectory)
 from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
                                         pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
@@ -145,7 +145,7 @@ def reference_pose_from_cdr(data: bytes, n_bones: int, skeleton=None, bound: flo
                             ) -> tuple[int, np.ndarray, np.ndarray]:
     """`reference_pose_from_msg` of a serialized reference_pose message (read with numpy, checked the same way)."""
     (sec, nsec), frame_id, positions, rotations = pose_array_from_cdr(data, 'reference_pose')
-    return _checked_reference_pose(frame_id, int(round((sec + nsec * 1e-9) * FRAME_RATE)), positions, rotations,
+    return _checked_reference_pose(frame_id, _cdr_stamp_frame(sec, nsec), positions, rotations,
                                    n_bones, skeleton, bound)
 
 
@@ -192,11 +192,29 @@ def state_from_msg(msg, bound: float = math.inf) -> tuple[int, np.ndarray, np.nd
 
     InputError if non-finite (pose or twist), not a unit orientation, or beyond `bound` m.
     """
-    check_frame_id('iguana_state', msg.header.frame_id)
     position, orientation, linear, angular = odometry_to_numpy(msg)
+    return _checked_state(msg.header.frame_id, stamp_frame(msg.header.stamp), position, orientation,
+                          np.concatenate([linear, angular]), bound)
+
+
+def state_from_cdr(data: bytes, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
+    """`state_from_msg` of a serialized iguana_state message (read with numpy, checked the same way)."""
+    (sec, nsec), frame_id, pose, twist = odometry_from_cdr(data, 'iguana_state')
+    return _checked_state(frame_id, _cdr_stamp_frame(sec, nsec), pose[:3], pose[3:], twist, bound)
+
+
+def _cdr_stamp_frame(sec: int, nsec: int) -> int:
+    """Frame index of a serialized stamp (sec, nanosec), as `stamp_frame` of a Time."""
+    return int(round((sec + nsec * 1e-9) * FRAME_RATE))
+
+
+def _checked_state(frame_id: str, frame: int, position: np.ndarray, orientation: np.ndarray, twist: np.ndarray,
+                   bound: float) -> tuple[int, np.ndarray, np.ndarray]:
+    """(frame, position, orientation) of an iguana_state's fields, or InputError (see `state_from_msg`)."""
+    check_frame_id('iguana_state', frame_id)
     position, orientation = check_root_pose('iguana_state', position, orientation, bound)
-    validate_array('iguana_state twist', np.concatenate([linear, angular]), (6,))
-    return stamp_frame(msg.header.stamp), position, orientation
+    validate_array('iguana_state twist', twist, (6,))
+    return frame, position, orientation
 
 
 def goal_from_msg(msg, half_extent: float) -> tuple[np.ndarray, float]:

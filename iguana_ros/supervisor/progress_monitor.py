@@ -33,8 +33,8 @@ from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.errors import IguanaError
 from iguana_ros.progress import active_goal, EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus, StartupClock
 from iguana_ros.ros.conversions import time_from_msg
-from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, resolve
-from iguana_ros.ros.messages import state_from_msg
+from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, resolve, tool_node
+from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.ros.run_events import run_event_from_msg
 
 MAX_TAKES = 500
@@ -59,11 +59,11 @@ class RunMonitor:
         self.taken = 0
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node(MONITOR_NODE_NAME, context=self.context)
-        for key, callback in (('run_events', self._on_event), ('iguana_state', self._on_state),
-                              ('accepted_goals', self._on_goals)):
+        self.node = tool_node(MONITOR_NODE_NAME, self.context)
+        for key, callback, raw in (('run_events', self._on_event, False), ('iguana_state', self._on_state, True),
+                                   ('accepted_goals', self._on_goals, False)):
             name, cls, qos = resolve(key)
-            self.node.create_subscription(cls, name, callback, qos)
+            listener(self.node, cls, name, callback, qos, raw=raw)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
 
@@ -88,7 +88,7 @@ class RunMonitor:
         """Handle the simulator's state of a frame: its publication time (frames 0 and 1) and the root."""
         self.taken += 1
         try:
-            frame, root, _ = state_from_msg(msg)
+            frame, root, _ = state_from_cdr(msg)
         except IguanaError:
             return
         self.heard += 1

@@ -225,3 +225,26 @@ def test_reference_pose_bytes_and_reading_match_the_message_path(rng, placed_cli
         reference_pose_from_cdr(serialize_message(bent), skeleton.n_bones, skeleton)      # bone lengths do not fit
     with pytest.raises(InputError, match='truncated or not a PoseArray'):
         reference_pose_from_cdr(data[:-9], skeleton.n_bones, skeleton)
+
+
+def test_iguana_state_reading_matches_the_message_path(rng):
+    """`state_from_cdr` reads what rclpy serializes as `state_from_msg` reads the message, with the same checks."""
+    from iguana_ros.ros.messages import state_from_cdr, state_from_msg, state_to_msg
+    quat = rng.normal(size=4)
+    message = state_to_msg(np.array([1.0, -2.0, 0.3]), quat / np.linalg.norm(quat), rng.normal(size=3),
+                           rng.normal(size=3), 123)
+    message.pose.covariance[7] = 0.5                  # covariances are skipped, whatever they hold
+    read, expected = state_from_cdr(serialize_message(message), 15.0), state_from_msg(message, 15.0)
+    assert read[0] == expected[0] == 123
+    assert np.array_equal(read[1], expected[1]) and np.array_equal(read[2], expected[2])
+    far = state_to_msg(np.array([20.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 1)
+    with pytest.raises(InputError, match='iguana_state'):
+        state_from_cdr(serialize_message(far), 15.0)
+    spinning = state_to_msg(np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 1)
+    spinning.twist.twist.angular.y = float('nan')
+    with pytest.raises(InputError, match='iguana_state twist'):
+        state_from_cdr(serialize_message(spinning))
+    data = serialize_message(message)
+    for cut in (3, 30, len(data) // 2, len(data) - 8):
+        with pytest.raises(InputError, match='truncated or not an Odometry|not little-endian CDR'):
+            state_from_cdr(data[:cut])

@@ -57,7 +57,7 @@ def test_go_to_is_adopted_and_reached(running):
     run, iguana = running
     start = iguana.state(timeout=90.0)
     assert np.all(np.isfinite(start.position)) and start.time >= 0.0
-    goal = start.position[:2] + [0.4, 0.0]
+    goal = start.position[:2] + [0.8, 0.0]      # far enough that the walk is not over once go_to returns
     iguana.go_to(*goal, yaw=0.0, timeout=30.0)
     assert iguana.distance_to_goal() > iguana.goal_radius
     assert iguana.wait_until_reached(timeout=90.0), (iguana.distance_to_goal(), run.output[-2000:])
