@@ -22,7 +22,6 @@ import sys
 import time
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
@@ -31,6 +30,7 @@ from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
 from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, tool_node
+from iguana_ros.ros.wait_loop import ListenerLoop
 from iguana_ros.topics import default_topics
 
 DISCOVERY_PERIOD_S = 0.5
@@ -121,16 +121,20 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = tool_node(RECORDER_NODE_NAME, context)
-        executor = SingleThreadedExecutor(context=context)
-        executor.add_node(node)
+        loop = ListenerLoop(node)
         recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))
-        node.create_timer(DISCOVERY_PERIOD_S, recorder.poll_discovery)
-        node.create_timer(min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)
         print(f'recording to {writer.path}', flush=True)
-        recorder.poll_discovery()
+        chores = [(DISCOVERY_PERIOD_S, recorder.poll_discovery), (min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)]
+        due = [time.monotonic()] * len(chores)
         deadline = None if duration_s is None else time.monotonic() + duration_s
         while not stop[0] and (deadline is None or time.monotonic() < deadline):
-            executor.spin_once(timeout_sec=0.1)
+            now = time.monotonic()
+            for i, (period, chore) in enumerate(chores):
+                if now >= due[i]:
+                    chore()
+                    due[i] = now + period
+            loop.spin_once(min(0.1, max(0.0, min(due) - time.monotonic())))
+        loop.close()
         return recorder.received
     finally:
         writer.close()

@@ -36,6 +36,7 @@ from iguana_ros.ros.conversions import time_from_msg
 from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, resolve, tool_node
 from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.ros.run_events import run_event_from_msg
+from iguana_ros.ros.wait_loop import ListenerLoop
 
 MAX_TAKES = 500
 """Most messages one `poll` takes in (a burst after a stall is drained over a few polls)."""
@@ -47,7 +48,6 @@ class RunMonitor:
     def __init__(self, nodes: tuple, planned_s: float, display: ProgressDisplay | None = None) -> None:
         """Join the graph and subscribe; nothing is shown until `launched()`."""
         import rclpy
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
 
         self.clock = StartupClock(tuple(nodes))
@@ -56,7 +56,6 @@ class RunMonitor:
         self.frame, self.root, self.clip = -1, None, ''
         self.goals: list[tuple] = []
         self.heard = 0
-        self.taken = 0
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self.node = tool_node(MONITOR_NODE_NAME, self.context)
@@ -64,8 +63,7 @@ class RunMonitor:
                                    ('accepted_goals', self._on_goals, False)):
             name, cls, qos = resolve(key)
             listener(self.node, cls, name, callback, qos, raw=raw)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
+        self.loop = ListenerLoop(self.node)
 
     def launched(self) -> None:
         """Note that the supervisor starts the run's processes now."""
@@ -74,7 +72,6 @@ class RunMonitor:
 
     def _on_event(self, msg) -> None:
         """Handle a node's run event: a start-up milestone or the planner's new clip."""
-        self.taken += 1
         try:
             event = run_event_from_msg(msg)
         except IguanaError:
@@ -86,7 +83,6 @@ class RunMonitor:
 
     def _on_state(self, msg, info) -> None:
         """Handle the simulator's state of a frame: its publication time (frames 0 and 1) and the root."""
-        self.taken += 1
         try:
             frame, root, _ = state_from_cdr(msg)
         except IguanaError:
@@ -99,7 +95,6 @@ class RunMonitor:
 
     def _on_goals(self, msg) -> None:
         """Handle the planner's accepted goals, in order: (x, y, adoption time s)."""
-        self.taken += 1
         self.goals = [(p.pose.position.x, p.pose.position.y, time_from_msg(p.header.stamp)) for p in msg.poses]
 
     def status(self) -> RunStatus:
@@ -111,12 +106,10 @@ class RunMonitor:
 
     def poll(self, timeout: float = 0.0) -> None:
         """Take in what has arrived (waiting up to `timeout` s for the first message) and update the display."""
-        self.executor.spin_once(timeout_sec=timeout)
-        for _ in range(MAX_TAKES):             # everything already queued, without waiting
-            before = self.taken
-            self.executor.spin_once(timeout_sec=0.0)
-            if self.taken == before:
-                break
+        taken = self.loop.spin_once(timeout)
+        while 0 < taken < MAX_TAKES:           # what came in meanwhile, without waiting (a burst over a few polls)
+            more = self.loop.spin_once(0.0)
+            taken = taken + more if more else 0
         self._show()
 
     def _show(self) -> None:
@@ -135,7 +128,7 @@ class RunMonitor:
         if self.node is None:
             return
         try:
-            self.executor.shutdown()
+            self.loop.close()
             self.node.destroy_node()
         finally:
             self.node = None
