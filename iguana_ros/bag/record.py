@@ -124,7 +124,8 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
         loop = ListenerLoop(node)
         recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))
         print(f'recording to {writer.path}', flush=True)
-        chores = [(DISCOVERY_PERIOD_S, recorder.poll_discovery), (min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)]
+        chores = [(DISCOVERY_PERIOD_S, recorder.poll_discovery),
+                  (min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)]
         due = [time.monotonic()] * len(chores)
         deadline = None if duration_s is None else time.monotonic() + duration_s
         while not stop[0] and (deadline is None or time.monotonic() < deadline):

@@ -88,4 +88,3 @@ class ListenerLoop:
                 sub.callback(*got)
             else:
                 sub.callback(got[0])
-

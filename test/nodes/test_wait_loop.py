@@ -24,7 +24,7 @@ def test_listener_loop_drains_every_message_with_or_without_info(make_node):
     from rclpy.qos import QoSProfile
     from std_msgs.msg import Float64
 
-    from iguana_ros.ros.endpoints import listener, talker, tool_node
+    from iguana_ros.ros.endpoints import listener, talker
     from iguana_ros.ros.wait_loop import ListenerLoop
 
     sender = make_node('loop_sender')
