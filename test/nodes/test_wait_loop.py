@@ -66,3 +66,52 @@ def test_a_tool_node_serves_no_parameters(ros_context, make_node):
         assert not parameter_services(node) and len(parameter_services(make_node('loud_node'))) >= 6
     finally:
         node.destroy_node()
+
+
+def test_node_loop_serves_timers_guards_subscriptions_and_parameter_services(make_node, ros_context):
+    """The nodes' loop runs every kind of callback they have, and `ros2 param` works against it (rclpy's client)."""
+    import threading
+
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+    from rclpy.qos import QoSProfile
+    from std_msgs.msg import Float64
+
+    from iguana_ros.ros.endpoints import listener, talker
+    from iguana_ros.ros.wait_loop import NodeLoop
+
+    server = make_node('loop_server')
+    server.declare_parameter('gain', 1.5)
+    ticks, guarded, got = [], [], []
+    server.create_timer(0.01, lambda: ticks.append(1))
+    signal = server.create_guard_condition(lambda: guarded.append(1))
+    listener(server, Float64, 'loop_in', lambda msg: (got.append(msg.data), signal.trigger()), QoSProfile(depth=10))
+    loop, stop = NodeLoop([server], ros_context), threading.Event()
+    thread = threading.Thread(target=lambda: [loop.spin_once(0.05) for _ in iter(stop.is_set, True)])
+    thread.start()
+    try:
+        client = make_node('loop_client')
+        executor = SingleThreadedExecutor(context=ros_context)
+        executor.add_node(client)
+        parameters = AsyncParameterClient(client, 'loop_server')
+        assert parameters.wait_for_services(timeout_sec=20.0)
+        asked = parameters.get_parameters(['gain'])
+        executor.spin_until_future_complete(asked, timeout_sec=20.0)
+        assert asked.result().values[0].double_value == 1.5
+        changed = parameters.set_parameters([Parameter('gain', value=2.5)])
+        executor.spin_until_future_complete(changed, timeout_sec=20.0)
+        assert changed.result().results[0].successful and server.get_parameter('gain').value == 2.5
+        pub = talker(client, Float64, 'loop_in', QoSProfile(depth=10))
+        deadline = time.monotonic() + 20.0
+        while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        pub.publish(Float64(data=3.0))
+        while not guarded and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert got == [3.0] and guarded == [1] and len(ticks) >= 5
+        executor.shutdown()
+    finally:
+        stop.set()
+        thread.join(5.0)
+        loop.close()
