@@ -395,15 +395,7 @@ def assemble_spring_matrix(coef, node_matrix, diag, spring_blocks, node_ptr, nod
         for p in range(3):
             for q in range(3):
                 blocks[d, p, q] = node_matrix[n, p, q]
-        blocks[d, 0, 0] += s00
-        blocks[d, 1, 1] += s11
-        blocks[d, 2, 2] += s22
-        blocks[d, 0, 1] += s01
-        blocks[d, 1, 0] += s01
-        blocks[d, 0, 2] += s02
-        blocks[d, 2, 0] += s02
-        blocks[d, 1, 2] += s12
-        blocks[d, 2, 1] += s12
+        _add_block(blocks, d, s00, s01, s02, s01, s11, s12, s02, s12, s22)
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
