@@ -25,6 +25,10 @@ and, unless the simulator evaluates the FEM force explicitly (`Fidelity.elastic_
 the CG preconditioner) is rebuilt every `jacobian_every` steps; the block Cholesky factor of A, when that is the
 preconditioner, every `factor_every` steps or sooner (see `run_steps_cg`); forces are always evaluated at the
 current state.
+Where every off-diagonal block is one spring's (FEM explicit, CG with the Cholesky preconditioner:
+`IP_MATRIX_FREE`) the step is matrix-free: the springs' pass keeps each K_s = c u uᵀ + g I and computes K v and
+K Δv, CG multiplies by A on the fly (`kernel_data.SpringOperator`), and the blocks are assembled only for a
+factorisation.
 `run_steps_cg` advances many steps in one compiled call; `prepare_step` / `finish_step` split a step around an
 external (direct) linear solve. The kernels take the body as named structs (`physics.kernel_data.KernelModel`,
 `KernelState`, `physics.cholesky.CholeskyFactor`).
