@@ -22,7 +22,7 @@ from typing import Callable
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType,
                                 SetParametersResult)
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from iguana_ros.errors import IguanaError
@@ -30,7 +30,6 @@ from iguana_ros.parameters import node_parameters, ParamSpec
 from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import run_event_msg
-from iguana_ros.ros.wait_loop import NodeLoop
 from iguana_ros.scene import load_scene, Scene
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
 
@@ -181,11 +180,10 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
         for node in nodes:
             if isinstance(node, IguanaNode):
                 node.report(EVENT_LOADED, node.load_detail)
-        loop = NodeLoop(nodes, nodes[0].context)      # rclpy's executor costs ~0.3 ms of Python per wake
-        try:
-            loop.spin()
-        finally:
-            loop.close()
+        executor = SingleThreadedExecutor()
+        for node in nodes:
+            executor.add_node(node)
+        executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except IguanaError as exc:
