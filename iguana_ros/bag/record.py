@@ -125,6 +125,7 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
     _install_stop_handlers(stop)
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    loop = None
     try:
         node = tool_node(RECORDER_NODE_NAME, context)
         loop = ListenerLoop(node)
@@ -142,9 +143,10 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
                     due[i] = now + period
             if loop.spin_once(min(0.1, max(0.0, min(due) - time.monotonic()))):
                 time.sleep(BATCH_S)                  # let a frame's messages gather: one wake takes them all
-        loop.close()
         return recorder.received
     finally:
+        if loop is not None:
+            loop.close()
         writer.close()
         print(f'wrote {sum(t.message_count for t in writer.topics)} messages on '
               f'{len(writer.topics)} topics to {writer.path}', flush=True)

@@ -137,8 +137,8 @@ def profile_step(sim, repeats: int = 100) -> dict:
         'spring_forces_and_stiffness': lambda: (blocks.fill(0.0), spring_forces(
             x, m.springs, m.spring_stiffness, ld, forces, blocks, m.spring_blocks, scale)),
         'spring_forces_and_products': lambda: spring_forces_operator(
-            x, v, state.delta_v, m.springs, m.spring_stiffness, ld, forces, state.spring_coef, state.cg_work[0],
-            state.cg_work[1], scale),
+            x, v, state.delta_v, m.springs, m.spring_stiffness, ld, state.spring_coef, state.node_work,
+            state.spring_work, fp[itg.FP_DT], state.cg_work[0], state.cg_work[1], scale),
         'contact_forces': lambda: contact_forces(
             x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0], grid[1], grid[2], fp[itg.FP_KN],
             fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors, state.contact_state, forces,

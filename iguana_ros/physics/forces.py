@@ -313,43 +313,34 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
-def spring_forces_operator(x, v, dv, springs, stiffness, desired_lengths, forces, coef, kv, kdv, scale):
+def spring_forces_operator(x, v, dv, springs, stiffness, desired_lengths, coef, node_work, work, h, rhs, kdv, scale):
     """
-    `spring_forces` for the matrix-free step: each spring's stiffness kept as K_s = c u uᵀ + g I and applied on the fly.
+    The springs' part of a matrix-free step: each spring's stiffness kept as K_s = c u uᵀ + g I, applied on the fly.
 
-    With `scale != 0` (a Jacobian refresh) writes `coef (n_springs, 5)` = (u, c, g) of scale · K_s, the block of
-    `spring_forces` (compressive part clamped); with 0 keeps the held ones. Adds the forces, and writes the springs'
-    stiffness products `kv` = K v and `kdv` = K dv `(n, 3)` (K = Σ_s K_s on (i, i), (j, j), −K_s on (i, j)).
+    With `scale != 0` (a Jacobian refresh) writes `coef (5, n_springs)` = (u, c, g) of scale · K_s, the block of
+    `spring_forces` (compressive part clamped); with 0 keeps the held ones. Writes `rhs` = h f_s − K v (the springs'
+    forces f_s and stiffness product, the system's right-hand side part) and `kdv` = K dv `(n, 3)` (K = Σ_s K_s on
+    (i, i), (j, j), −K_s on (i, j)). Three passes: gather each spring's end differences of (x, v, dv), packed per
+    node in `node_work (n, 9)`, into `work (9, n_springs)`; the arithmetic (which the compiler vectorises); scatter
+    to the ends in spring order.
     """
-    kv[:] = 0.0
+    _gather_spring_differences(x, v, dv, springs, node_work, work)
+    if scale != 0.0:
+        _spring_coefficients(stiffness, desired_lengths, coef, work, scale)
+    else:
+        _held_spring_terms(stiffness, desired_lengths, coef, work)
+    rhs[:] = 0.0
     kdv[:] = 0.0
     for s in range(springs.shape[0]):
-        u0, u1, u2, length = _spring_pull(x, springs, stiffness, desired_lengths, forces, s)
-        if scale != 0.0:
-            if length < 1e-12:
-                c = g = 0.0
-            else:
-                a = scale * stiffness[s]
-                g = a * max(0.0, 1.0 - desired_lengths[s] / length)
-                c = a - g
-            coef[s, 0], coef[s, 1], coef[s, 2], coef[s, 3], coef[s, 4] = u0, u1, u2, c, g
-        _spring_product(springs, coef, s, v, kv)
-        _spring_product(springs, coef, s, dv, kdv)
+        i = springs[s, 0]
+        j = springs[s, 1]
+        _scatter_pair(rhs, i, j, h * work[0, s] + work[3, s], h * work[1, s] + work[4, s], h * work[2, s] + work[5, s])
+        _scatter_pair(kdv, j, i, work[6, s], work[7, s], work[8, s])
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
-def _spring_product(springs, coef, s, x, out):
-    """out_i += K_s (x_i − x_j), out_j −= the same, for spring `s` with `coef[s]` = (u, c, g): K_s = c u uᵀ + g I."""
-    i = springs[s, 0]
-    j = springs[s, 1]
-    u0, u1, u2, c, g = coef[s, 0], coef[s, 1], coef[s, 2], coef[s, 3], coef[s, 4]
-    w0 = x[i, 0] - x[j, 0]
-    w1 = x[i, 1] - x[j, 1]
-    w2 = x[i, 2] - x[j, 2]
-    p = c * (u0 * w0 + u1 * w1 + u2 * w2)
-    t0 = p * u0 + g * w0
-    t1 = p * u1 + g * w1
-    t2 = p * u2 + g * w2
+def _scatter_pair(out, i, j, t0, t1, t2):
+    """out_i += t, out_j −= t."""
     out[i, 0] += t0
     out[i, 1] += t1
     out[i, 2] += t2
@@ -359,8 +350,81 @@ def _spring_product(springs, coef, s, x, out):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
+def _gather_spring_differences(x, v, dv, springs, node_work, work):
+    """`work (9, n_springs)` ← x_j − x_i, v_j − v_i, dv_j − dv_i of every spring (i, j), through `node_work (n, 9)`."""
+    for i in range(x.shape[0]):                     # one contiguous row per node: two rows per spring
+        for k in range(3):
+            node_work[i, k] = x[i, k]
+            node_work[i, 3 + k] = v[i, k]
+            node_work[i, 6 + k] = dv[i, k]
+    for s in range(springs.shape[0]):
+        i = springs[s, 0]
+        j = springs[s, 1]
+        for k in range(9):
+            work[k, s] = node_work[j, k] - node_work[i, k]
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def _spring_coefficients(stiffness, desired_lengths, coef, work, scale):
+    """From the differences in `work`: `coef` (u, c, g) of scale · K_s; `work` ← the pull on i, K_s w, K_s e."""
+    for s in range(work.shape[1]):
+        d0, d1, d2 = work[0, s], work[1, s], work[2, s]
+        length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if length < 1e-12:
+            u0 = u1 = u2 = c = g = mag = 0.0
+        else:
+            u0, u1, u2 = d0 / length, d1 / length, d2 / length
+            mag = stiffness[s] * (length - desired_lengths[s])      # tension > 0 pulls i toward j
+            a = scale * stiffness[s]
+            g = a * max(0.0, 1.0 - desired_lengths[s] / length)
+            c = a - g
+        coef[0, s], coef[1, s], coef[2, s], coef[3, s], coef[4, s] = u0, u1, u2, c, g
+        work[0, s], work[1, s], work[2, s] = mag * u0, mag * u1, mag * u2
+        _spring_products(work, s, u0, u1, u2, c, g)
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def _held_spring_terms(stiffness, desired_lengths, coef, work):
+    """`_spring_coefficients` with the held `coef` (between Jacobian refreshes): `work` ← the pull, K_s w, K_s e."""
+    for s in range(work.shape[1]):
+        d0, d1, d2 = work[0, s], work[1, s], work[2, s]
+        length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if length < 1e-12:
+            u0 = u1 = u2 = mag = 0.0
+        else:
+            u0, u1, u2 = d0 / length, d1 / length, d2 / length
+            mag = stiffness[s] * (length - desired_lengths[s])
+        work[0, s], work[1, s], work[2, s] = mag * u0, mag * u1, mag * u2
+        _spring_products(work, s, coef[0, s], coef[1, s], coef[2, s], coef[3, s], coef[4, s])
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _spring_products(work, s, u0, u1, u2, c, g):
+    """Replace spring `s`'s differences w = work[3:6, s], e = work[6:9, s] by K_s w, K_s e (K_s = c u uᵀ + g I)."""
+    for base in (3, 6):
+        w0, w1, w2 = work[base, s], work[base + 1, s], work[base + 2, s]
+        p = c * (u0 * w0 + u1 * w1 + u2 * w2)
+        work[base, s] = p * u0 + g * w0
+        work[base + 1, s] = p * u1 + g * w1
+        work[base + 2, s] = p * u2 + g * w2
+
+
+@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
+def _spring_product(springs, coef, s, x, out):
+    """out_i += K_s (x_i − x_j), out_j −= the same, for spring `s` with `coef[:, s]` = (u, c, g): K_s = c u uᵀ + g I."""
+    i = springs[s, 0]
+    j = springs[s, 1]
+    u0, u1, u2, c, g = coef[0, s], coef[1, s], coef[2, s], coef[3, s], coef[4, s]
+    w0 = x[i, 0] - x[j, 0]
+    w1 = x[i, 1] - x[j, 1]
+    w2 = x[i, 2] - x[j, 2]
+    p = c * (u0 * w0 + u1 * w1 + u2 * w2)
+    _scatter_pair(out, i, j, p * u0 + g * w0, p * u1 + g * w1, p * u2 + g * w2)
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
 def spring_operator_matvec(springs, coef, node_matrix, x, out):
-    """`out` = A x `(n, 3)` for A = blockdiag(`node_matrix (n, 3, 3)`) + the springs' K (`coef`, see above)."""
+    """`out` = A x `(n, 3)` for A = blockdiag(`node_matrix (n, 3, 3)`) + the springs' K (`coef (5, n_springs)`)."""
     for i in range(x.shape[0]):
         x0, x1, x2 = x[i, 0], x[i, 1], x[i, 2]
         out[i, 0] = node_matrix[i, 0, 0] * x0 + node_matrix[i, 0, 1] * x1 + node_matrix[i, 0, 2] * x2
@@ -378,7 +442,7 @@ def assemble_spring_matrix(coef, node_matrix, diag, spring_blocks, node_ptr, nod
     Spring s's stored block −K_s, each node's diagonal block its `node_matrix` plus its springs' K_s, summed over
     `node_springs[node_ptr[i]:node_ptr[i + 1]]` in ascending spring order (no read-modify-write chains, no zeroing).
     """
-    for s in range(coef.shape[0]):
+    for s in range(coef.shape[1]):
         k00, k11, k22, k01, k02, k12 = _coef_block(coef, s)
         _set_block(blocks, spring_blocks[s, 2], -k00, -k11, -k22, -k01, -k02, -k12)
     for n in range(diag.shape[0]):
@@ -400,8 +464,8 @@ def assemble_spring_matrix(coef, node_matrix, diag, spring_blocks, node_ptr, nod
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _coef_block(coef, s):
-    """Entries (xx yy zz xy xz yz) of K_s = c u uᵀ + g I from `coef[s]` = (u, c, g)."""
-    u0, u1, u2, c, g = coef[s, 0], coef[s, 1], coef[s, 2], coef[s, 3], coef[s, 4]
+    """Entries (xx yy zz xy xz yz) of K_s = c u uᵀ + g I from `coef[:, s]` = (u, c, g)."""
+    u0, u1, u2, c, g = coef[0, s], coef[1, s], coef[2, s], coef[3, s], coef[4, s]
     return c * u0 * u0 + g, c * u1 * u1 + g, c * u2 * u2 + g, c * u0 * u1, c * u0 * u2, c * u1 * u2
 
 

@@ -94,9 +94,9 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     else:
         _explicit_elastic_forces(model, state, ip, counters, forces)
     rhs, warm = state.rhs, state.cg_work[3]
-    if matrix_free:                                  # rhs ← K v, warm ← K Δv (the springs' part; diagonal below)
-        spring_forces_operator(x, v, state.delta_v, model.springs, model.spring_stiffness, desired_lengths, forces,
-                               state.spring_coef, rhs, warm, scale)
+    if matrix_free:                                  # rhs ← h f_s − K v, warm ← K Δv (the springs; the rest below)
+        spring_forces_operator(x, v, state.delta_v, model.springs, model.spring_stiffness, desired_lengths,
+                               state.spring_coef, state.node_work, state.spring_work, h, rhs, warm, scale)
     else:
         spring_forces(x, model.springs, model.spring_stiffness, desired_lengths, forces, blocks, model.spring_blocks,
                       scale)
@@ -136,8 +136,8 @@ def _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, has_ground):
     """
     Finish a matrix-free step's system: `node_matrix` = M(1 + hα) + h C_c + h² K_c, rhs = h f − K v − h² K_c v.
 
-    and the warm start's product cg_work[3] = A Δv, from the springs' products `spring_forces_operator` left in
-    rhs (K v) and cg_work[3] (K Δv).
+    and the warm start's product cg_work[3] = A Δv, from the springs' part `spring_forces_operator` left in rhs
+    (h f_s − K v; `state.forces` holds every other force) and cg_work[3] (K Δv).
     """
     v, dv, forces, rhs = state.velocities, state.delta_v, state.forces, state.rhs
     warm, node_matrix = state.cg_work[3], state.node_matrix
@@ -153,7 +153,7 @@ def _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, has_ground):
                 node_matrix[i, p, q] = a
                 kv += k * v[i, q]
                 adv += a * dv[i, q]
-            rhs[i, p] = h * forces[i, p] - rhs[i, p] - kv
+            rhs[i, p] += h * forces[i, p] - kv
             warm[i, p] += adv
 
 

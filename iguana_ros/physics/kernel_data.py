@@ -85,7 +85,9 @@ class KernelState(NamedTuple):
     diag_inv: np.ndarray           # (n, 3, 3), A_ii⁻¹ for the block Jacobi preconditioner
     forces: np.ndarray             # (n, 3) N
     elastic_forces: np.ndarray     # (n, 3) N, the FEM force of an explicit step, held for `elastic_every` steps
-    spring_coef: np.ndarray        # (n_springs, 5), each spring's scaled stiffness K_s = c u uᵀ + g I as (u, c, g)
+    spring_coef: np.ndarray        # (5, n_springs), each spring's scaled stiffness K_s = c u uᵀ + g I as (u, c, g)
+    spring_work: np.ndarray        # (9, n_springs), the matrix-free springs' pass: end differences, then its terms
+    node_work: np.ndarray          # (n, 9), x, v and Δv of each node in one row (the springs' pass gathers rows)
     node_matrix: np.ndarray        # (n, 3, 3), M(1 + hα) + h C_c + h² K_c: A_ii without the springs (matrix-free)
     rhs: np.ndarray                # (n, 3), right-hand side of A Δv = b
     cg_work: np.ndarray            # (4, n, 3), CG vectors r, z, p, Ap
@@ -102,7 +104,7 @@ def empty_state(n_nodes: int, n_tets: int, n_blocks: int, n_springs: int) -> Ker
         element_rotations=np.zeros((n_tets, 4)), friction_anchors=np.zeros((n, 3)),
         contact_state=np.zeros(n, dtype=np.int64), matrix_blocks=np.zeros((n_blocks, 3, 3)),
         diag_mass_damping=np.zeros((n, 3, 3)), diag_inv=np.zeros((n, 3, 3)), forces=np.zeros((n, 3)),
-        elastic_forces=np.zeros((n, 3)), spring_coef=np.zeros((n_springs, 5)), node_matrix=np.zeros((n, 3, 3)),
+        elastic_forces=np.zeros((n, 3)), spring_coef=np.zeros((5, n_springs)), spring_work=np.zeros((9, n_springs)), node_work=np.zeros((n, 9)), node_matrix=np.zeros((n, 3, 3)),
         rhs=np.zeros((n, 3)), cg_work=np.zeros((4, n, 3)), contact_stiffness=np.zeros((n, 3, 3)),
         contact_damping=np.zeros((n, 3, 3)), contact_in_matrix=np.zeros((n, 3, 3)))
 
@@ -115,6 +117,6 @@ class SpringOperator(NamedTuple):
     """
 
     springs: np.ndarray      # (n_springs, 2) int64
-    coef: np.ndarray         # (n_springs, 5), KernelState.spring_coef
+    coef: np.ndarray         # (5, n_springs), KernelState.spring_coef
     node_matrix: np.ndarray  # (n, 3, 3), KernelState.node_matrix
     active: int

@@ -39,7 +39,7 @@ def _record_while_publishing(tmp_path, duration: float, kill_after: float | None
     with pub, rec:
         if kill_after is None:
             assert pub.wait(30) == 0, pub.output
-            assert pub.wait_for_output('subscribers matched', 1), pub.output
+            assert pub.wait_for_output('subscribers matched', 1), pub.output + '\nrecorder:\n' + rec.output
             assert rec.stop() == 0, rec.output
         else:
             assert pub.wait_for_output('subscribers matched', 15), pub.output

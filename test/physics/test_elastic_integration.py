@@ -159,15 +159,22 @@ def test_the_matrix_free_operator_is_the_scattered_matrix(medium):
     assembled[:] = np.nan                     # every block is written, none is read
     forces = np.zeros((2, n, 3))
     spring_forces(x, m.springs, m.spring_stiffness, lengths, forces[0], scattered, m.spring_blocks, 1e-6)
-    coef = np.zeros((len(m.springs), 5))
-    kv, kdv, ax = np.zeros((3, n, 3))
-    spring_forces_operator(x, v, dv, m.springs, m.spring_stiffness, lengths, forces[1], coef, kv, kdv, 1e-6)
-    assert np.array_equal(forces[0], forces[1])
+    coef, work, node_work = np.zeros((5, len(m.springs))), np.zeros((9, len(m.springs))), np.zeros((n, 9))
+    rhs, kdv, ax = np.zeros((3, n, 3))
+    h = 1e-3
+    spring_forces_operator(x, v, dv, m.springs, m.spring_stiffness, lengths, coef, node_work, work, h, rhs, kdv,
+                           1e-6)
+    held = np.zeros((2, n, 3))                # between Jacobian refreshes (scale 0) the same coefficients apply
+    spring_forces_operator(x, v, dv, m.springs, m.spring_stiffness, lengths, coef, node_work, work, h, *held, 0.0)
+    assert np.array_equal(held, [rhs, kdv])
     tol = 1e-12 * np.abs(scattered).max()
-    for vector, product in ((v, kv), (dv, kdv)):
-        expected = np.zeros((n, 3))
-        block_matvec(m.row_ptr, m.cols, scattered, vector, expected)
-        np.testing.assert_allclose(product, expected, rtol=0, atol=tol * np.abs(vector).max() * 50)
+    kv = np.zeros((n, 3))
+    block_matvec(m.row_ptr, m.cols, scattered, v, kv)
+    np.testing.assert_allclose(rhs, h * forces[0] - kv, rtol=0, atol=1e-12 * h * np.abs(forces[0]).max()
+                               + tol * np.abs(v).max() * 50)
+    expected = np.zeros((n, 3))
+    block_matvec(m.row_ptr, m.cols, scattered, dv, expected)
+    np.testing.assert_allclose(kdv, expected, rtol=0, atol=tol * np.abs(dv).max() * 50)
     scattered[m.diag] += node_matrix
     assemble_spring_matrix(coef, node_matrix, m.diag, m.spring_blocks, m.node_spring_ptr, m.node_springs, assembled)
     np.testing.assert_allclose(assembled, scattered, rtol=0, atol=tol)
