@@ -315,7 +315,7 @@ def _add_spring_stiffness(u0, u1, u2, a, geo, blocks, spring_blocks, s):
 @numba.njit(cache=True, fastmath=FASTMATH)
 def spring_forces_operator(x, v, dv, springs, stiffness, desired_lengths, coef, node_work, work, h, rhs, kdv, scale):
     """
-    The springs' part of a matrix-free step: each spring's stiffness kept as K_s = c u uᵀ + g I, applied on the fly.
+    Compute the springs' part of a matrix-free step: each spring's stiffness kept as K_s = c u uᵀ + g I, on the fly.
 
     With `scale != 0` (a Jacobian refresh) writes `coef (5, n_springs)` = (u, c, g) of scale · K_s, the block of
     `spring_forces` (compressive part clamped); with 0 keeps the held ones. Writes `rhs` = h f_s − K v (the springs'

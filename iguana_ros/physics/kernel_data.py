@@ -104,7 +104,8 @@ def empty_state(n_nodes: int, n_tets: int, n_blocks: int, n_springs: int) -> Ker
         element_rotations=np.zeros((n_tets, 4)), friction_anchors=np.zeros((n, 3)),
         contact_state=np.zeros(n, dtype=np.int64), matrix_blocks=np.zeros((n_blocks, 3, 3)),
         diag_mass_damping=np.zeros((n, 3, 3)), diag_inv=np.zeros((n, 3, 3)), forces=np.zeros((n, 3)),
-        elastic_forces=np.zeros((n, 3)), spring_coef=np.zeros((5, n_springs)), spring_work=np.zeros((9, n_springs)), node_work=np.zeros((n, 9)), node_matrix=np.zeros((n, 3, 3)),
+        elastic_forces=np.zeros((n, 3)), spring_coef=np.zeros((5, n_springs)),
+        spring_work=np.zeros((9, n_springs)), node_work=np.zeros((n, 9)), node_matrix=np.zeros((n, 3, 3)),
         rhs=np.zeros((n, 3)), cg_work=np.zeros((4, n, 3)), contact_stiffness=np.zeros((n, 3, 3)),
         contact_damping=np.zeros((n, 3, 3)), contact_in_matrix=np.zeros((n, 3, 3)))
 
