@@ -140,8 +140,10 @@ def test_recorded_run_replays(shared_run, make_node, executor):
         name, cls, qos = resolve(key)
         qos.depth = 100  # the listener keeps every replayed message even if it is briefly slow
         node.create_subscription(cls, name, got[key].append, qos)
-    play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--wait-for-subscribers', '5'],
-                       'play', bag.parent).start()
+    # Only the two topics listened to, so the player starts once both are matched (with all 13 it waited out its
+    # timeout for topics nobody reads, and a listener matched later under load missed the first states).
+    play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--topics', *(resolve(k)[0] for k in got),
+                        '--wait-for-subscribers', '30'], 'play', bag.parent).start()
     with play:
         assert spin_until(executor, lambda: len(got['iguana_state']) >= WALK_FRAMES + 1, 60), play.output
         assert spin_until(executor, lambda: len(got['scene_markers']) >= 1, 10), play.output
