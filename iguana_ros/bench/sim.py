@@ -140,9 +140,9 @@ def profile_step(sim, repeats: int = 100) -> dict:
             x, v, state.delta_v, m.springs, m.spring_stiffness, ld, state.spring_coef, state.node_work,
             state.spring_work, fp[itg.FP_DT], state.cg_work[0], state.cg_work[1], scale),
         'contact_forces': lambda: contact_forces(
-            x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0], grid[1], grid[2], fp[itg.FP_KN],
-            fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors, state.contact_state, forces,
-            state.contact_stiffness, state.contact_damping),
+            x, v, m.contact_mass, m.contact_offset, m.friction, m.heights, m.height_bounds, grid[0], grid[1],
+            grid[2], fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT], state.friction_anchors,
+            state.contact_state, forces, state.contact_stiffness, state.contact_damping),
         'matvec_pair': lambda: block_matvec_pair(m.row_ptr, m.cols, sim._state.matrix_blocks, v, state.delta_v,
                                                  state.cg_work[0], state.cg_work[1]),
         'assemble_matrix': lambda: itg.assemble_system_matrix(m, state),

@@ -30,7 +30,7 @@ import numba
 import numpy as np
 
 from iguana_ros.jit import FASTMATH
-from iguana_ros.terrain.heightfield import bilinear_height_gradient
+from iguana_ros.terrain.heightfield import above_block_maximum, bilinear_height_gradient
 
 CONTACT_NONE = 0
 """Contact state of a node above the ground."""
@@ -479,7 +479,7 @@ def _set_block(blocks, p, k00, k11, k22, k01, k02, k12):
 
 # ----------------------------------------------------------------------------------------------- contact
 @numba.njit(cache=True, fastmath=FASTMATH)
-def contact_forces(x, v, contact_mass, contact_offset, friction, heights, ox, oy, spacing, kn, cn, kt, ct,
+def contact_forces(x, v, contact_mass, contact_offset, friction, heights, bounds, ox, oy, spacing, kn, cn, kt, ct,
                    anchors, state, forces, diag_k, diag_c):
     """
     Penalty contact on the height field: normal k·d + c·ḋ (≥ 0), Coulomb friction via stick anchors.
@@ -488,17 +488,23 @@ def contact_forces(x, v, contact_mass, contact_offset, friction, heights, ox, oy
     the terrain `contact_offset (n,)` m before its position reaches it (the sole pad of a foot node);
     `friction (n,)` μ; `anchors (n, 3)`
     and `state (n,)` (CONTACT_*) persist between steps. Adds forces, writes stiffness `diag_k (n, 3, 3)` (N/m) and
-    damping `diag_c (n, 3, 3)` (N s/m) of each node's own block.
+    damping `diag_c (n, 3, 3)` (N s/m) of each node's own block; a node out of contact (CONTACT_NONE) keeps zero
+    blocks, so only the others' are cleared. A node above the highest grid height of its block (`bounds`,
+    `heightfield.block_maxima`) is out of contact without interpolating the terrain.
     Returns `(nodes in contact, deepest node, its depth in m)`.
     """
     n_contact = 0
     deepest = -1
     max_depth = 0.0
     for i in range(x.shape[0]):
-        for p in range(3):
-            for q in range(3):
-                diag_k[i, p, q] = 0.0
-                diag_c[i, p, q] = 0.0
+        if state[i] != CONTACT_NONE:
+            for p in range(3):
+                for q in range(3):
+                    diag_k[i, p, q] = 0.0
+                    diag_c[i, p, q] = 0.0
+        if above_block_maximum(heights, bounds, ox, oy, spacing, x[i, 0], x[i, 1], x[i, 2] - contact_offset[i]):
+            state[i] = CONTACT_NONE
+            continue
         h, gx, gy = bilinear_height_gradient(heights, ox, oy, spacing, x[i, 0], x[i, 1])
         inv = 1.0 / np.sqrt(1.0 + gx * gx + gy * gy)
         n0, n1, n2 = -gx * inv, -gy * inv, inv

@@ -102,9 +102,9 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
                       scale)
     if ip[IP_HAS_GROUND]:
         n_contact, deepest, depth = contact_forces(
-            x, v, model.contact_mass, model.contact_offset, model.friction, model.heights, terrain[0], terrain[1],
-            terrain[2], fp[FP_KN], fp[FP_CN], fp[FP_KT], fp[FP_CT], state.friction_anchors, state.contact_state,
-            forces, diag_k, diag_c)
+            x, v, model.contact_mass, model.contact_offset, model.friction, model.heights, model.height_bounds,
+            terrain[0], terrain[1], terrain[2], fp[FP_KN], fp[FP_CN], fp[FP_KT], fp[FP_CT], state.friction_anchors,
+            state.contact_state, forces, diag_k, diag_c)
         counters[C_CONTACTS] = n_contact
         if depth > fp[FP_MAX_DEPTH]:
             info[0] = deepest

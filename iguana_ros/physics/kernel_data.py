@@ -59,6 +59,7 @@ class KernelModel(NamedTuple):
     spring_stiffness: np.ndarray  # (n_springs,) N/m
     friction: np.ndarray          # (n,) Coulomb μ per node
     heights: np.ndarray           # (nx, ny) m, the height field's grid (a 2 x 2 dummy without terrain)
+    height_bounds: np.ndarray     # (ceil((nx - 1) / 4), ...) m, highest height of each block (heightfield.block_maxima)
     terrain_grid: np.ndarray      # (3,) grid origin x, origin y and spacing, m
     row_ptr: np.ndarray           # (n + 1,) int64, block-CSR rows of the system matrix
     cols: np.ndarray              # (n_blocks,) int64, block columns

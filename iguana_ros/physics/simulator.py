@@ -38,6 +38,7 @@ from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_e
                                        shape_gradients, spring_forces)
 from iguana_ros.physics.kernel_data import empty_state, kernel_constant, kernel_input, KernelModel
 from iguana_ros.physics.solver import DirectSolver, PRECONDITIONER_CODES
+from iguana_ros.terrain.heightfield import block_maxima
 
 LENGTH_HOLDS = ('linear', 'zero')
 """How desired lengths change within a frame: ramped from the previous frame's (first-order hold) or stepped."""
@@ -192,7 +193,8 @@ class SoftBodySimulator:
             'mass': mass, 'tets': tets, 'shape_gradients': grads, 'volume': volume, 'mu': mu, 'lam': lam,
             'springs': springs,
             'spring_stiffness': np.broadcast_to(np.asarray(model.spring_stiffness, np.float64), (len(springs),)),
-            'friction': self.friction, 'heights': heights, 'terrain_grid': np.array([ox, oy, spacing]),
+            'friction': self.friction, 'heights': heights, 'height_bounds': block_maxima(heights),
+            'terrain_grid': np.array([ox, oy, spacing]),
             'row_ptr': self.pattern.row_ptr, 'cols': self.pattern.cols, 'diag': self.pattern.diag,
             'tet_blocks': self.pattern.tet_blocks, 'spring_blocks': self.pattern.spring_blocks,
             **_springs_by_node(n, springs),
@@ -269,6 +271,8 @@ class SoftBodySimulator:
         s.delta_v[:] = 0.0
         s.friction_anchors[:] = 0.0
         s.contact_state[:] = CONTACT_NONE
+        s.contact_stiffness[:] = 0.0                 # a node out of contact keeps zero blocks (contact_forces)
+        s.contact_damping[:] = 0.0
         s.element_rotations[:] = (0.0, 0.0, 0.0, 1.0)
         self._counters[:] = 0
         self._chol.state[:] = 0
@@ -316,10 +320,10 @@ class SoftBodySimulator:
         m, fp = self._model, self._fp
         n = len(forces)
         grid = m.terrain_grid
-        contact_forces(s.positions, s.velocities, m.contact_mass, m.contact_offset, m.friction, m.heights, grid[0],
-                       grid[1], grid[2], fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT], fp[itg.FP_CT],
-                       s.friction_anchors.copy(), s.contact_state.copy(), forces, np.zeros((n, 3, 3)),
-                       np.zeros((n, 3, 3)))
+        contact_forces(s.positions, s.velocities, m.contact_mass, m.contact_offset, m.friction, m.heights,
+                       m.height_bounds, grid[0], grid[1], grid[2], fp[itg.FP_KN], fp[itg.FP_CN], fp[itg.FP_KT],
+                       fp[itg.FP_CT], s.friction_anchors.copy(), s.contact_state.copy(), forces,
+                       np.zeros((n, 3, 3)), np.zeros((n, 3, 3)))   # zero blocks, as every node out of contact has
         return forces
 
     @property

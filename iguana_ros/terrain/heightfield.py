@@ -77,6 +77,35 @@ def bilinear_height_gradient(heights, ox, oy, spacing, x, y):
     return h, gx, gy
 
 
+HEIGHT_BOUND_CELLS = 4
+"""Grid cells per side of a block of `block_maxima`: contact tests a node against its block's highest grid height
+before it interpolates (on the bench gait over hills 87 % of the iguana's nodes are above it)."""
+
+
+def block_maxima(heights: np.ndarray, cells: int = HEIGHT_BOUND_CELLS) -> np.ndarray:
+    """
+    Highest grid height over every block of `cells` × `cells` cells `(ceil((nx − 1) / cells), ...)`.
+
+    Block (I, J) covers the corners of the cells i in [I cells, (I + 1) cells) (clamped like `_cell`), so it bounds
+    the clamped bilinear height anywhere in them.
+    """
+    nx, ny = heights.shape
+    starts_x, starts_y = np.arange(0, nx - 1, cells), np.arange(0, ny - 1, cells)
+    rows = np.maximum.reduceat(heights, starts_x, axis=0)
+    rows = np.maximum(rows, heights[np.minimum(starts_x + cells, nx - 1)])        # the blocks' last corner row
+    out = np.maximum.reduceat(rows, starts_y, axis=1)
+    return np.ascontiguousarray(np.maximum(out, rows[:, np.minimum(starts_y + cells, ny - 1)]))
+
+
+@numba.njit(cache=True)
+def above_block_maximum(heights, bounds, ox, oy, spacing, x, y, z):
+    """Whether height `z` is at or above the grid everywhere in the block of point (x, y) (`bounds`: block_maxima)."""
+    nx, ny = heights.shape
+    i = _cell((x - ox) / spacing, nx)[0]
+    j = _cell((y - oy) / spacing, ny)[0]
+    return z >= bounds[i // HEIGHT_BOUND_CELLS, j // HEIGHT_BOUND_CELLS]
+
+
 @numba.njit(cache=True)
 def bilinear_height(heights, ox, oy, spacing, x, y):
     """Height (m) of the clamped bilinear grid at one world point."""

@@ -95,3 +95,23 @@ def test_first_order_hold_ramps_the_desired_lengths_within_a_call(block):
     assert np.abs(held.positions - ramped.positions).max() > 1e-5
     with pytest.raises(InputError, match='length_hold'):
         SoftBodySimulator(block, None, length_hold='cubic')
+
+
+def test_the_block_maximum_test_changes_no_contact(block):
+    """Nodes above their terrain block's highest height skip the interpolation: the run is bitwise the same."""
+    from iguana_ros.physics.kernel_data import kernel_constant
+    terrain = HeightField.hills(amplitude=0.01, wavelength=0.6, seed=3, extent=1.0)
+    runs = []
+    for skip in (True, False):
+        sim = SoftBodySimulator(block, terrain, 'balanced')
+        if not skip:
+            sim._model = sim._model._replace(height_bounds=kernel_constant(np.full(sim._model.height_bounds.shape,
+                                                                                   np.inf)))
+        sim.reset(sim.rest_positions + [0.3, 0.2, 0.03])
+        sim.advance(0.4, external_forces=np.tile([0.3, 0.0, 0.0], (len(sim.rest_positions), 1)))
+        runs.append((sim.positions, sim.in_contact, sim.ground_forces()))
+        assert 0 < sim.in_contact.sum() < len(sim.rest_positions)
+        sim.reset()
+        assert not sim._state.contact_stiffness.any() and not sim._state.contact_damping.any()
+    for a, b in zip(*runs):
+        assert np.array_equal(a, b)

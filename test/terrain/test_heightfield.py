@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from iguana_ros.errors import InputError
-from iguana_ros.terrain.heightfield import bilinear_height_gradient, HeightField
+from iguana_ros.terrain.heightfield import (above_block_maximum, bilinear_height_gradient, block_maxima,
+                                            HEIGHT_BOUND_CELLS, HeightField)
 
 
 def test_flat_is_constant_with_up_normal():
@@ -118,3 +119,21 @@ def test_bad_file_format(tmp_path):
     np.save(tmp_path / 'v.npy', np.zeros(5))
     with pytest.raises(InputError, match='2-D numeric'):
         HeightField.from_file(tmp_path / 'v.npy')
+
+
+@pytest.mark.parametrize('shape', [(23, 17), (9, 9), (2, 2), (161, 161)])
+def test_block_maxima_bound_the_clamped_bilinear_height(shape):
+    """Each block's bound is the highest corner of its cells; at any point (also off the grid) it bounds the height."""
+    rng = np.random.default_rng(sum(shape))
+    heights = rng.normal(scale=0.05, size=shape)
+    bounds = block_maxima(heights)
+    b = HEIGHT_BOUND_CELLS
+    assert bounds.shape == (-(-(shape[0] - 1) // b), -(-(shape[1] - 1) // b))
+    for (bi, bj), bound in np.ndenumerate(bounds):
+        assert bound == heights[bi * b:bi * b + b + 1, bj * b:bj * b + b + 1].max()
+    spacing, ox, oy = 0.1, -0.3, 0.2
+    xy = rng.uniform([ox - 1, oy - 1], [ox + shape[0] * spacing + 1, oy + shape[1] * spacing + 1], size=(2000, 2))
+    for x, y in xy:
+        h = bilinear_height_gradient(heights, ox, oy, spacing, x, y)[0]
+        assert not above_block_maximum(heights, bounds, ox, oy, spacing, x, y, h - 1e-9)
+    assert above_block_maximum(heights, bounds, ox, oy, spacing, ox, oy, bounds[0, 0])
