@@ -15,11 +15,16 @@
 """Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out for every frame."""
 from __future__ import annotations
 
+from rclpy.clock import Clock, ClockType
+
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
 from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_cdr
 from iguana_ros.stages import adaptation_stage, StrideLookahead
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
+
+UNMATCHED_RETRY_S = 0.05
+"""Wall-clock period at which poses held back for want of a matched reference_pose reader are offered again."""
 
 CLIP_QUEUE_DEPTH = 10
 """History depth of the motion_clip reader: the topic's depth 1 (latched) would let a burst from another publisher
@@ -33,8 +38,9 @@ class TerrainAdaptationNode(IguanaNode):
     A stride's poses depend only on its clip and the adaptation's warm start, never on the body, so they are adapted
     on a worker thread as soon as the clip arrives (`StrideLookahead`) and published in frame order up to
     `lookahead_frames` past the latest iguana_state: the spring lengths are then waiting at the simulator when it
-    reaches their frame. A repeated iguana_state (the simulator re-sends it after a lockstep timeout) gets its frame's
-    pose again.
+    reaches their frame. Poses go out only to a matched reader (a burst published before the spring-length node's
+    subscription matched was lost, and the simulator then waited a lockstep timeout for every frame of the stride).
+    A repeated iguana_state (the simulator re-sends it after a lockstep timeout) gets the poses from its frame on again.
     """
 
     KIND = 'terrain_adaptation_node'
@@ -54,6 +60,9 @@ class TerrainAdaptationNode(IguanaNode):
         self.pose_pub = self.publisher('reference_pose')
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
+        self.retry_timer = self.create_timer(UNMATCHED_RETRY_S, self.publish_ready,
+                                             clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.retry_timer.cancel()                    # runs only while poses are held back (publish_ready)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
         self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
@@ -71,17 +80,25 @@ class TerrainAdaptationNode(IguanaNode):
         self.publish_ready()
 
     def on_state(self, msg) -> None:
-        """Let the poses up to `lookahead_frames` past this frame go out; re-send the pose of a repeated frame."""
+        """Let the poses up to `lookahead_frames` past this frame go out; re-send them from a repeated frame on."""
         frame, _root, _orientation = state_from_cdr(msg, self.bound)
         if self.state_gate.admit(frame):
             self.state_gate.handled(frame)
-            self.publish_ready()
-        elif frame == self.state_gate.last_frame and frame in self.sent:
-            self.pose_pub.publish(self.sent[frame])
+        elif frame == self.state_gate.last_frame:
+            for sent in range(frame, self.next_frame):  # any of them may be lost; the repeat asks for the first
+                if sent in self.sent:
+                    self.pose_pub.publish(self.sent[sent])
+        self.publish_ready()
 
     def publish_ready(self) -> None:
         """Publish, in frame order, every adapted pose of the stride that is due (at most lookahead_frames ahead)."""
         due = max(self.state_gate.last_frame, 0) + self.lookahead_frames
+        if not (self.next_frame <= due and self.lookahead.ready(self.next_frame)):
+            return
+        if not self.readers_matched():
+            self.retry_timer.reset()                 # offered again every UNMATCHED_RETRY_S until they are
+            return
+        self.retry_timer.cancel()
         while self.next_frame <= due and self.lookahead.ready(self.next_frame):
             frame = self.next_frame
             self.next_frame = frame + 1
@@ -94,6 +111,11 @@ class TerrainAdaptationNode(IguanaNode):
             while len(self.sent) > RESEND_FRAMES:
                 del self.sent[next(iter(self.sent))]
             self.pose_pub.publish(self.sent[frame])
+
+    def readers_matched(self) -> bool:
+        """Whether reference_pose has a reader and every reader this node's graph knows of is matched."""
+        known = self.count_subscribers(self.pose_pub.topic_name)
+        return self.pose_pub.get_subscription_count() >= max(known, 1)
 
     def destroy_node(self) -> None:
         """Stop the lookahead's worker thread, then leave the graph."""

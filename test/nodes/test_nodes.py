@@ -180,8 +180,8 @@ def test_terrain_node_publishes_a_stride_ahead_up_to_lookahead_frames(tmp_path, 
     """
     A clip's stride goes out in frame order as it is adapted, at most lookahead_frames past the latest iguana_state.
 
-    A repeated state gets its frame's pose again, after the poses published before it (one writer's messages arrive
-    in order, so nothing past the bound was sent before that repeat).
+    A repeated state gets the poses from its frame on again, after the poses published before it (one writer's
+    messages arrive in order, so nothing past the bound was sent before that repeat).
     """
     from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
@@ -200,13 +200,34 @@ def test_terrain_node_publishes_a_stride_ahead_up_to_lookahead_frames(tmp_path, 
         assert spin_until(executor, lambda: 5 in frames(), 30), node.output     # no state yet: frames 0..5
         probe.deliver(state_pub, _state(3))
         assert spin_until(executor, lambda: 8 in frames(), 30), node.output
-        state_pub.publish(_state(3))                                            # a repeat: pose 3 again
-        assert spin_until(executor, lambda: frames().count(3) == 2, 30), node.output
-        assert frames() == list(range(9)) + [3]
+        state_pub.publish(_state(3))                                            # a repeat: poses 3..8 again
+        assert spin_until(executor, lambda: frames().count(8) == 2, 30), node.output
+        assert frames() == list(range(9)) + list(range(3, 9))
         state_pub.publish(_state(14))
         assert spin_until(executor, lambda: 19 in frames(), 30), node.output
         assert node.running
-    assert frames() == list(range(9)) + [3] + list(range(9, 20))
+    assert frames() == list(range(9)) + list(range(3, 9)) + list(range(9, 20))
+
+
+def test_terrain_node_holds_poses_until_a_reader_matches(tmp_path, make_node, executor):
+    """Poses adapted before any reference_pose reader matched are held, and go out in order once one matches."""
+    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
+    skeleton = iguana_skeleton()
+    clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
+    probe = Probe(make_node('probe'), executor)
+    clip_pub, state_pub = probe.pub('motion_clip'), probe.pub('iguana_state')
+    with _node('terrain_adaptation_node', scene_file, tmp_path, lookahead_frames=5) as node:
+        probe.wait_matched('motion_clip')
+        probe.wait_matched('iguana_state')
+        probe.deliver(clip_pub, clip_to_msg(clip, skeleton, 0))             # acknowledged: the node has both
+        probe.deliver(state_pub, _state(0))
+        spin_until(executor, lambda: False, 1.0)                            # its poses are adapted meanwhile
+        probe.listen('reference_pose')
+        assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6, 30), node.output
+        spin_until(executor, lambda: False, 0.3)
+        assert node.running
+    assert [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(6))
 
 
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
