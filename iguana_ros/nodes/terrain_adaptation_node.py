@@ -15,6 +15,8 @@
 """Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out for every frame."""
 from __future__ import annotations
 
+import time
+
 from rclpy.clock import Clock, ClockType
 
 from iguana_ros.errors import IguanaError, InputError
@@ -25,6 +27,10 @@ from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
 UNMATCHED_RETRY_S = 0.05
 """Wall-clock period at which poses held back for want of a matched reference_pose reader are offered again."""
+
+UNMATCHED_HOLD_S = 1.0
+"""Longest wall-clock time poses are held for readers the graph lists but that do not match (a reader with an
+incompatible QoS never does); after it they go to the readers that are matched, if any."""
 
 CLIP_QUEUE_DEPTH = 10
 """History depth of the motion_clip reader: the topic's depth 1 (latched) would let a burst from another publisher
@@ -63,6 +69,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.retry_timer = self.create_timer(UNMATCHED_RETRY_S, self.publish_ready,
                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.retry_timer.cancel()                    # runs only while poses are held back (publish_ready)
+        self.held_since: float | None = None
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
         self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
@@ -113,9 +120,18 @@ class TerrainAdaptationNode(IguanaNode):
             self.pose_pub.publish(self.sent[frame])
 
     def readers_matched(self) -> bool:
-        """Whether reference_pose has a reader and every reader this node's graph knows of is matched."""
-        known = self.count_subscribers(self.pose_pub.topic_name)
-        return self.pose_pub.get_subscription_count() >= max(known, 1)
+        """
+        Whether reference_pose has a matched reader and every reader this node's graph knows of is matched.
+
+        (or, UNMATCHED_HOLD_S since the first pose was held for a reader that has not matched since, any is).
+        """
+        matched = self.pose_pub.get_subscription_count()
+        if matched >= max(self.count_subscribers(self.pose_pub.topic_name), 1):
+            self.held_since = None
+            return True
+        now = time.monotonic()
+        self.held_since = now if self.held_since is None else self.held_since
+        return matched >= 1 and now - self.held_since >= UNMATCHED_HOLD_S
 
     def destroy_node(self) -> None:
         """Stop the lookahead's worker thread, then leave the graph."""

@@ -230,6 +230,31 @@ def test_terrain_node_holds_poses_until_a_reader_matches(tmp_path, make_node, ex
     assert [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(6))
 
 
+def test_terrain_node_does_not_wait_for_a_reader_that_cannot_match(tmp_path, make_node, executor):
+    """A reader asking for transient-local poses never matches the volatile writer: the others still get them."""
+    from rclpy.qos import DurabilityPolicy
+    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
+    skeleton = iguana_skeleton()
+    clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
+    probe = Probe(make_node('probe'), executor)
+    name, cls, qos = probe.resolve('reference_pose')
+    qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
+    probe.node.create_subscription(cls, name, lambda _m: None, qos)
+    probe.listen('reference_pose')
+    clip_pub, state_pub = probe.pub('motion_clip'), probe.pub('iguana_state')
+    with _node('terrain_adaptation_node', scene_file, tmp_path, lookahead_frames=5) as node:
+        probe.wait_matched('motion_clip')
+        probe.wait_matched('iguana_state')
+        probe.deliver(clip_pub, clip_to_msg(clip, skeleton, 0))
+        assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6, 30), node.output
+        for frame in range(1, 4):                    # later poses are not held again
+            probe.deliver(state_pub, _state(frame))
+            assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6 + frame, 0.5), node.output
+        assert node.running
+    assert [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(9))
+
+
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
     from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
