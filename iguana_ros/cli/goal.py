@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from iguana_ros.nodes.goal_sender import goal_message, send_goals
 
     msg = goal_message(args.x, args.y, args.yaw, args.at, args.frame or WORLD_FRAME)
-    topic = send_goals([msg], min_subscribers=1, timeout=args.timeout)
-    print(f'goal accepted by the planner on {topic}: x={args.x:g} y={args.y:g} yaw={args.yaw:g} deg '
-          f'frame={msg.header.frame_id}', flush=True)
+    delivery = send_goals([msg], min_subscribers=1, timeout=args.timeout)
+    print(f'goal accepted by the planner on {delivery.topic}: x={args.x:g} y={args.y:g} yaw={args.yaw:g} deg '
+          f'frame={msg.header.frame_id} ({delivery.subscribers} subscribers acknowledged)', flush=True)
     return 0

@@ -20,12 +20,15 @@ start-up). A sender reads that list first (so it knows the planner is there and 
 until every subscription of goal_pose on the graph is matched to its publisher (another subscriber matching first
 must not let the goal go out before the planner listens), publishes, and waits until its goals appear in the
 list. A goal the planner rejects (off the terrain, non-finite, wrong frame) never appears: the sender says so.
+Only subscriptions the sender has discovered can be waited for: one whose process DDS discovery has not reached
+yet (it can take an announcement period, ~3 s, under load) misses a volatile goal, so the sender reports how many
+subscribers acknowledged it.
 """
 from __future__ import annotations
 
 import math
 import time
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import rclpy
 from rclpy.duration import Duration
@@ -40,6 +43,13 @@ from iguana_ros.ros.endpoints import resolve
 
 POLL_S = 0.02
 """Wall seconds between checks while waiting."""
+
+
+class GoalDelivery(NamedTuple):
+    """Where goals went: the goal topic's resolved name and how many subscriptions acknowledged them."""
+
+    topic: str
+    subscribers: int
 
 
 def goal_message(x: float, y: float, yaw_deg: float = 0.0, at: float = 0.0, frame_id: str = WORLD_FRAME):
@@ -85,13 +95,13 @@ def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_goin
 
 
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
-               keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> str:
+               keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> GoalDelivery:
     """
     Publish PoseStamped `goals` once `min_subscribers` listen.
 
     (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
     matched); wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
-    Returns the topic name.
+    Returns the topic name and how many subscriptions acknowledged the goals.
 
     IguanaError in one line when a step does not happen within `timeout` s (each step has the whole timeout).
     `keep_going()` is called while waiting (it may raise to give up early).
@@ -106,7 +116,7 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
 
 
 def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 10.0,
-                  keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> str:
+                  keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> GoalDelivery:
     """`send_goals` on an existing rclpy `node` (its publisher and subscription are removed afterwards)."""
     name, cls, qos = resolve('goal_pose')
     pub = node.create_publisher(cls, name, qos)
@@ -154,6 +164,7 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
         before = len(lists[-1].poses) if lists else 0
         for msg in goals:
             pub.publish(msg)
+        delivered = pub.get_subscription_count()
         deadline = time.monotonic() + timeout
         while not pub.wait_for_all_acked(Duration(seconds=POLL_S)):   # short waits, so keep_going can give up
             keep_going()
@@ -165,7 +176,7 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
             wait_spinning(accepted, node, timeout, keep_going, lambda: (
                 f'the planner did not accept {"the goal" if len(goals) == 1 else "every goal"} within {timeout:g} s '
                 f'(rejected: see the planner log for "rejected goal_pose", e.g. a goal off the terrain)'))
-        return topic
+        return GoalDelivery(topic, delivered)
     finally:
         node.destroy_publisher(pub)
         if accepted_sub is not None:

@@ -56,20 +56,24 @@ def _planner(tmp_path) -> NodeProcess:
                        'planner_node', tmp_path)
 
 
-def _listener(make_node, executor):
-    """Return a second subscriber on goal_pose (a recorder, a viewer): it must not stand in for the planner."""
+def _listener(make_node, executor) -> tuple[list, object]:
+    """
+    Return (messages, subscription) of a second subscriber on goal_pose (a recorder, a viewer).
+
+    It must not stand in for the planner.
+    """
     from iguana_ros.ros.endpoints import resolve
     name, cls, qos = resolve('goal_pose')
     node = make_node('goal_listener')
     executor.add_node(node)
     received = []
-    node.create_subscription(cls, name, received.append, qos)
-    return received
+    sub = node.create_subscription(cls, name, received.append, qos)
+    return received, sub
 
 
 @pytest.mark.ros
 def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_node, executor):
-    received = _listener(make_node, executor)
+    received, _ = _listener(make_node, executor)
     goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--timeout', '2'], 'goal', tmp_path).start()
     with goal:
         assert spin_until(executor, lambda: not goal.running, 20)
@@ -89,23 +93,28 @@ def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path,
 
     With a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner (not yet listening) never
     got the goal. Now it waits until the planner lists the goal as accepted; a goal the planner rejects is reported
-    (exit 1).
+    (exit 1). The planner starts once the listener has matched the sender's publisher: a subscriber the sender has not
+    discovered yet cannot be waited for (CI once saw the planner's process discovered before this one's).
     """
     from iguana_ros.ros.conversions import pose_stamped_to_numpy
-    received = _listener(make_node, executor)
+    received, sub = _listener(make_node, executor)
     goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--yaw', '90', '--timeout', '90'], 'goal', tmp_path).start()
-    with goal, _planner(tmp_path).start() as planner:
-        assert spin_until(executor, lambda: not goal.running, 100), goal.output
-        assert goal.proc.returncode == 0, goal.output + planner.output
-        assert 'goal (1.50, -2.00) scheduled for t=0.000 s' in planner.output
-        # the listener acknowledged the goal before the sender exited; its callback runs when this process spins
-        assert spin_until(executor, lambda: received, 10), 'the second subscriber never got the goal'
-        rejected = NodeProcess([*IGUANA, 'goal', '1e9', '0', '--timeout', '8'], 'rejected', tmp_path).start()
-        assert rejected.wait(30) == 1
-        later = NodeProcess([*IGUANA, 'goal', '1', '0.5', '--at', '2', '--timeout', '30'], 'later', tmp_path).start()
-        assert later.wait(40) == 0, later.output
-        assert planner.running
-    assert 'goal accepted by the planner on /goal_pose: x=1.5 y=-2 yaw=90 deg frame=world' in goal.output
+    with goal:
+        assert spin_until(executor, lambda: sub.get_publisher_count() > 0, 60), goal.output
+        with _planner(tmp_path).start() as planner:
+            assert spin_until(executor, lambda: not goal.running, 100), goal.output
+            assert goal.proc.returncode == 0, goal.output + planner.output
+            assert 'goal (1.50, -2.00) scheduled for t=0.000 s' in planner.output
+            # the listener acknowledged the goal before the sender exited; its callback runs when this process spins
+            assert spin_until(executor, lambda: received, 10), f'the second subscriber got no goal: {goal.output}'
+            rejected = NodeProcess([*IGUANA, 'goal', '1e9', '0', '--timeout', '8'], 'rejected', tmp_path).start()
+            assert rejected.wait(30) == 1
+            later = NodeProcess([*IGUANA, 'goal', '1', '0.5', '--at', '2', '--timeout', '30'], 'later', tmp_path)
+            later.start()
+            assert later.wait(40) == 0, later.output
+            assert planner.running
+    assert ('goal accepted by the planner on /goal_pose: x=1.5 y=-2 yaw=90 deg frame=world (2 subscribers acknowledged)'
+            in goal.output)
     pos, quat = pose_stamped_to_numpy(received[0])
     np.testing.assert_allclose(pos, [1.5, -2.0, 0.0])
     np.testing.assert_allclose(quat, [0, 0, math.sqrt(0.5), math.sqrt(0.5)])
