@@ -26,7 +26,7 @@ from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.progress import EVENT_CLIP
-from iguana_ros.ros.messages import clip_to_cdr, goal_from_msg, reference_stance_to_msg, state_from_cdr
+from iguana_ros.ros.messages import clip_to_cdr, goal_from_msg, reference_stance_to_cdr, state_from_cdr
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
 
@@ -93,7 +93,7 @@ class PlannerNode(IguanaNode):
             self.clip_pub.publish(clip_to_cdr(clip, self.skeleton, frame))   # serialized from numpy: 21 x 34 bones
             self.get_logger().info(f'frame {frame}: clip {clip.name!r} ({len(clip.root_positions)} frames)')
             self.report(EVENT_CLIP, clip=clip.name, frame=frame)
-        self.stance_pub.publish(reference_stance_to_msg(self.stage.reference_contacts(frame), frame))
+        self.stance_pub.publish(reference_stance_to_cdr(self.stage.reference_contacts(frame), frame))
 
 
 main = node_main(PlannerNode)

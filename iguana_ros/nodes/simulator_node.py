@@ -25,7 +25,6 @@ import time
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
-from rosgraph_msgs.msg import Clock as ClockMsg
 from visualization_msgs.msg import Marker
 
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
@@ -33,10 +32,10 @@ from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.base import IguanaNode, node_main
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.ros.cdr import triangle_list_marker_cdr
-from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, stamp_frame, triangle_list_marker
+from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
 from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, RECORDER_NODE_NAME, resolve
-from iguana_ros.ros.messages import (foot_positions_to_msg, foot_state_to_msg, goal_from_msg, lengths_from_msg,
-                                     push_from_msg, state_to_msg)
+from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
+                                     goal_from_msg, lengths_from_cdr, push_from_msg, state_to_cdr)
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
 from iguana_ros.stages import push_forces, simulator_stage
@@ -105,13 +104,13 @@ class SimulatorNode(IguanaNode):
         self.scene_pub = self.publisher('scene_markers')
         self.foot_pub = self.publisher('foot_state')
         self.foot_positions_pub = self.publisher('foot_positions')
-        self.subscription('spring_rest_lengths', self.guarded('spring_rest_lengths', self.on_lengths))
+        self.subscription('spring_rest_lengths', self.guarded('spring_rest_lengths', self.on_lengths), raw=True)
         self.subscription('push', self.guarded('push', self.on_push))
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.publish_scene_markers()
 
     # ------------------------------------------------------------------------------------------ inputs
-    def on_lengths(self, msg) -> None:
+    def on_lengths(self, data: bytes) -> None:
         """
         Keep a frame's lengths until the simulator reaches that frame; lockstep: advance once the current frame's are.
 
@@ -120,9 +119,9 @@ class SimulatorNode(IguanaNode):
         the model's bounds are rejected: the frame is not simulated with them (lockstep waits on).
         """
         try:
-            frame, lengths = lengths_from_msg(msg, self.n_springs, self.model.spring_rest_lengths)
+            frame, lengths = lengths_from_cdr(data, self.n_springs, self.model.spring_rest_lengths)
         except IguanaError as exc:
-            self.rejected_lengths = f'frame {stamp_frame(msg.header.stamp)}: {exc}'
+            self.rejected_lengths = f'frame {frame_of_cdr(data)}: {exc}'
             raise
         if check_frame('spring_rest_lengths', frame, self.stage.frame) == FRAME_STALE:
             if self.mode == 'lockstep':
@@ -270,11 +269,11 @@ class SimulatorNode(IguanaNode):
         frame = self.stage.frame
         root, orientation = self.stage.root_pose()
         linear, angular = self.stage.root_twist()
-        self.clock_pub.publish(ClockMsg(clock=frame_stamp(frame)))
-        self.state_pub.publish(state_to_msg(root, orientation, linear, angular, frame))
+        self.clock_pub.publish(clock_to_cdr(frame))
+        self.state_pub.publish(state_to_cdr(root, orientation, linear, angular, frame))
         heights, contact, soles = self.probe.body(self.stage.sim.positions, self.stage.sim.in_contact)
-        self.foot_pub.publish(foot_state_to_msg(heights, contact, frame))
-        self.foot_positions_pub.publish(foot_positions_to_msg(soles, frame))
+        self.foot_pub.publish(foot_state_to_cdr(heights, contact, frame))
+        self.foot_positions_pub.publish(foot_positions_to_cdr(soles, frame))
         if frame % self.param('mesh_every_n_frames') == 0:
             self.mesh_pub.publish(triangle_list_marker_cdr(
                 self.stage.sim.positions, self.model.surface_triangles,

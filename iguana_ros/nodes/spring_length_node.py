@@ -16,7 +16,7 @@
 from __future__ import annotations
 
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
-from iguana_ros.ros.messages import lengths_to_msg, reference_pose_from_cdr
+from iguana_ros.ros.messages import lengths_to_cdr, reference_pose_from_cdr
 from iguana_ros.stages import scene_model, spring_stage
 from iguana_ros.validation import check_desired_lengths, world_bound
 
@@ -51,7 +51,7 @@ class SpringLengthNode(IguanaNode):
         if not self.pose_gate.admit(frame):
             return
         lengths = check_desired_lengths(self.computer.lengths_from_bones(rotations, positions), self.rest_lengths)
-        self.pose_gate.handled(frame, lengths_to_msg(lengths, frame))
+        self.pose_gate.handled(frame, lengths_to_cdr(lengths, frame))
 
 
 main = node_main(SpringLengthNode)

@@ -45,6 +45,9 @@ CDR_LE_HEADER = b'\x00\x01\x00\x00'
 STRING = 'string'
 """Layout type of a CDR string (uint32 length including the NUL, the bytes, the NUL)."""
 
+STRINGS = 'strings'
+"""Layout type of a CDR sequence of strings (uint32 count, then each string)."""
+
 _TRIANGLE_LIST, _ADD = 11, 0
 """visualization_msgs/Marker type and action codes of a triangle-list marker."""
 
@@ -72,10 +75,21 @@ visualization_msgs/MeshFile (filename, data)."""
 
 
 POSE_ARRAY = (('stamp', 'iI'), ('frame_id', STRING), ('poses', Sequence('<f8', 7)))
+"""geometry_msgs/msg/PoseArray in wire order: each pose is position xyz then orientation xyzw."""
+
 ODOMETRY = (('stamp', 'iI'), ('frame_id', STRING), ('child_frame_id', STRING), ('pose', '7d'),
             ('pose_covariance', '36d'), ('twist', '6d'), ('twist_covariance', '36d'))
 """nav_msgs/Odometry: header, child frame, pose (position, xyzw) and twist (linear, angular) with covariances."""
-"""geometry_msgs/msg/PoseArray in wire order: each pose is position xyz then orientation xyzw."""
+
+VALUES = Sequence('<f8', 1)
+"""A sequence of float64."""
+
+JOINT_STATE = (('stamp', 'iI'), ('frame_id', STRING), ('name', STRINGS), ('position', VALUES), ('velocity', VALUES),
+               ('effort', VALUES))
+"""sensor_msgs/msg/JointState in wire order."""
+
+CLOCK = (('clock', 'iI'),)
+"""rosgraph_msgs/msg/Clock: one builtin_interfaces/Time."""
 
 
 def _alignment(fmt: str) -> int:
@@ -87,6 +101,8 @@ def _default(kind) -> object:
     """Return the value a field takes when a writer is not given it: zeros, '' or an empty sequence."""
     if kind == STRING:
         return ''
+    if kind == STRINGS:
+        return []
     if isinstance(kind, Sequence):
         return np.zeros((0, kind.width), kind.dtype)
     return tuple(0 for _ in struct.unpack('<' + kind, bytes(struct.calcsize('<' + kind))))
@@ -118,6 +134,12 @@ class CdrWriter:
         self.pack('I', len(raw))
         self._put(raw, 1)
 
+    def strings(self, texts) -> None:
+        """Write a CDR sequence of strings."""
+        self.pack('I', len(texts))
+        for text in texts:
+            self.string(text)
+
     def sequence(self, rows: np.ndarray, kind: Sequence) -> None:
         """Write a sequence: the row count, then the rows' raw data (row-major, `kind.dtype`)."""
         data = np.ascontiguousarray(rows, dtype=kind.dtype).reshape(-1, kind.width)
@@ -131,6 +153,8 @@ class CdrWriter:
             value = values[name] if name in values else _default(kind)
             if kind == STRING:
                 self.string(value)
+            elif kind == STRINGS:
+                self.strings(value)
             elif isinstance(kind, Sequence):
                 self.sequence(value, kind)
             else:
@@ -166,6 +190,13 @@ class CdrReader:
         self.pos += n
         return text
 
+    def strings(self) -> list[str]:
+        """Return a CDR sequence of strings."""
+        (n,) = self.take('I')
+        if n > len(self.data):
+            raise ValueError(f'{n} strings cannot fit in {len(self.data)} bytes')
+        return [self.string() for _ in range(n)]
+
     def sequence(self, kind: Sequence) -> np.ndarray:
         """Return a sequence as an array `(n, kind.width)` (a read-only view of the bytes; float64 zeros when empty)."""
         (n,) = self.take('I')
@@ -183,6 +214,8 @@ class CdrReader:
         for name, kind in layout:
             if kind == STRING:
                 out[name] = self.string()
+            elif kind == STRINGS:
+                out[name] = self.strings()
             elif isinstance(kind, Sequence):
                 out[name] = self.sequence(kind)
             else:
@@ -217,9 +250,7 @@ def multi_dof_trajectory_cdr(trajectory: Trajectory) -> bytes:
     writer = CdrWriter()
     writer.pack('iI', *trajectory.stamp)
     writer.string(trajectory.frame_id)
-    writer.pack('I', len(trajectory.joint_names))
-    for name in trajectory.joint_names:
-        writer.string(name)
+    writer.strings(trajectory.joint_names)
     frames = np.concatenate([trajectory.translations, trajectory.rotations], axis=2)
     ns = np.round(np.asarray(trajectory.times, dtype=np.float64) * 1e9).astype(np.int64)
     writer.pack('I', len(frames))
@@ -236,10 +267,8 @@ def multi_dof_trajectory_from_cdr(data: bytes, what: str = 'motion_clip') -> Tra
     try:
         stamp = reader.take('iI')
         frame_id = reader.string()
-        (n_names,) = reader.take('I')
-        if n_names > len(data):
-            raise ValueError(f'{n_names} joint names cannot fit in {len(data)} bytes')
-        names = [reader.string() for _ in range(n_names)]
+        names = reader.strings()
+        n_names = len(names)
         (n_points,) = reader.take('I')
         if n_points > len(data):
             raise ValueError(f'{n_points} points cannot fit in {len(data)} bytes')
@@ -293,6 +322,43 @@ def odometry_from_cdr(data: bytes, what: str = 'Odometry') -> tuple:
     except (struct.error, ValueError) as exc:
         raise InputError(f'{what}: message is truncated or not an Odometry: {exc}') from exc
     return fields['stamp'], fields['frame_id'], np.array(fields['pose']), np.array(fields['twist'])
+
+
+def odometry_cdr(stamp: tuple, frame_id: str, child_frame_id: str, pose: np.ndarray, twist: np.ndarray) -> bytes:
+    """Return serialized Odometry bytes of pose `(7,)` position + xyzw and twist `(6,)` (zero covariances)."""
+    writer = CdrWriter()
+    writer.write(ODOMETRY, {'stamp': stamp, 'frame_id': frame_id, 'child_frame_id': child_frame_id,
+                            'pose': np.asarray(pose, np.float64).tolist(),
+                            'twist': np.asarray(twist, np.float64).tolist()})
+    return writer.to_bytes()
+
+
+def joint_state_cdr(stamp: tuple, frame_id: str, names: list, position: np.ndarray,
+                    effort: np.ndarray | None = None) -> bytes:
+    """Return serialized JointState bytes: `names`, position `(n,)`, no velocity, effort `(m,)` (None = empty)."""
+    writer = CdrWriter()
+    writer.write(JOINT_STATE, {'stamp': stamp, 'frame_id': frame_id, 'name': names, 'position': position,
+                               **({} if effort is None else {'effort': effort})})
+    return writer.to_bytes()
+
+
+def joint_state_from_cdr(data: bytes, what: str = 'JointState') -> dict:
+    """{stamp (sec, nanosec), frame_id, name, position `(n,)`, velocity, effort} of JointState bytes, or InputError."""
+    reader = CdrReader(data, f'{what}: message')
+    try:
+        fields = reader.read(JOINT_STATE)
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'{what}: message is truncated or not a JointState: {exc}') from exc
+    for key in ('position', 'velocity', 'effort'):
+        fields[key] = fields[key].reshape(-1)
+    return fields
+
+
+def clock_cdr(stamp: tuple) -> bytes:
+    """Return serialized rosgraph_msgs/Clock bytes of `stamp` (sec, nanosec)."""
+    writer = CdrWriter()
+    writer.write(CLOCK, {'clock': stamp})
+    return writer.to_bytes()
 
 
 def header_stamp_ns(data: bytes) -> int:

@@ -17,15 +17,17 @@ from __future__ import annotations
 
 import array
 import math
+import struct
 
 import numpy as np
 
-from iguana_ros.constants import FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
+from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
-from iguana_ros.ros.cdr import (multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, odometry_from_cdr,
-                                pose_array_cdr, pose_array_from_cdr, Trajectory)
+from iguana_ros.ros.cdr import (clock_cdr, joint_state_cdr, joint_state_from_cdr, multi_dof_trajectory_cdr,
+                                multi_dof_trajectory_from_cdr, odometry_cdr, odometry_from_cdr, pose_array_cdr,
+                                pose_array_from_cdr, Trajectory)
 from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
                                         pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
@@ -165,6 +167,11 @@ def lengths_to_msg(lengths: np.ndarray, frame: int):
     return joint_state_msg(lengths, stamp=frame_stamp(frame))
 
 
+def lengths_to_cdr(lengths: np.ndarray, frame: int) -> bytes:
+    """Return the serialized bytes of `lengths_to_msg`'s message, from numpy (how the spring-length node publishes)."""
+    return joint_state_cdr(_frame_stamp_pair(frame), '', [], validate_array('values', lengths, (None,)))
+
+
 def lengths_from_msg(msg, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
     """
     (frame, lengths `(n_springs,)`) of a spring_rest_lengths message.
@@ -172,18 +179,49 @@ def lengths_from_msg(msg, n_springs: int, rest_lengths: np.ndarray | None = None
     InputError if wrong or negative, or (given the model's `rest_lengths`) outside the factor of rest that
     `check_desired_lengths` allows.
     """
-    lengths = validate_array('spring_rest_lengths', joint_state_positions(msg), (n_springs,))
+    return stamp_frame(msg.header.stamp), _checked_lengths(joint_state_positions(msg), n_springs, rest_lengths)
+
+
+def lengths_from_cdr(data: bytes, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
+    """`lengths_from_msg` of a serialized spring_rest_lengths message (read with numpy, checked the same way)."""
+    fields = joint_state_from_cdr(data, 'spring_rest_lengths')
+    return _cdr_stamp_frame(*fields['stamp']), _checked_lengths(fields['position'], n_springs, rest_lengths)
+
+
+def _checked_lengths(values: np.ndarray, n_springs: int, rest_lengths: np.ndarray | None) -> np.ndarray:
+    """Spring lengths `(n_springs,)` as float64, or InputError (see `lengths_from_msg`)."""
+    lengths = validate_array('spring_rest_lengths', values, (n_springs,))
     if np.any(lengths < 0.0):
         raise InputError('spring_rest_lengths has negative lengths')
     if rest_lengths is not None:
         check_desired_lengths(lengths, rest_lengths)
-    return stamp_frame(msg.header.stamp), lengths
+    return lengths
 
 
 def state_to_msg(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, angular: np.ndarray,
                  frame: int):
     """Odometry of the iguana root at the start of `frame`."""
     return odometry_msg(root, orientation, linear, angular, stamp=frame_stamp(frame))
+
+
+def state_to_cdr(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, angular: np.ndarray,
+                 frame: int) -> bytes:
+    """Return the serialized bytes of `state_to_msg`'s message, from numpy (how the simulator node publishes)."""
+    pose = np.concatenate([validate_array('position', root, (3,)), validate_array('quaternion', orientation, (4,))])
+    twist = np.concatenate([validate_array('linear_velocity', linear, (3,)),
+                            validate_array('angular_velocity', angular, (3,))])
+    return odometry_cdr(_frame_stamp_pair(frame), WORLD_FRAME, BASE_FRAME, pose, twist)
+
+
+def clock_to_cdr(frame: int) -> bytes:
+    """Return the serialized rosgraph_msgs/Clock of the start of `frame` (the simulator's /clock)."""
+    return clock_cdr(_frame_stamp_pair(frame))
+
+
+def _frame_stamp_pair(frame: int) -> tuple[int, int]:
+    """(sec, nanosec) of `frame_stamp(frame)`."""
+    stamp = frame_stamp(frame)
+    return stamp.sec, stamp.nanosec
 
 
 def state_from_msg(msg, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
@@ -201,6 +239,14 @@ def state_from_cdr(data: bytes, bound: float = math.inf) -> tuple[int, np.ndarra
     """`state_from_msg` of a serialized iguana_state message (read with numpy, checked the same way)."""
     (sec, nsec), frame_id, pose, twist = odometry_from_cdr(data, 'iguana_state')
     return _checked_state(frame_id, _cdr_stamp_frame(sec, nsec), pose[:3], pose[3:], twist, bound)
+
+
+def frame_of_cdr(data: bytes) -> int | str:
+    """Frame index of a serialized stamped message's header stamp, or '?' if its bytes are too short to hold one."""
+    try:
+        return _cdr_stamp_frame(*struct.unpack_from('<iI', data, 4))
+    except struct.error:
+        return '?'
 
 
 def _cdr_stamp_frame(sec: int, nsec: int) -> int:
@@ -253,6 +299,11 @@ def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):
     return _feet_msg(heights, contact, frame)
 
 
+def foot_state_to_cdr(heights: np.ndarray, contact: np.ndarray, frame: int) -> bytes:
+    """Return the serialized bytes of `foot_state_to_msg`'s message, from numpy."""
+    return _feet_cdr(heights, contact, frame)
+
+
 def foot_state_from_msg(msg) -> tuple[int, np.ndarray, np.ndarray]:
     """(frame, heights `(4,)` m, contact `(4,)` bool) of a foot_state message; InputError if it does not fit."""
     heights, contact = _feet_from_msg('foot_state', msg, with_position=True)
@@ -264,6 +315,11 @@ def reference_stance_to_msg(stance: np.ndarray, frame: int):
     return _feet_msg(None, stance, frame)
 
 
+def reference_stance_to_cdr(stance: np.ndarray, frame: int) -> bytes:
+    """Return the serialized bytes of `reference_stance_to_msg`'s message, from numpy (how the planner publishes)."""
+    return _feet_cdr(None, stance, frame)
+
+
 def reference_stance_from_msg(msg) -> tuple[int, np.ndarray]:
     """(frame, stance flags `(4,)` bool) of a reference_stance message; InputError if it does not fit."""
     return stamp_frame(msg.header.stamp), _feet_from_msg('reference_stance', msg, with_position=False)[1]
@@ -271,10 +327,21 @@ def reference_stance_from_msg(msg) -> tuple[int, np.ndarray]:
 
 def foot_positions_to_msg(centroids: np.ndarray, frame: int):
     """foot_positions: PoseArray of the sole centroids `(4, 3)` m (fl, fr, hl, hr; identity orientations)."""
+    return pose_array_msg(validate_array('foot positions', centroids, (len(FEET), 3)), _identity_quats(),
+                          stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
+
+
+def foot_positions_to_cdr(centroids: np.ndarray, frame: int) -> bytes:
+    """Return the serialized bytes of `foot_positions_to_msg`'s message, from numpy."""
+    return pose_array_cdr(_frame_stamp_pair(frame), WORLD_FRAME,
+                          validate_array('foot positions', centroids, (len(FEET), 3)), _identity_quats())
+
+
+def _identity_quats() -> np.ndarray:
+    """Identity orientations xyzw `(4, 4)`, one per foot."""
     quats = np.zeros((len(FEET), 4))
     quats[:, 3] = 1.0
-    return pose_array_msg(validate_array('foot positions', centroids, (len(FEET), 3)), quats,
-                          stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
+    return quats
 
 
 def foot_positions_from_msg(msg) -> tuple[int, np.ndarray]:
@@ -286,15 +353,27 @@ def foot_positions_from_msg(msg) -> tuple[int, np.ndarray]:
 
 def _feet_msg(values: np.ndarray | None, flags: np.ndarray, frame: int):
     """`JointState` named FEET: position = `values` (None = empty), effort = `flags` as 1.0 / 0.0."""
-    shape = (0,) if values is None else (len(FEET),)
-    msg = joint_state_msg(validate_array('foot values', np.zeros(0) if values is None else values, shape),
-                          stamp=frame_stamp(frame))
+    position, effort = _feet_arrays(values, flags)
+    msg = joint_state_msg(position, stamp=frame_stamp(frame))
     msg.name = list(FEET)
+    msg.effort = array.array('d', effort.tobytes())
+    return msg
+
+
+def _feet_cdr(values: np.ndarray | None, flags: np.ndarray, frame: int) -> bytes:
+    """Return the serialized bytes of `_feet_msg`'s message."""
+    position, effort = _feet_arrays(values, flags)
+    return joint_state_cdr(_frame_stamp_pair(frame), '', list(FEET), position, effort)
+
+
+def _feet_arrays(values: np.ndarray | None, flags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position `(4,)` or `(0,)`, effort `(4,)` 1.0 / 0.0) of a feet JointState, or InputError."""
+    shape = (0,) if values is None else (len(FEET),)
+    position = validate_array('foot values', np.zeros(0) if values is None else values, shape)
     flags = np.asarray(flags, bool)
     if flags.shape != (len(FEET),):
         raise InputError(f'foot flags have shape {flags.shape}, expected ({len(FEET)},)')
-    msg.effort = array.array('d', flags.astype(np.float64).tobytes())
-    return msg
+    return position, flags.astype(np.float64)
 
 
 def _feet_from_msg(what: str, msg, with_position: bool) -> tuple[np.ndarray | None, np.ndarray]:

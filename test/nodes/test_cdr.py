@@ -248,3 +248,58 @@ def test_iguana_state_reading_matches_the_message_path(rng):
     for cut in (3, 30, len(data) // 2, len(data) - 8):
         with pytest.raises(InputError, match='truncated or not an Odometry|not little-endian CDR'):
             state_from_cdr(data[:cut])
+
+
+@pytest.mark.parametrize('frame', [0, 1, 29, 12345])
+def test_per_frame_bytes_are_the_messages_rclpy_serializes(rng, frame):
+    """
+    The nodes publish these per frame as bytes built from numpy.
+
+    rclpy reads each back as the message the `_msg` builder makes, and mcap-ros2-support decodes the same values.
+    """
+    from geometry_msgs.msg import PoseArray
+    from nav_msgs.msg import Odometry
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+
+    from iguana_ros.ros import messages as m
+    from iguana_ros.ros.conversions import frame_stamp
+    quat = rng.normal(size=4)
+    state = (rng.normal(size=3), quat / np.linalg.norm(quat), rng.normal(size=3), rng.normal(size=3), frame)
+    heights, flags, soles = rng.normal(size=4), rng.uniform(size=4) > 0.5, rng.normal(size=(4, 3))
+    lengths = rng.uniform(size=2553)
+    cases = [(m.lengths_to_msg(lengths, frame), m.lengths_to_cdr(lengths, frame), JointState),
+             (m.state_to_msg(*state), m.state_to_cdr(*state), Odometry),
+             (m.foot_state_to_msg(heights, flags, frame), m.foot_state_to_cdr(heights, flags, frame), JointState),
+             (m.reference_stance_to_msg(flags, frame), m.reference_stance_to_cdr(flags, frame), JointState),
+             (m.foot_positions_to_msg(soles, frame), m.foot_positions_to_cdr(soles, frame), PoseArray),
+             (Clock(clock=frame_stamp(frame)), m.clock_to_cdr(frame), Clock)]
+    for message, data, cls in cases:
+        assert deserialize_message(data, cls) == message, cls.__name__
+        type_name = {'JointState': 'sensor_msgs/msg/JointState', 'Odometry': 'nav_msgs/msg/Odometry',
+                     'PoseArray': 'geometry_msgs/msg/PoseArray', 'Clock': 'rosgraph_msgs/msg/Clock'}[cls.__name__]
+        decoded = _decoder(type_name)(data)
+        stamp = decoded.clock if cls is Clock else decoded.header.stamp
+        assert (stamp.sec, stamp.nanosec) == (frame_stamp(frame).sec, frame_stamp(frame).nanosec)
+    assert np.array_equal(_decoder('sensor_msgs/msg/JointState')(cases[0][1]).position, lengths)
+    assert _decoder('sensor_msgs/msg/JointState')(cases[2][1]).effort == flags.astype(float).tolist()
+
+
+def test_lengths_reading_matches_the_message_path(rng):
+    """`lengths_from_cdr` (the simulator node's read) gives what `lengths_from_msg` gives, with the same checks."""
+    from iguana_ros.ros.messages import frame_of_cdr, lengths_from_cdr, lengths_from_msg, lengths_to_msg
+    rest = rng.uniform(0.05, 0.2, size=40)
+    message = lengths_to_msg(rest * 1.1, 77)
+    read, expected = lengths_from_cdr(serialize_message(message), 40, rest), lengths_from_msg(message, 40, rest)
+    assert read[0] == expected[0] == 77 and np.array_equal(read[1], expected[1])
+    for bad, match in ((lengths_to_msg(rest[:-1], 1), r'shape \(39,\)'), (lengths_to_msg(-rest, 1), 'negative'),
+                       (lengths_to_msg(rest * 1e3, 1), 'spring_rest_lengths')):
+        with pytest.raises(InputError, match=match):
+            lengths_from_msg(bad, 40, rest)
+        with pytest.raises(InputError, match=match):
+            lengths_from_cdr(serialize_message(bad), 40, rest)
+    data = serialize_message(message)
+    for cut in (3, 10, 30, len(data) // 2):
+        with pytest.raises(InputError, match='truncated or not a JointState|not little-endian CDR'):
+            lengths_from_cdr(data[:cut], 40, rest)
+    assert frame_of_cdr(data) == 77 and frame_of_cdr(data[:6]) == '?'
