@@ -225,6 +225,22 @@ class CdrReader:
         return out
 
 
+def write_layout(layout: tuple, values: dict) -> bytes:
+    """Return one serialized message of `layout` from `values` (see `CdrWriter.write`)."""
+    writer = CdrWriter()
+    writer.write(layout, values)
+    return writer.to_bytes()
+
+
+def read_layout(data: bytes, layout: tuple, what: str, type_name: str) -> dict:
+    """{name: value} of every field of `layout` in `data`; InputError naming `what` and `type_name` if it is not one."""
+    reader = CdrReader(data, f'{what}: message')
+    try:
+        return reader.read(layout)
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'{what}: message is truncated or not {type_name}: {exc}') from exc
+
+
 class Trajectory(typing.NamedTuple):
     """The fields of a trajectory_msgs/MultiDOFJointTrajectory without twists, as numpy arrays."""
 
@@ -293,19 +309,13 @@ def multi_dof_trajectory_from_cdr(data: bytes, what: str = 'motion_clip') -> Tra
 
 def pose_array_cdr(stamp: tuple, frame_id: str, positions: np.ndarray, orientations: np.ndarray) -> bytes:
     """Return serialized PoseArray bytes of positions `(n, 3)` and orientations `(n, 4)` xyzw stamped (sec, nanosec)."""
-    writer = CdrWriter()
-    writer.write(POSE_ARRAY, {'stamp': stamp, 'frame_id': frame_id,
-                              'poses': np.concatenate([positions, orientations], axis=1)})
-    return writer.to_bytes()
+    return write_layout(POSE_ARRAY, {'stamp': stamp, 'frame_id': frame_id,
+                                     'poses': np.concatenate([positions, orientations], axis=1)})
 
 
 def pose_array_from_cdr(data: bytes, what: str = 'PoseArray') -> tuple:
     """(stamp (sec, nanosec), frame_id, positions `(n, 3)`, orientations `(n, 4)`) of PoseArray bytes, or InputError."""
-    reader = CdrReader(data, f'{what}: message')
-    try:
-        fields = reader.read(POSE_ARRAY)
-    except (struct.error, ValueError) as exc:
-        raise InputError(f'{what}: message is truncated or not a PoseArray: {exc}') from exc
+    fields = read_layout(data, POSE_ARRAY, what, 'a PoseArray')
     poses = np.array(fields['poses'], dtype=np.float64)
     return fields['stamp'], fields['frame_id'], poses[:, :3], poses[:, 3:]
 
@@ -316,39 +326,27 @@ def odometry_from_cdr(data: bytes, what: str = 'Odometry') -> tuple:
 
     InputError if they are not one.
     """
-    reader = CdrReader(data, f'{what}: message')
-    try:
-        fields = reader.read(ODOMETRY)
-    except (struct.error, ValueError) as exc:
-        raise InputError(f'{what}: message is truncated or not an Odometry: {exc}') from exc
+    fields = read_layout(data, ODOMETRY, what, 'an Odometry')
     return fields['stamp'], fields['frame_id'], np.array(fields['pose']), np.array(fields['twist'])
 
 
 def odometry_cdr(stamp: tuple, frame_id: str, child_frame_id: str, pose: np.ndarray, twist: np.ndarray) -> bytes:
     """Return serialized Odometry bytes of pose `(7,)` position + xyzw and twist `(6,)` (zero covariances)."""
-    writer = CdrWriter()
-    writer.write(ODOMETRY, {'stamp': stamp, 'frame_id': frame_id, 'child_frame_id': child_frame_id,
-                            'pose': np.asarray(pose, np.float64).tolist(),
-                            'twist': np.asarray(twist, np.float64).tolist()})
-    return writer.to_bytes()
+    return write_layout(ODOMETRY, {'stamp': stamp, 'frame_id': frame_id, 'child_frame_id': child_frame_id,
+                                   'pose': np.asarray(pose, np.float64).tolist(),
+                                   'twist': np.asarray(twist, np.float64).tolist()})
 
 
 def joint_state_cdr(stamp: tuple, frame_id: str, names: list, position: np.ndarray,
                     effort: np.ndarray | None = None) -> bytes:
     """Return serialized JointState bytes: `names`, position `(n,)`, no velocity, effort `(m,)` (None = empty)."""
-    writer = CdrWriter()
-    writer.write(JOINT_STATE, {'stamp': stamp, 'frame_id': frame_id, 'name': names, 'position': position,
-                               **({} if effort is None else {'effort': effort})})
-    return writer.to_bytes()
+    return write_layout(JOINT_STATE, {'stamp': stamp, 'frame_id': frame_id, 'name': names, 'position': position,
+                                      **({} if effort is None else {'effort': effort})})
 
 
 def joint_state_from_cdr(data: bytes, what: str = 'JointState') -> dict:
     """{stamp (sec, nanosec), frame_id, name, position `(n,)`, velocity, effort} of JointState bytes, or InputError."""
-    reader = CdrReader(data, f'{what}: message')
-    try:
-        fields = reader.read(JOINT_STATE)
-    except (struct.error, ValueError) as exc:
-        raise InputError(f'{what}: message is truncated or not a JointState: {exc}') from exc
+    fields = read_layout(data, JOINT_STATE, what, 'a JointState')
     for key in ('position', 'velocity', 'effort'):
         fields[key] = fields[key].reshape(-1)
     return fields
@@ -356,9 +354,7 @@ def joint_state_from_cdr(data: bytes, what: str = 'JointState') -> dict:
 
 def clock_cdr(stamp: tuple) -> bytes:
     """Return serialized rosgraph_msgs/Clock bytes of `stamp` (sec, nanosec)."""
-    writer = CdrWriter()
-    writer.write(CLOCK, {'clock': stamp})
-    return writer.to_bytes()
+    return write_layout(CLOCK, {'clock': stamp})
 
 
 def header_stamp_ns(data: bytes) -> int:
@@ -404,12 +400,10 @@ def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 
 
     points, rgba = triangle_soup(vertices, triangles, colors)
     t = stamp if isinstance(stamp, Time) else time_to_msg(stamp)
-    writer = CdrWriter()
-    writer.write(MARKER, {'stamp': (t.sec, t.nanosec), 'frame_id': frame_id, 'ns': ns, 'id': int(marker_id),
-                          'type': _TRIANGLE_LIST, 'action': _ADD, 'pose': (0.0,) * 6 + (1.0,),
-                          'scale': (1.0, 1.0, 1.0), 'color': (1.0, 1.0, 1.0, 1.0), 'points': points,
-                          'colors': rgba})
-    return writer.to_bytes()
+    return write_layout(MARKER, {'stamp': (t.sec, t.nanosec), 'frame_id': frame_id, 'ns': ns, 'id': int(marker_id),
+                                 'type': _TRIANGLE_LIST, 'action': _ADD, 'pose': (0.0,) * 6 + (1.0,),
+                                 'scale': (1.0, 1.0, 1.0), 'color': (1.0, 1.0, 1.0, 1.0), 'points': points,
+                                 'colors': rgba})
 
 
 def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:
