@@ -357,9 +357,14 @@ def clock_cdr(stamp: tuple) -> bytes:
     return write_layout(CLOCK, {'clock': stamp})
 
 
+def header_stamp(data: bytes) -> tuple[int, int]:
+    """header.stamp (sec, nanosec) of a serialized stamped message (it opens the payload); struct.error if short."""
+    return struct.unpack_from('<iI', data, 4)
+
+
 def header_stamp_ns(data: bytes) -> int:
-    """header.stamp (ns) of a serialized stamped message (the stamp opens its payload)."""
-    sec, nsec = struct.unpack_from('<iI', data, 4)
+    """header.stamp (ns) of a serialized stamped message."""
+    sec, nsec = header_stamp(data)
     return sec * 1_000_000_000 + nsec
 
 

@@ -25,9 +25,9 @@ from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
-from iguana_ros.ros.cdr import (clock_cdr, joint_state_cdr, joint_state_from_cdr, multi_dof_trajectory_cdr,
-                                multi_dof_trajectory_from_cdr, odometry_cdr, odometry_from_cdr, pose_array_cdr,
-                                pose_array_from_cdr, Trajectory)
+from iguana_ros.ros.cdr import (clock_cdr, header_stamp, joint_state_cdr, joint_state_from_cdr,
+                                multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, odometry_cdr,
+                                odometry_from_cdr, pose_array_cdr, pose_array_from_cdr, Trajectory)
 from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
                                         pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
@@ -244,7 +244,7 @@ def state_from_cdr(data: bytes, bound: float = math.inf) -> tuple[int, np.ndarra
 def frame_of_cdr(data: bytes) -> int | str:
     """Frame index of a serialized stamped message's header stamp, or '?' if its bytes are too short to hold one."""
     try:
-        return _cdr_stamp_frame(*struct.unpack_from('<iI', data, 4))
+        return _cdr_stamp_frame(*header_stamp(data))
     except struct.error:
         return '?'
 
