@@ -17,7 +17,9 @@ Test helper process: subscribes raw to topic keys of the table and dumps what it
 
 Usage: dump_subscriber.py DUMP_FILE KEY [KEY ...] [--expect N]
 Prints 'subscribed' once its subscriptions exist; exits on SIGINT/SIGTERM, or once N messages came.
-The dump also records, per topic, the durability offered by the publisher it heard from.
+The dump also records, per topic, the durability offered by the publisher it heard from. Its readers keep at least
+N messages each: with the table's depth (10), a burst replayed at --rate 4 overflowed a reader's history while this
+process was slow to take (161 of 162 received under load).
 """
 import argparse
 from pathlib import Path
@@ -55,6 +57,7 @@ def main() -> int:
 
     for key in args.keys:
         name, cls, qos = resolve(key)
+        qos.depth = max(qos.depth, args.expect)  # like a recorder: a burst (bag play --rate 4) must not overflow
         full = '/' + name.lstrip('/')
         node.create_subscription(cls, full, lambda d, n=full: on_message(n, d), qos, raw=True)
     print('subscribed', flush=True)
