@@ -24,6 +24,10 @@ NODE_EXECUTABLES = ('planner_node', 'terrain_adaptation_node', 'spring_length_no
 """The four node processes of the design card, in start order; each is also its node's default name and its
 section in msg_configs/parameters.yaml and params/iguana.yaml."""
 
+SIM_TIME_NODES = ('planner_node',)
+"""The nodes that read their clock (the planner stamps accepted_goals with it) and so get use_sim_time: the others
+stamp with frames and time with the steady clock, and a /clock subscription would cost each a wake per frame."""
+
 NODE_PACKAGE = 'iguana_ros.nodes'
 """Python package of the node modules: executable `name` runs `NODE_PACKAGE.name:main`."""
 

@@ -16,9 +16,9 @@
 The four iguana_ros nodes for colcon users: `ros2 launch iguana_ros iguana.launch.py [scene:=hills]`.
 
 Each node gets the params file `iguana run` gives it (share/iguana_ros/msg_configs/params/iguana.yaml), then the
-`scene` and `use_sim_time` launch arguments; the launch ends when the simulator finishes the scene, as `iguana run`
-does. Unlike `iguana run`, nothing is recorded and no goal is sent: send goals with `iguana goal X Y` (or
-IguanaCommander) and record with `iguana bag record`.
+`scene` launch argument and, for the node that reads its clock (the planner), `use_sim_time`; the launch ends when
+the simulator finishes the scene, as `iguana run` does. Unlike `iguana run`, nothing is recorded and no goal is
+sent: send goals with `iguana goal X Y` (or IguanaCommander) and record with `iguana bag record`.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, Shutdown
@@ -27,7 +27,7 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
-from iguana_ros.executables import NODE_EXECUTABLES
+from iguana_ros.executables import NODE_EXECUTABLES, SIM_TIME_NODES
 
 PACKAGE = 'iguana_ros'
 SIMULATOR = 'simulator_node'
@@ -37,18 +37,17 @@ SIMULATOR = 'simulator_node'
 def generate_launch_description() -> LaunchDescription:
     """Launch arguments `scene` and `use_sim_time`, and one Node per node executable of iguana_ros."""
     params_file = PathJoinSubstitution([FindPackageShare(PACKAGE), 'msg_configs', 'params', 'iguana.yaml'])
-    overrides = {
-        'scene': ParameterValue(LaunchConfiguration('scene'), value_type=str),
-        'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'), value_type=bool),
-    }
+    scene = {'scene': ParameterValue(LaunchConfiguration('scene'), value_type=str)}
+    sim_time = {'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'), value_type=bool)}
     arguments = [
         DeclareLaunchArgument('scene', default_value='hills',
                               description='scene name under msg_configs/scenes/ or a path to a scene YAML'),
         DeclareLaunchArgument('use_sim_time', default_value='true', choices=['true', 'false'],
-                              description="every node's clock follows the simulator's /clock"),
+                              description="the planner's clock (accepted_goals stamps) follows the simulator's "
+                                          '/clock; the other nodes read no clock'),
     ]
     nodes = [Node(package=PACKAGE, executable=name, name=name, output='screen',
-                  parameters=[params_file, overrides],
+                  parameters=[params_file, (scene | sim_time) if name in SIM_TIME_NODES else scene],
                   on_exit=Shutdown(reason='the simulator finished') if name == SIMULATOR else None)
              for name in NODE_EXECUTABLES]
     return LaunchDescription(arguments + nodes)

@@ -33,7 +33,7 @@ import yaml
 
 import iguana_ros
 from iguana_ros.config import params_file
-from iguana_ros.executables import CLI_EXECUTABLE, NODE_EXECUTABLES
+from iguana_ros.executables import CLI_EXECUTABLE, NODE_EXECUTABLES, SIM_TIME_NODES
 import launch_api
 
 REPO = Path(__file__).resolve().parent.parent
@@ -88,10 +88,13 @@ def test_launch_file_starts_the_installed_node_executables_with_the_run_params_f
     for node in nodes:
         files = node.parameter_files(resolver)
         assert files == [REPO / params_file().relative_to(REPO)]  # the file `iguana run` gives every node
-        assert node.parameter_values(resolver) == {'scene': 'hills', 'use_sim_time': True}
+        clock = {'use_sim_time': True} if node.name in SIM_TIME_NODES else {}
+        assert node.parameter_values(resolver) == {'scene': 'hills', **clock}
     assert [n.executable for n in nodes if n.on_exit is not None] == ['simulator_node']
     nodes, resolver = _launch(monkeypatch, REPO, scene='flat_walk', use_sim_time='false')
+    assert nodes[0].name == 'planner_node'
     assert nodes[0].parameter_values(resolver) == {'scene': 'flat_walk', 'use_sim_time': False}
+    assert nodes[3].parameter_values(resolver) == {'scene': 'flat_walk'}
 
 
 def test_iguana_run_gives_each_node_the_params_file_then_its_own_values():
@@ -111,7 +114,8 @@ def test_iguana_run_gives_each_node_the_params_file_then_its_own_values():
             assert nodes == (set(NODE_EXECUTABLES) if single else {name})
             assert 'simulator_node:wait_for_recorder:=true' in values or name != 'simulator_node'
     params = yaml.safe_load(params_file().read_text())
-    assert params['/**']['ros__parameters']['use_sim_time'] is True
+    assert params['planner_node']['ros__parameters']['use_sim_time'] is True
+    assert 'use_sim_time' not in params['/**']['ros__parameters']
     assert params['simulator_node']['ros__parameters']['wait_for_recorder'] is False
 
 

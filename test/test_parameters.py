@@ -18,7 +18,7 @@ import yaml
 
 from iguana_ros.config import config_path
 from iguana_ros.errors import InputError
-from iguana_ros.executables import NODE_EXECUTABLES
+from iguana_ros.executables import NODE_EXECUTABLES, SIM_TIME_NODES
 from iguana_ros.parameters import load_parameters, node_parameters, ParamSpec
 
 
@@ -26,11 +26,12 @@ def test_params_file_holds_every_declared_default():
     declared = load_parameters()
     params = yaml.safe_load(config_path('params', 'iguana.yaml').read_text())
     common = params['/**']['ros__parameters']
-    # plus rclpy's own use_sim_time (every node declares it by itself): all nodes follow the simulator's /clock
-    assert common == {'use_sim_time': True, **{name: spec.default for name, spec in declared['common'].items()}}
+    assert common == {name: spec.default for name, spec in declared['common'].items()}
     assert set(declared) == {'common', *NODE_EXECUTABLES}
     for node in NODE_EXECUTABLES:
         values = (params.get(node) or {}).get('ros__parameters', {})
+        # plus rclpy's own use_sim_time (every node declares it by itself) for the nodes that read their clock
+        assert values.pop('use_sim_time', False) is (node in SIM_TIME_NODES), node
         assert values == {name: spec.default for name, spec in declared[node].items()}, node
         for name, value in values.items():
             assert node_parameters(node)[name].check(value) == value

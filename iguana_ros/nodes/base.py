@@ -94,8 +94,8 @@ class IguanaNode(Node):
         """
         builtin_interfaces/Time of the node's clock.
 
-        Simulated time (the latest /clock) when use_sim_time is true (the standard params file sets it), else the system
-        clock. Frame data is stamped with `frame_stamp`.
+        Simulated time (the latest /clock) when use_sim_time is true (the standard params file sets it for the planner),
+        else the system clock. Frame data is stamped with `frame_stamp`.
         """
         return self.get_clock().now().to_msg()
 

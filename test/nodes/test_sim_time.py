@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-use_sim_time, set for every node by the standard params file.
+use_sim_time, set by the standard params file for the node that reads its clock (the planner).
 
 A node's clock follows /clock (here seen in the stamp of the planner's accepted_goals, the one output not stamped with a
 frame); with use_sim_time false it is the system clock and /clock is ignored.
@@ -86,7 +86,7 @@ def test_a_node_with_use_sim_time_follows_clock(tmp_path, make_node, executor):
 
 def test_a_node_without_use_sim_time_keeps_the_system_clock(tmp_path, make_node, executor):
     probe = ClockAndGoals(make_node('wall_time_probe'), executor)
-    with _planner(tmp_path, 'use_sim_time:=false'):
+    with _planner(tmp_path, 'planner_node:use_sim_time:=false'):  # a value for every node loses to the file's section
         assert spin_until(executor, lambda: bool(probe.accepted), 30.0), 'no accepted_goals from the planner'
         assert probe.pubs['clock'].get_subscription_count() == 0  # nobody listens to /clock
         stamp = probe.stamp_after_goal(123.4)
