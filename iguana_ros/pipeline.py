@@ -89,6 +89,11 @@ class Pipeline:
         self.frame += 1
         return root, quat, reference.joints, reference.rotations
 
+    def load_kernels(self) -> None:
+        """Load every stage's compiled kernels (no state changes), so the first frame runs at the speed of the rest."""
+        self.lookahead.load_kernels()
+        self.simulator.load_kernels()
+
     def close(self) -> None:
         """Stop the lookahead's worker thread."""
         self.lookahead.close()
@@ -110,9 +115,11 @@ def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict |
     for goal in scene.goals:
         planner.schedule_goal(np.array([goal.x, goal.y]), goal.at)
     adapt, springs = adaptation_stage(scene, adaptation, model.skeleton, terrain), spring_stage(scene, model)
-    return Pipeline(scene=scene, planner=planner, adaptation=adapt, springs=springs,
+    pipe = Pipeline(scene=scene, planner=planner, adaptation=adapt, springs=springs,
                     simulator=simulator_stage(scene, model=model, terrain=terrain, options=simulator_options),
                     lookahead=StrideLookahead(adapt, springs, threaded=lookahead))
+    pipe.load_kernels()
+    return pipe
 
 
 def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,

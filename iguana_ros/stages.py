@@ -189,6 +189,14 @@ class AdaptationStage:
                              stance=feet_h < STANCE_HEIGHT, state=self.state)
         return adapted.joint_positions, adapted.joint_rotations
 
+    def load_kernels(self) -> None:
+        """Adapt the rest pose once on a scratch warm start: a process's first frame then loads no compiled code."""
+        kept, self.state = self.state, AdaptationState()
+        try:
+            self.reference_pose(*self.skeleton.rest_pose())
+        finally:
+            self.state = kept
+
 
 def adaptation_stage(scene: Scene, enabled: bool | None = None, skeleton=None,
                      terrain: HeightField | None = None) -> AdaptationStage:
@@ -252,6 +260,12 @@ class StrideLookahead:
         joints, rotations = self.adaptation.reference_pose(*clip_pose(clip, index))
         lengths = None if self.springs is None else self.springs.lengths_from_bones(rotations, joints)
         return ReferenceFrame(joints, rotations, lengths)
+
+    def load_kernels(self) -> None:
+        """Load the compiled kernels of the adaptation and the spring lengths (see `AdaptationStage.load_kernels`)."""
+        self.adaptation.load_kernels()
+        if self.springs is not None:
+            self.springs.load_kernels()
 
     def start(self, clip: AlignedClip, start: int, on_ready: Callable[[], None] | None = None) -> None:
         """
@@ -367,6 +381,10 @@ class SimulatorStage:
     def root_twist(self) -> tuple:
         """(linear (3,) m/s, angular (3,) rad/s) velocity of the body's root region now."""
         return self.tracker.root_twist(self.sim.positions, self.sim.velocities)
+
+    def load_kernels(self) -> None:
+        """Load the simulator's compiled step loop without stepping (`SoftBodySimulator.load_kernels`)."""
+        self.sim.load_kernels()
 
     def advance(self, desired_lengths: np.ndarray | None, extra_forces: np.ndarray | None = None) -> None:
         """

@@ -68,6 +68,10 @@ class SpringLengthComputer:
         """Return number of springs (length of each output vector)."""
         return len(self.springs)
 
+    def load_kernels(self) -> None:
+        """Compute the rest pose's lengths once: a process's first frame then loads no compiled code."""
+        self.lengths_from_bones(self.rest_transforms.rotations, self.rest_transforms.translations)
+
     def skin_bones_to(self, bone_rotations: np.ndarray, bone_positions: np.ndarray) -> np.ndarray:
         """Reference-mesh nodes `(n_nodes, 3)` skinned to world bone frames `(n_bones, 4)`, `(n_bones, 3)`."""
         expected = (self.skeleton.n_bones,)

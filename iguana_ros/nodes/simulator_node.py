@@ -68,6 +68,7 @@ class SimulatorNode(IguanaNode):
         scene = self.scene
         fidelity = scene.fidelity if self.param('fidelity') == 'scene' else self.param('fidelity')
         self.stage = simulator_stage(scene, fidelity)
+        self.stage.load_kernels()                    # before the start handshake, not in the first frame
         self.model, self.terrain = self.stage.model, self.stage.terrain
         self.load_detail = 'model from cache' if self.model.from_cache else 'model built'
         self.mode = self.param('mode')

@@ -31,6 +31,7 @@ class SpringLengthNode(IguanaNode):
         super().__init__(**kwargs)
         model = scene_model(self.scene)
         self.computer = spring_stage(self.scene, model)
+        self.computer.load_kernels()                 # before the first pose arrives, not during its frame
         self.skeleton = model.skeleton
         self.n_bones = model.skeleton.n_bones
         self.rest_lengths = model.spring_rest_lengths

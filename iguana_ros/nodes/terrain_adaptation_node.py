@@ -58,6 +58,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.stage = adaptation_stage(self.scene, None if choice == 'scene' else choice == 'on')
         self.skeleton = self.stage.skeleton
         self.lookahead = StrideLookahead(self.stage)
+        self.lookahead.load_kernels()                # before the first clip arrives, not during its stride
         self.lookahead_frames = self.param('lookahead_frames')
         self.bound = world_bound(self.scene.terrain.extent)
         self.newest_clip = -1

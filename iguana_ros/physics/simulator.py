@@ -376,6 +376,13 @@ class SoftBodySimulator:
             self._diverged = self._divergence(status)
             raise self._diverged
 
+    def load_kernels(self) -> None:
+        """Call the compiled step loop for zero steps: numba loads its code now, not in the first frame."""
+        if self._direct is None:
+            itg.run_steps_cg(self._model, self._state, self._fp, self._ip, self._counters, self.desired_lengths_rest,
+                             self.desired_lengths_rest, self._lengths_work, self._zero_external, 0, self._info,
+                             self._chol, 0, 0)
+
     def advance(self, duration: float, desired_lengths=None, external_forces=None) -> None:
         """Advance by `duration` s (rounded to whole steps) with fixed inputs."""
         self.advance_frame(desired_lengths, external_forces, int(round(duration / self.fidelity.dt)))

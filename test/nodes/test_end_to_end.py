@@ -150,7 +150,8 @@ def test_recorded_run_replays(shared_run, make_node, executor):
         assert play.wait(60) == 0, play.output
     from iguana_ros.ros.conversions import odometry_to_numpy
     replayed = np.array([odometry_to_numpy(m)[0] for m in got['iguana_state']])
-    assert np.array_equal(replayed, read_root_trajectory(bag)[1])
+    recorded = read_root_trajectory(bag)[1]
+    assert np.array_equal(replayed, recorded), (replayed.shape, recorded.shape, replayed[:3], recorded[:3])
 
 
 @pytest.mark.long
