@@ -103,3 +103,45 @@ def test_build_pipeline_shares_one_model_and_terrain():
     assert pipe.planner.frame == -1 and pipe.simulator.time == 0.0
     pipe.step()
     assert pipe.planner.frame == 0 and pipe.simulator.time == pytest.approx(1 / FRAME_RATE)
+
+
+def test_load_kernels_changes_no_state():
+    """A stage whose kernels were loaded gives the same numbers as one whose first frame loads them."""
+    scene = _scene()
+    loaded, fresh = build_pipeline(scene, lookahead=False), build_pipeline(scene, lookahead=False)
+    fresh_sim = stages.simulator_stage(scene)                 # never loaded by build_pipeline
+    loaded.load_kernels()                                     # twice over: build_pipeline loaded them already
+    loaded.simulator.load_kernels()
+    assert loaded.simulator.sim.stats['steps'] == 0 and loaded.simulator.sim.time == 0.0
+    np.testing.assert_array_equal(loaded.simulator.sim.positions, fresh_sim.sim.positions)
+    np.testing.assert_array_equal(loaded.simulator.sim.velocities, fresh_sim.sim.velocities)
+    try:
+        for _ in range(3):
+            for got, want in zip(loaded.step(), fresh.step()):
+                np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(loaded.simulator.sim.positions, fresh.simulator.sim.positions)
+    finally:
+        loaded.close()
+        fresh.close()
+
+
+LOADED_FIRST_FRAMES = """
+from iguana_ros.pipeline import build_pipeline
+from iguana_ros.scene import load_scene
+from iguana_ros.warmup import kernel_signatures
+pipe = build_pipeline(load_scene('hills'))
+before = kernel_signatures()
+for _ in range(3):
+    pipe.step()
+pipe.close()
+print(sorted(k for k, v in kernel_signatures().items() if before.get(k) != v))
+"""
+
+
+def test_the_first_frames_of_a_built_pipeline_load_no_kernel():
+    """`build_pipeline` loads every kernel a frame uses (in a fresh process): the first frames add no signature."""
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, '-c', LOADED_FIRST_FRAMES], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == '[]', done.stdout
