@@ -108,3 +108,46 @@ def test_stride_lookahead_on_a_thread_equals_frames_computed_on_demand():
     for a, b in zip(ahead, demand):
         assert all(np.array_equal(u, v) for u, v in zip(a, b))
     assert np.array_equal(x_ahead, x_demand)
+
+
+def test_a_strides_first_frame_is_computed_by_the_caller_and_calls_never_overlap():
+    """
+    `StrideLookahead.start` returns with the stride's first frame done (no hand-over to the worker and back).
+
+    A restart while the worker computes the earlier stride waits for that frame: the adaptation's warm start is
+    shared, so no two adaptation calls may run at once (each call here is slowed to 20 ms to make an overlap show).
+    """
+    import threading
+    import time
+    from iguana_ros.stages import StrideLookahead
+    scene = parse_scene({'terrain': {'kind': 'hills', 'amplitude': 0.08}, 'model': {'resolution': 'coarse'},
+                         'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 1.0}, 'test')
+    pipe = pipeline.build_pipeline(scene, lookahead=False)
+    try:
+        pipe.step()
+        clip = pipe.planner.clip
+    finally:
+        pipe.close()
+    calls = []
+
+    class Slow(StrideLookahead):
+        def compute(self, clip, index):
+            begin = time.perf_counter()
+            time.sleep(0.02)
+            frame = super().compute(clip, index)
+            calls.append((begin, time.perf_counter(), threading.current_thread().name))
+            return frame
+
+    ahead = Slow(pipe.adaptation, pipe.springs)
+    try:
+        ahead.start(clip, 0)
+        assert ahead.ready(0) and ahead._pending[0].done()
+        assert calls[0][2] == threading.current_thread().name
+        time.sleep(0.01)                             # the worker is inside frame 1
+        ahead.start(clip, 5)
+        assert ahead.ready(5) and ahead.take(5).lengths.shape == (len(pipe.springs.springs),)
+        ahead.take(6)
+    finally:
+        ahead.close()
+    calls.sort()
+    assert len(calls) >= 4 and all(a[1] <= b[0] for a, b in zip(calls, calls[1:])), calls
