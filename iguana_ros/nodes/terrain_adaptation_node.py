@@ -23,6 +23,7 @@ from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
 from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_cdr
 from iguana_ros.stages import adaptation_stage, StrideLookahead
+from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
 UNMATCHED_RETRY_S = 0.05
@@ -30,7 +31,8 @@ UNMATCHED_RETRY_S = 0.05
 
 UNMATCHED_HOLD_S = 1.0
 """Longest wall-clock time poses are held for readers the graph lists but that do not match (a reader with an
-incompatible QoS never does); after it they go to the readers that are matched, if any."""
+incompatible QoS never does), or for a declared reader the graph does not list yet; after it they go to the readers
+that are matched, if any."""
 
 CLIP_QUEUE_DEPTH = 10
 """History depth of the motion_clip reader: the topic's depth 1 (latched) would let a burst from another publisher
@@ -44,8 +46,9 @@ class TerrainAdaptationNode(IguanaNode):
     A stride's poses depend only on its clip and the adaptation's warm start, never on the body, so they are adapted
     on a worker thread as soon as the clip arrives (`StrideLookahead`) and published in frame order up to
     `lookahead_frames` past the latest iguana_state: the spring lengths are then waiting at the simulator when it
-    reaches their frame. Poses go out only to a matched reader (a burst published before the spring-length node's
-    subscription matched was lost, and the simulator then waited a lockstep timeout for every frame of the stride).
+    reaches their frame. Poses go out only once the topic's declared readers (`topics.yaml`: the spring-length node)
+    are in this node's graph and every reader it lists is matched (a burst published before the spring-length node's
+    subscription matched was lost, and the simulator then waited a lockstep timeout).
     A repeated iguana_state (the simulator re-sends it after a lockstep timeout) gets the poses from its frame on again.
     """
 
@@ -65,6 +68,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.next_frame = 0
         self.sent: dict[int, object] = {}
         self.pose_pub = self.publisher('reference_pose')
+        self.declared_readers = set(topic('reference_pose').subscribers)   # until each is seen in the graph
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
         self.retry_timer = self.create_timer(UNMATCHED_RETRY_S, self.publish_ready,
@@ -122,12 +126,15 @@ class TerrainAdaptationNode(IguanaNode):
 
     def readers_matched(self) -> bool:
         """
-        Whether reference_pose has a matched reader and every reader this node's graph knows of is matched.
+        Whether reference_pose has a matched reader, every declared reader is in the graph and all it lists are matched.
 
         (or, UNMATCHED_HOLD_S since the first pose was held for a reader that has not matched since, any is).
         """
+        if self.declared_readers:
+            known = self.get_subscriptions_info_by_topic(self.pose_pub.topic_name)
+            self.declared_readers -= {info.node_name for info in known}
         matched = self.pose_pub.get_subscription_count()
-        if matched >= max(self.count_subscribers(self.pose_pub.topic_name), 1):
+        if not self.declared_readers and matched >= max(self.count_subscribers(self.pose_pub.topic_name), 1):
             self.held_since = None
             return True
         now = time.monotonic()

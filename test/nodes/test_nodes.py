@@ -255,6 +255,35 @@ def test_terrain_node_does_not_wait_for_a_reader_that_cannot_match(tmp_path, mak
     assert [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(9))
 
 
+def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_node, executor, ros_context):
+    """
+    A matched reader is not enough while the spring-length node (reference_pose's declared reader) is not in the graph.
+
+    (a run's recorder matched first, the poses went out, and the spring-length node missed frame 0: a 10 s lockstep
+    timeout). Once it is listed and matched, poses go out.
+    """
+    from rclpy.parameter import Parameter
+    from iguana_ros.nodes.terrain_adaptation_node import TerrainAdaptationNode
+    node = TerrainAdaptationNode(context=ros_context,
+                                 parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
+    executor.add_node(node)
+    try:
+        probe = Probe(make_node('probe'), executor)
+        probe.listen('reference_pose')
+        assert spin_until(executor, lambda: node.pose_pub.get_subscription_count() >= 1, 30)
+        assert not node.readers_matched()
+        springs = Probe(make_node('spring_length_node'), executor)
+        springs.listen('reference_pose')
+        listed = lambda: {i.node_name for i in node.get_subscriptions_info_by_topic(node.pose_pub.topic_name)}  # noqa
+        assert spin_until(executor, lambda: node.pose_pub.get_subscription_count() >= 2
+                          and 'spring_length_node' in listed(), 30)
+        node.held_since = None                       # not by the hold's time limit
+        assert node.readers_matched()
+    finally:
+        executor.remove_node(node)
+        node.destroy_node()
+
+
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
     from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
