@@ -48,6 +48,9 @@ WATCHDOG_PERIOD = 0.1
 FINISH_ACK_TIMEOUT = 2.0
 """Seconds the simulator waits at the end for subscribers (e.g. the recorder) to acknowledge its last frame."""
 
+UNMATCHED_READER_WAIT_S = 1.0
+"""Longest wall-clock time a lockstep start waits for iguana_state readers the graph lists that do not match."""
+
 GOAL_MARKER_RADIUS = 0.05
 """Radius of the goal sphere in scene_markers, m."""
 
@@ -76,7 +79,7 @@ class SimulatorNode(IguanaNode):
         self.end_frame = int(round(duration * FRAME_RATE))
         self.n_springs = len(self.model.springs)
         self.half_extent = scene.terrain.extent / 2.0
-        self.rejected_lengths = ''
+        self.peers_listed_since: float | None = None
         self.probe = FootProbe(self.model, self.terrain)
         self.latest_lengths: np.ndarray | None = None
         self.pending_lengths: dict[int, np.ndarray] = {}
@@ -105,7 +108,8 @@ class SimulatorNode(IguanaNode):
         self.scene_pub = self.publisher('scene_markers')
         self.foot_pub = self.publisher('foot_state')
         self.foot_positions_pub = self.publisher('foot_positions')
-        self.subscription('spring_rest_lengths', self.guarded('spring_rest_lengths', self.on_lengths), raw=True)
+        on_lengths = self.guarded('spring_rest_lengths', self.on_lengths)
+        self.lengths_sub = self.subscription('spring_rest_lengths', on_lengths, raw=True)
         self.subscription('push', self.guarded('push', self.on_push))
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.publish_scene_markers()
@@ -207,14 +211,21 @@ class SimulatorNode(IguanaNode):
 
     def lockstep_peers_ready(self) -> bool:
         """
-        Two iguana_state subscriptions.
+        Two iguana_state subscriptions and a spring_rest_lengths publisher, each listed in the graph and matched.
 
-        (the planner's and the terrain adaptation's) besides the recorder's and `iguana run`'s progress monitor's, and a
-        spring_rest_lengths publisher.
+        (the planner's and the terrain adaptation's, besides the recorder's and `iguana run`'s progress monitor's; a
+        state published to a listed reader not matched yet is lost, and the run waits a lockstep timeout). A listed
+        reader that does not match (an incompatible QoS) is waited for UNMATCHED_READER_WAIT_S only.
         """
-        readers = [info for info in self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])
-                   if info.node_name not in (RECORDER_NODE_NAME, MONITOR_NODE_NAME)]
-        return len(readers) >= 2 and self.count_publishers(resolve('spring_rest_lengths')[0]) >= 1
+        listed = self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])
+        peers = [info for info in listed if info.node_name not in (RECORDER_NODE_NAME, MONITOR_NODE_NAME)]
+        if len(peers) < 2 or self.lengths_sub.get_publisher_count() < 1:
+            self.peers_listed_since = None
+            return False
+        now = time.monotonic()
+        self.peers_listed_since = self.peers_listed_since or now    # a reader that cannot match is waited for 1 s
+        return (self.state_pub.get_subscription_count() >= len(listed)
+                or now - self.peers_listed_since >= UNMATCHED_READER_WAIT_S)
 
     def on_lockstep_timeout(self, waited: float) -> None:
         """Log, re-send the state (a peer may have missed it), give up after lockstep_max_timeouts."""

@@ -284,6 +284,42 @@ def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_
         node.destroy_node()
 
 
+def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, executor, ros_context):
+    """
+    The simulator starts once two iguana_state peers and a lengths publisher are listed and every listed reader matched.
+
+    A listed reader that cannot match (it asks for transient-local states from the volatile writer) holds the start
+    for UNMATCHED_READER_WAIT_S only.
+    """
+    import time
+    from rclpy.parameter import Parameter
+    from rclpy.qos import DurabilityPolicy
+    from iguana_ros.nodes.simulator_node import SimulatorNode, UNMATCHED_READER_WAIT_S
+    node = SimulatorNode(context=ros_context, parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
+    executor.add_node(node)
+    try:
+        assert not node.lockstep_peers_ready()
+        peers = [Probe(make_node(name), executor) for name in ('planner_node', 'terrain_adaptation_node')]
+        for peer in peers:
+            peer.listen('iguana_state')
+        peers[0].pub('spring_rest_lengths')
+        state = peers[0].resolve('iguana_state')
+        assert spin_until(executor, lambda: node.lockstep_peers_ready(), 30)
+        assert node.state_pub.get_subscription_count() >= 2
+        name, cls, qos = state
+        qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
+        stranger = make_node('stranger')
+        stranger.create_subscription(cls, name, lambda _m: None, qos)
+        assert spin_until(executor, lambda: len(node.get_subscriptions_info_by_topic(name)) >= 3, 30)
+        node.peers_listed_since = None
+        assert not node.lockstep_peers_ready()       # listed, never matched: held ...
+        time.sleep(UNMATCHED_READER_WAIT_S)
+        assert node.lockstep_peers_ready()           # ... for UNMATCHED_READER_WAIT_S only
+    finally:
+        executor.remove_node(node)
+        node.destroy_node()
+
+
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
     from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
