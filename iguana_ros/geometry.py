@@ -24,6 +24,8 @@ the few products they need). Every quaternion function broadcasts over leading a
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _EPS = 1e-12
@@ -126,6 +128,8 @@ def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     `Rotation.from_matrix` for orthogonal matrices, operation for operation, so the results equal it bitwise.
     """
     m = np.asarray(m, dtype=float)
+    if m.shape == (3, 3):
+        return _matrix_to_quat_one(m.tolist())
     flat = m.reshape(-1, 3, 3)
     trace = flat[:, 0, 0] + flat[:, 1, 1] + flat[:, 2, 2]
     choice = np.argmax(np.stack([flat[:, 0, 0], flat[:, 1, 1], flat[:, 2, 2], trace], axis=-1), axis=-1)
@@ -148,6 +152,25 @@ def matrix_to_quat(m: np.ndarray) -> np.ndarray:
     q /= norm[:, None]
     q = np.where(q[:, 3:4] < 0.0, -q, q)
     return q.reshape(m.shape[:-2] + (4,))
+
+
+def _matrix_to_quat_one(r: list) -> np.ndarray:
+    """`matrix_to_quat` of one matrix (nested lists): the batch's operations on Python floats, so the same bits."""
+    trace = r[0][0] + r[1][1] + r[2][2]
+    diagonal = (r[0][0], r[1][1], r[2][2], trace)
+    i = max(range(4), key=diagonal.__getitem__)      # the first largest, as np.argmax
+    if i < 3:
+        j, k = (i + 1) % 3, (i + 2) % 3
+        q = [0.0] * 4
+        q[i] = 1.0 - trace + 2.0 * r[i][i]
+        q[j] = r[j][i] + r[i][j]
+        q[k] = r[k][i] + r[i][k]
+        q[3] = r[k][j] - r[j][k]
+    else:
+        q = [r[2][1] - r[1][2], r[0][2] - r[2][0], r[1][0] - r[0][1], 1.0 + trace]
+    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    q = [v / norm for v in q]
+    return np.array([-v for v in q] if q[3] < 0.0 else q)
 
 
 _AXES = {'X': 0, 'Y': 1, 'Z': 2}
