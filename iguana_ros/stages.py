@@ -381,6 +381,7 @@ class SimulatorStage:
         self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
                                                   lift_only=True))
         self.tracker = RootTracker(model)
+        self._root, self._root_revision = None, -1
         self.frame = 0
 
     @property
@@ -389,8 +390,11 @@ class SimulatorStage:
         return self.frame / FRAME_RATE
 
     def root_pose(self) -> tuple:
-        """(root position (3,), orientation xyzw (4,)) of the body now."""
-        return self.tracker.root_pose(self.sim.positions)
+        """(root position (3,), orientation xyzw (4,)) of the body now (fitted once per state of the body)."""
+        if self._root_revision != self.sim.revision:
+            self._root = self.tracker.root_pose(self.sim.positions)
+            self._root_revision = self.sim.revision
+        return self._root[0].copy(), self._root[1].copy()
 
     def root_twist(self) -> tuple:
         """(linear (3,) m/s, angular (3,) rad/s) velocity of the body's root region now."""

@@ -145,3 +145,22 @@ def test_the_first_frames_of_a_built_pipeline_load_no_kernel():
     done = subprocess.run([sys.executable, '-c', LOADED_FIRST_FRAMES], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip().splitlines()[-1] == '[]', done.stdout
+
+
+def test_root_pose_is_fitted_once_per_state_of_the_body():
+    """The stage keeps the fit while the body has not changed (advance or reset), and hands out copies."""
+    stage = stages.simulator_stage(_scene())
+    calls = []
+    fit = stage.tracker.root_pose
+    stage.tracker.root_pose = lambda positions: calls.append(1) or fit(positions)
+    first = stage.root_pose()
+    first[0][:] = np.nan                             # a caller's copy
+    again = stage.root_pose()
+    assert len(calls) == 1 and np.all(np.isfinite(again[0]))
+    stage.advance(None)
+    moved = stage.root_pose()
+    assert len(calls) == 2
+    np.testing.assert_array_equal(moved[0], fit(stage.sim.positions)[0])
+    stage.sim.reset()
+    np.testing.assert_array_equal(stage.root_pose()[1], fit(stage.sim.positions)[1])
+    assert len(calls) == 3

@@ -163,6 +163,9 @@ class SoftBodySimulator:
         self._build_state()
         self._direct = DirectSolver(self.pattern) if self.fidelity.solver == 'direct' else None
         self._fallback = DirectSolver(self.pattern) if cg_fallback else None
+        self.revision = 0
+        """Counts the changes of the body's state (`reset`, `advance_frame`): what is derived from it is current while
+        this is unchanged."""
         self.reset()
 
     # ------------------------------------------------------------------------------------------ building
@@ -280,6 +283,7 @@ class SoftBodySimulator:
         self._held_lengths = None
         self.time = 0.0
         self._diverged = None
+        self.revision += 1
         m = self._model
         corotated_elastic_forces(s.positions, m.tets, m.shape_gradients, m.volume, m.mu, m.lam, s.element_rotations,
                                  200, np.zeros_like(s.positions), s.matrix_blocks, m.tet_blocks,
@@ -358,6 +362,7 @@ class SoftBodySimulator:
         """
         if self._diverged is not None:
             raise self._diverged
+        self.revision += 1
         ld = self.desired_lengths_rest if desired_lengths is None else kernel_input(desired_lengths)
         if ld.shape != self.desired_lengths_rest.shape or not np.all(np.isfinite(ld)) or np.any(ld < 0):
             raise InputError(f'simulator: desired_lengths must be ({len(self.desired_lengths_rest)},) finite '
