@@ -52,6 +52,9 @@ RATE_WINDOW_S = 5.0
 LINE_PERIOD_S = 5.0
 """Wall seconds between two progress lines when the output is not a terminal."""
 
+EVENTS_GRACE_S = 3.0
+"""Wall seconds after frame 1 for which progress waits for start-up events still on their way (then shows anyway)."""
+
 PHASE_TAG = '[start-up]'
 """Head of a line naming a start-up phase."""
 
@@ -155,6 +158,17 @@ class StartupClock:
             return ''
         done = len(self.finished())
         return PHASES[done][1] if done < len(PHASES) else ''
+
+    def over(self, now: float) -> bool:
+        """
+        Whether start-up is over at wall time `now`: frame 1 is out and every phase has ended.
+
+        Frame 1 can reach a listener before some node's start-up events do (its publisher discovered later); up to
+        EVENTS_GRACE_S after frame 1 start-up still counts as under way, so its phases are told before any progress.
+        """
+        if math.isnan(self.frame1):
+            return False
+        return len(self.finished()) == len(PHASES) or now - self.frame1 > EVENTS_GRACE_S
 
 
 def active_goal(goals: list, now: float, adopt_now_after: float) -> tuple | None:

@@ -25,8 +25,8 @@ import math
 
 import pytest
 
-from iguana_ros.progress import (active_goal, EVENT_LOADED, EVENT_UP, PhaseTime, ProgressDisplay, RateWindow, RunEvent,
-                                 RunStatus, startup_line, StartupClock)
+from iguana_ros.progress import (active_goal, EVENT_LOADED, EVENT_UP, EVENTS_GRACE_S, PhaseTime, ProgressDisplay,
+                                 RateWindow, RunEvent, RunStatus, startup_line, StartupClock)
 
 NODES = ('planner_node', 'simulator_node')
 
@@ -61,6 +61,21 @@ def test_a_phase_that_ends_early_counts_zero_and_nothing_before_the_launch():
         clock.note(RunEvent(node, EVENT_UP, 2.0))
         clock.note(RunEvent(node, EVENT_LOADED, 6.0))           # built after frame 0 was out (frame 0 = frame 1 here)
     assert [p.seconds for p in clock.finished()] == [1.0, 4.0, 0.0, 0.0]
+
+
+def test_start_up_is_over_once_every_phase_ended_or_events_are_overdue():
+    clock = StartupClock(NODES, launched=1.0)
+    clock.note_frame(0, 5.0)
+    clock.note_frame(1, 5.1)                                    # frame 1 heard before any node's events
+    assert not clock.over(5.2) and not clock.over(5.1 + EVENTS_GRACE_S)
+    for node in NODES:
+        clock.note(RunEvent(node, EVENT_UP, 2.0))
+        clock.note(RunEvent(node, EVENT_LOADED, 3.0))
+    assert clock.over(5.2)
+    late = StartupClock(NODES, launched=1.0)
+    assert not late.over(100.0)                                 # no frame 1: never over
+    late.note_frame(1, 5.0)
+    assert late.over(5.01 + EVENTS_GRACE_S)                     # events never came: progress shows anyway
 
 
 def test_active_goal_is_the_last_due_one():

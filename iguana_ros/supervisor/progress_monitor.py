@@ -113,11 +113,11 @@ class RunMonitor:
         self._show()
 
     def _show(self) -> None:
-        """Phases as they begin and end; the progress once frame 1 is out."""
+        """Phases as they begin and end; the progress once start-up is over."""
         if self.display is None:
             return
         self.display.phases(self.clock.finished(), self.clock.current())
-        if not math.isnan(self.clock.frame1):
+        if self.clock.over(time.time()):
             self.display.update(self.status())
 
     def close(self) -> None:
