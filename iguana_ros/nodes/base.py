@@ -22,6 +22,7 @@ from typing import Callable
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType,
                                 SetParametersResult)
 import rclpy
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
@@ -31,6 +32,7 @@ from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.scene import load_scene, Scene
+from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
 
 _PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterType.PARAMETER_DOUBLE,
@@ -160,14 +162,65 @@ class FrameGate:
             self.node.get_logger().warning(f'ignored stale {self.what} for frame {frame} (at {self.last_frame})')
         return order == FRAME_NEW
 
-    def handled(self, frame: int, reply=None) -> None:
-        """Mark `frame` handled; publish `reply` (kept for a repeat of the frame) when given."""
+    def handled(self, frame: int, reply=None, publish: bool = True) -> None:
+        """Mark `frame` handled; keep `reply` for a repeat of the frame and publish it (unless not `publish`)."""
         self.last_frame = frame
         if reply is not None:
             self.replies[frame] = reply
             while len(self.replies) > self.keep:
                 del self.replies[next(iter(self.replies))]
-            self.publisher.publish(reply)
+            if publish:
+                self.publisher.publish(reply)
+
+
+UNMATCHED_HOLD_S = 1.0
+"""Longest wall-clock time output is held for readers the graph lists but that do not match (a reader with an
+incompatible QoS never does), or for a declared reader the graph does not list yet; after it the output goes to the
+readers that are matched, if any."""
+
+UNMATCHED_RETRY_S = 0.05
+"""Wall-clock period at which output held back for want of matched readers is offered again."""
+
+
+class ReaderHold:
+    """
+    Holds a volatile publisher's output until its readers can take it.
+
+    Ready once every declared reader of the topic (`topics.yaml` subscribers) is in the node's graph and every reader
+    the graph lists is matched by the writer: a reader's side may match first, and what the writer publishes before it
+    has matched the reader is lost (the lockstep run then waits a timeout). A reader that does not match (or a declared
+    one never listed) holds it for UNMATCHED_HOLD_S only, then any matched reader makes it ready.
+    """
+
+    def __init__(self, node: Node, publisher, key: str, retry: Callable[[], None]) -> None:
+        """Hold `publisher` (topic `key` of topics.yaml) of `node`; `retry` is called every UNMATCHED_RETRY_S held."""
+        self.node, self.publisher = node, publisher
+        self.declared = set(topic(key).subscribers)   # until each is seen in the graph
+        self.held_since: float | None = None
+        self.retry_timer = node.create_timer(UNMATCHED_RETRY_S, retry, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.retry_timer.cancel()                     # runs only while output is held
+
+    def ready(self) -> bool:
+        """Whether output may go out now (see the class docstring); while not, `retry` is called periodically."""
+        ok = self.readers_matched()
+        if ok:
+            self.retry_timer.cancel()
+        else:
+            self.retry_timer.reset()
+        return ok
+
+    def readers_matched(self) -> bool:
+        """Whether the declared readers are listed and every listed reader is matched (or the hold's time is up)."""
+        name = self.publisher.topic_name
+        if self.declared:
+            self.declared -= {info.node_name for info in self.node.get_subscriptions_info_by_topic(name)}
+        matched = self.publisher.get_subscription_count()
+        if not self.declared and matched >= max(self.node.count_subscribers(name), 1):
+            self.held_since = None
+            return True
+        now = time.monotonic()
+        self.held_since = now if self.held_since is None else self.held_since
+        return matched >= 1 and now - self.held_since >= UNMATCHED_HOLD_S
 
 
 def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None) -> int:

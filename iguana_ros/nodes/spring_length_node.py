@@ -15,14 +15,20 @@
 """Spring-length node (Section VII): reference_pose in, desired spring lengths (JointState) out, frame by frame."""
 from __future__ import annotations
 
-from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
+from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, ReaderHold, RESEND_FRAMES
 from iguana_ros.ros.messages import lengths_to_cdr, reference_pose_from_cdr
 from iguana_ros.stages import scene_model, spring_stage
 from iguana_ros.validation import check_desired_lengths, world_bound
 
 
 class SpringLengthNode(IguanaNode):
-    """Skins the reference mesh to each reference pose (DQS) and publishes the node-pair distances."""
+    """
+    Skins the reference mesh to each reference pose (DQS) and publishes the node-pair distances.
+
+    Lengths go out in frame order once the topic's declared reader (`topics.yaml`: the simulator node) is in this
+    node's graph and every reader it lists is matched (`ReaderHold`): lengths published before this node's writer
+    had matched the simulator's reader were lost, and the simulator waited a lockstep timeout for frame 0.
+    """
 
     KIND = 'spring_length_node'
 
@@ -38,6 +44,8 @@ class SpringLengthNode(IguanaNode):
         self.bound = world_bound(self.scene.terrain.extent)
         self.lengths_pub = self.publisher('spring_rest_lengths')
         self.pose_gate = FrameGate(self, 'reference_pose', self.lengths_pub, keep=RESEND_FRAMES)
+        self.held: list[bytes] = []                  # serialized lengths not published yet, in frame order
+        self.reader_hold = ReaderHold(self, self.lengths_pub, 'spring_rest_lengths', retry=self.publish_held)
         self.subscription('reference_pose', self.guarded('reference_pose', self.on_pose), raw=True)
         self.get_logger().info(f'spring lengths ready: {self.computer.n_springs} springs, '
                                f'{model.n_nodes} nodes')
@@ -52,7 +60,18 @@ class SpringLengthNode(IguanaNode):
         if not self.pose_gate.admit(frame):
             return
         lengths = check_desired_lengths(self.computer.lengths_from_bones(rotations, positions), self.rest_lengths)
-        self.pose_gate.handled(frame, lengths_to_cdr(lengths, frame))
+        reply = lengths_to_cdr(lengths, frame)
+        self.pose_gate.handled(frame, reply, publish=False)
+        self.held.append(reply)
+        self.publish_held()
+
+    def publish_held(self) -> None:
+        """Publish the held lengths in frame order once their readers can take them (`ReaderHold`)."""
+        if not self.held or not self.reader_hold.ready():
+            return
+        for reply in self.held:
+            self.lengths_pub.publish(reply)
+        self.held.clear()
 
 
 main = node_main(SpringLengthNode)

@@ -15,24 +15,11 @@
 """Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out for every frame."""
 from __future__ import annotations
 
-import time
-
-from rclpy.clock import Clock, ClockType
-
 from iguana_ros.errors import IguanaError, InputError
-from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, RESEND_FRAMES
+from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, ReaderHold, RESEND_FRAMES
 from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_cdr
 from iguana_ros.stages import adaptation_stage, StrideLookahead
-from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
-
-UNMATCHED_RETRY_S = 0.05
-"""Wall-clock period at which poses held back for want of a matched reference_pose reader are offered again."""
-
-UNMATCHED_HOLD_S = 1.0
-"""Longest wall-clock time poses are held for readers the graph lists but that do not match (a reader with an
-incompatible QoS never does), or for a declared reader the graph does not list yet; after it they go to the readers
-that are matched, if any."""
 
 CLIP_QUEUE_DEPTH = 10
 """History depth of the motion_clip reader: the topic's depth 1 (latched) would let a burst from another publisher
@@ -68,13 +55,9 @@ class TerrainAdaptationNode(IguanaNode):
         self.next_frame = 0
         self.sent: dict[int, object] = {}
         self.pose_pub = self.publisher('reference_pose')
-        self.declared_readers = set(topic('reference_pose').subscribers)   # until each is seen in the graph
+        self.reader_hold = ReaderHold(self, self.pose_pub, 'reference_pose', retry=self.publish_ready)
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
-        self.retry_timer = self.create_timer(UNMATCHED_RETRY_S, self.publish_ready,
-                                             clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self.retry_timer.cancel()                    # runs only while poses are held back (publish_ready)
-        self.held_since: float | None = None
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
         self.get_logger().info(f'terrain adaptation ready ({"on" if self.stage.enabled else "off"})')
@@ -107,10 +90,8 @@ class TerrainAdaptationNode(IguanaNode):
         due = max(self.state_gate.last_frame, 0) + self.lookahead_frames
         if not (self.next_frame <= due and self.lookahead.ready(self.next_frame)):
             return
-        if not self.readers_matched():
-            self.retry_timer.reset()                 # offered again every UNMATCHED_RETRY_S until they are
+        if not self.reader_hold.ready():             # offered again every UNMATCHED_RETRY_S until it is
             return
-        self.retry_timer.cancel()
         while self.next_frame <= due and self.lookahead.ready(self.next_frame):
             frame = self.next_frame
             self.next_frame = frame + 1
@@ -123,23 +104,6 @@ class TerrainAdaptationNode(IguanaNode):
             while len(self.sent) > RESEND_FRAMES:
                 del self.sent[next(iter(self.sent))]
             self.pose_pub.publish(self.sent[frame])
-
-    def readers_matched(self) -> bool:
-        """
-        Whether reference_pose has a matched reader, every declared reader is in the graph and all it lists are matched.
-
-        (or, UNMATCHED_HOLD_S since the first pose was held for a reader that has not matched since, any is).
-        """
-        if self.declared_readers:
-            known = self.get_subscriptions_info_by_topic(self.pose_pub.topic_name)
-            self.declared_readers -= {info.node_name for info in known}
-        matched = self.pose_pub.get_subscription_count()
-        if not self.declared_readers and matched >= max(self.count_subscribers(self.pose_pub.topic_name), 1):
-            self.held_since = None
-            return True
-        now = time.monotonic()
-        self.held_since = now if self.held_since is None else self.held_since
-        return matched >= 1 and now - self.held_since >= UNMATCHED_HOLD_S
 
     def destroy_node(self) -> None:
         """Stop the lookahead's worker thread, then leave the graph."""

@@ -271,14 +271,14 @@ def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_
         probe = Probe(make_node('probe'), executor)
         probe.listen('reference_pose')
         assert spin_until(executor, lambda: node.pose_pub.get_subscription_count() >= 1, 30)
-        assert not node.readers_matched()
+        assert not node.reader_hold.readers_matched()
         springs = Probe(make_node('spring_length_node'), executor)
         springs.listen('reference_pose')
         listed = lambda: {i.node_name for i in node.get_subscriptions_info_by_topic(node.pose_pub.topic_name)}  # noqa
         assert spin_until(executor, lambda: node.pose_pub.get_subscription_count() >= 2
                           and 'spring_length_node' in listed(), 30)
-        node.held_since = None                       # not by the hold's time limit
-        assert node.readers_matched()
+        node.reader_hold.held_since = None           # not by the hold's time limit
+        assert node.reader_hold.readers_matched()
     finally:
         executor.remove_node(node)
         node.destroy_node()
@@ -315,6 +315,45 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
         assert not node.lockstep_peers_ready()       # listed, never matched: held ...
         time.sleep(UNMATCHED_READER_WAIT_S)
         assert node.lockstep_peers_ready()           # ... for UNMATCHED_READER_WAIT_S only
+    finally:
+        executor.remove_node(node)
+        node.destroy_node()
+
+
+def test_spring_node_holds_lengths_until_the_simulator_reader_matches(tmp_path, make_node, executor, ros_context,
+                                                                      monkeypatch):
+    """
+    Lengths wait for spring_rest_lengths' declared reader (the simulator node), not just any matched reader.
+
+    (CI: the spring-length node published frame 0 before its writer had matched the simulator's reader, and the
+    simulator waited a 10 s lockstep timeout.) Once it is listed and matched, the held lengths go out in frame order.
+    """
+    from rclpy.parameter import Parameter
+    from iguana_ros.nodes import base
+    from iguana_ros.nodes.spring_length_node import SpringLengthNode
+    from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_cdr
+    from iguana_ros.terrain.adaptation import pose_kinematics
+    monkeypatch.setattr(base, 'UNMATCHED_HOLD_S', 120.0)     # released by the match, not by the hold's time limit
+    clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)
+    node = SpringLengthNode(context=ros_context, parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
+    executor.add_node(node)
+    try:
+        probe = Probe(make_node('probe'), executor)
+        probe.listen('spring_rest_lengths')
+        assert spin_until(executor, lambda: node.lengths_pub.get_subscription_count() >= 1, 30)
+        for frame in (0, 1):
+            joints, rotations = pose_kinematics(node.skeleton, clip.root_positions[frame],
+                                                clip.local_rotations[frame])
+            node.on_pose(reference_pose_to_cdr(joints, rotations, frame))
+        spin_until(executor, lambda: False, 0.5)
+        assert probe.got['spring_rest_lengths'] == [] and len(node.held) == 2
+        simulator = Probe(make_node('simulator_node'), executor)
+        simulator.listen('spring_rest_lengths')
+        assert spin_until(executor, lambda: len(simulator.got['spring_rest_lengths']) >= 2, 30)
+        spin_until(executor, lambda: len(probe.got['spring_rest_lengths']) >= 2, 5)
+        n_springs = node.computer.n_springs
+        for got in (simulator.got, probe.got):
+            assert [lengths_from_msg(m, n_springs)[0] for m in got['spring_rest_lengths']] == [0, 1]
     finally:
         executor.remove_node(node)
         node.destroy_node()
