@@ -63,6 +63,7 @@ class SpringLengthNode(IguanaNode):
         reply = lengths_to_cdr(lengths, frame)
         self.pose_gate.handled(frame, reply, publish=False)
         self.held.append(reply)
+        del self.held[:-RESEND_FRAMES]              # with no reader at all, only the newest are kept
         self.publish_held()
 
     def publish_held(self) -> None:

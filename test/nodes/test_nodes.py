@@ -359,6 +359,24 @@ def test_spring_node_holds_lengths_until_the_simulator_reader_matches(tmp_path, 
         node.destroy_node()
 
 
+def test_spring_node_with_no_reader_keeps_only_the_newest_lengths(tmp_path, executor, ros_context):
+    """With nobody reading spring_rest_lengths, what is held stays bounded: the newest RESEND_FRAMES frames."""
+    from rclpy.parameter import Parameter
+    from iguana_ros.nodes.base import RESEND_FRAMES
+    from iguana_ros.nodes.spring_length_node import SpringLengthNode
+    from iguana_ros.ros.messages import frame_of_cdr, reference_pose_to_cdr
+    from iguana_ros.terrain.adaptation import pose_kinematics
+    clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)
+    node = SpringLengthNode(context=ros_context, parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
+    try:
+        joints, rotations = pose_kinematics(node.skeleton, clip.root_positions[0], clip.local_rotations[0])
+        for frame in range(RESEND_FRAMES + 5):
+            node.on_pose(reference_pose_to_cdr(joints, rotations, frame))
+        assert [frame_of_cdr(held) for held in node.held] == list(range(5, RESEND_FRAMES + 5))
+    finally:
+        node.destroy_node()
+
+
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
     from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
