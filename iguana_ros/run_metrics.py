@@ -90,12 +90,11 @@ def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, of
 
     `(n_frames, n_feet)`.
     """
-    out = np.empty((len(node_positions), len(feet)))
-    for k, idx in enumerate(feet):
-        sole = node_positions[:, idx]
-        ground = terrain.height(sole[..., :2].reshape(-1, 2)).reshape(sole.shape[:2])
-        out[:, k] = np.min(sole[..., 2] - offset[idx] - ground, axis=1)
-    return out
+    idx = np.concatenate(feet)                       # every foot's sole nodes: one terrain query for all
+    starts = np.cumsum([0] + [len(f) for f in feet[:-1]])
+    sole = node_positions[:, idx]
+    ground = terrain.height(sole[..., :2].reshape(-1, 2)).reshape(sole.shape[:2])
+    return np.minimum.reduceat(sole[..., 2] - offset[idx] - ground, starts, axis=1)
 
 
 def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np.ndarray], terrain,
@@ -106,7 +105,8 @@ def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np
     Per frame and foot, the height of the lowest sole point above the terrain `(n_frames, n_feet)` m (`foot_heights`),
     whether any sole node touches the ground `(n_frames, n_feet)` bool, and the sole centroid `(n_frames, n_feet, 3)` m.
     """
-    contact = np.stack([in_contact[:, f].any(axis=1) for f in feet], axis=1)
+    starts = np.cumsum([0] + [len(f) for f in feet[:-1]])
+    contact = np.logical_or.reduceat(in_contact[:, np.concatenate(feet)], starts, axis=1)
     return foot_heights(node_positions, feet, terrain, offset), contact, group_centroids(node_positions, feet)
 
 

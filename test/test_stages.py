@@ -96,6 +96,17 @@ def test_root_twist_of_a_rigid_motion():
     np.testing.assert_allclose(angular, omega, atol=1e-9)
 
 
+def test_rigid_velocity_of_a_collinear_group_is_the_least_norm_spin():
+    """Nodes on a line: a spin about the line moves nothing, so the twist's ω has no component along it."""
+    from iguana_ros.body.root_tracking import rigid_velocity
+    x = np.outer(np.linspace(-0.2, 0.3, 6), [1.0, 0.0, 0.0]) + [0.1, 0.2, 0.3]
+    omega = np.array([0.5, 0.0, 1.0])
+    centre = x.mean(axis=0)
+    linear, angular = rigid_velocity(x, 0.2 + np.cross(omega, x - centre), np.ones(6))
+    np.testing.assert_allclose(linear, 0.2, atol=1e-12)
+    np.testing.assert_allclose(angular, [0.0, 0.0, 1.0], atol=1e-9)
+
+
 def test_build_pipeline_shares_one_model_and_terrain():
     pipe = build_pipeline(_scene())
     assert pipe.adaptation.terrain is pipe.simulator.terrain

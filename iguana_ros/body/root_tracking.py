@@ -29,6 +29,11 @@ ROOT_REGION_BONES = ('pelvis', 'spine_1', 'spine_2', 'hip_hl', 'hip_hr', 'tail_1
 """Bones whose dominantly-skinned nodes define the root region."""
 
 
+SINGULAR_INERTIA = 1e-9
+"""A group's inertia whose determinant is below this fraction of (trace / 3)³ is singular (collinear nodes): its ω is
+the least-norm one."""
+
+
 def rigid_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarray) -> tuple:
     """
     Linear `(3,)` and angular `(3,)` velocity of a node group `(n, 3)` with masses `(n,)`.
@@ -39,11 +44,14 @@ def rigid_velocity(positions: np.ndarray, velocities: np.ndarray, mass: np.ndarr
     m = mass / mass.sum()
     com, vcom = m @ positions, m @ velocities
     r, v = positions - com, velocities - vcom
-    momentum = (mass[:, None] * np.cross(r, v)).sum(axis=0)
-    inertia = np.einsum('i,ij,ik->jk', mass, r, r)
-    inertia = np.trace(inertia) * np.eye(3) - inertia
-    omega = np.linalg.lstsq(inertia, momentum, rcond=None)[0]
-    return vcom, omega
+    mr = r * mass[:, None]
+    spin = mr.T @ v                                  # Σ m r vᵀ: its antisymmetric part is the angular momentum
+    momentum = np.array([spin[1, 2] - spin[2, 1], spin[2, 0] - spin[0, 2], spin[0, 1] - spin[1, 0]])
+    second = mr.T @ r                                # Σ m r rᵀ
+    inertia = np.trace(second) * np.eye(3) - second
+    if np.linalg.det(inertia) > SINGULAR_INERTIA * (np.trace(inertia) / 3.0) ** 3:
+        return vcom, np.linalg.solve(inertia, momentum)
+    return vcom, np.linalg.lstsq(inertia, momentum, rcond=None)[0]   # collinear or coincident: least-norm ω
 
 
 class RootTracker:
