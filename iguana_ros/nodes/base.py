@@ -173,13 +173,42 @@ class FrameGate:
                 self.publisher.publish(reply)
 
 
-UNMATCHED_HOLD_S = 1.0
-"""Longest wall-clock time output is held for readers the graph lists but that do not match (a reader with an
-incompatible QoS never does), or for a declared reader the graph does not list yet; after it the output goes to the
-readers that are matched, if any."""
+READER_HOLD_LIMIT_S = 5.0
+"""Longest wall-clock time output is held for readers the graph does not list yet, or lists without a match or a
+reported QoS incompatibility: DDS discovery under load has taken over 1 s (a 1 s limit let frame 0 go out before the
+spring-length node had matched, and the run waited a 10 s lockstep timeout), and a participant that misses the
+initial announcements is seen at the next periodic one (3 s). After it any matched reader makes output go."""
 
 UNMATCHED_RETRY_S = 0.05
 """Wall-clock period at which output held back for want of matched readers is offered again."""
+
+
+class ReaderCount:
+    """
+    A publisher that counts the readers it cannot match (an incompatible QoS, reported by its QoS event).
+
+    `settled()`: every reader the node's graph lists on the topic is matched or known incompatible, so what is
+    published now reaches every reader that will ever match it.
+    """
+
+    def __init__(self, node: Node, key: str) -> None:
+        """Create `node`'s publisher of topic `key` of the topic table, with an incompatible-QoS event handler."""
+        name, cls, qos = resolve(key)
+        self.node, self.incompatible = node, 0
+        self.publisher = talker(node, cls, name, qos, on_incompatible=self._on_incompatible)
+
+    def _on_incompatible(self, status) -> None:
+        """Note a reader whose requested QoS this writer cannot offer (it never matches)."""
+        self.incompatible = int(status.total_count)
+
+    def listed(self) -> int:
+        """Return readers of the topic in the node's graph."""
+        return self.node.count_subscribers(self.publisher.topic_name)
+
+    def settled(self) -> bool:
+        """Whether every listed reader is matched or incompatible (and at least one is matched)."""
+        matched = self.publisher.get_subscription_count()
+        return matched >= 1 and matched + self.incompatible >= self.listed()
 
 
 class ReaderHold:
@@ -187,14 +216,16 @@ class ReaderHold:
     Holds a volatile publisher's output until its readers can take it.
 
     Ready once every declared reader of the topic (`topics.yaml` subscribers) is in the node's graph and every reader
-    the graph lists is matched by the writer: a reader's side may match first, and what the writer publishes before it
-    has matched the reader is lost (the lockstep run then waits a timeout). A reader that does not match (or a declared
-    one never listed) holds it for UNMATCHED_HOLD_S only, then any matched reader makes it ready.
+    the graph lists is matched by the writer or reported incompatible (`ReaderCount`): a reader's side may match
+    first, and what the writer publishes before it has matched the reader is lost (the lockstep run then waits a
+    timeout). Anything else holds it for READER_HOLD_LIMIT_S, then any matched reader makes it ready.
     """
 
-    def __init__(self, node: Node, publisher, key: str, retry: Callable[[], None]) -> None:
-        """Hold `publisher` (topic `key` of topics.yaml) of `node`; `retry` is called every UNMATCHED_RETRY_S held."""
-        self.node, self.publisher = node, publisher
+    def __init__(self, node: Node, key: str, retry: Callable[[], None]) -> None:
+        """Publish topic `key` of topics.yaml from `node` (`.publisher`); `retry` is called periodically while held."""
+        self.node = node
+        self.readers = ReaderCount(node, key)
+        self.publisher = self.readers.publisher
         self.declared = set(topic(key).subscribers)   # until each is seen in the graph
         self.held_since: float | None = None
         self.retry_timer = node.create_timer(UNMATCHED_RETRY_S, retry, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -210,17 +241,16 @@ class ReaderHold:
         return ok
 
     def readers_matched(self) -> bool:
-        """Whether the declared readers are listed and every listed reader is matched (or the hold's time is up)."""
-        name = self.publisher.topic_name
+        """Whether the declared readers are listed and every listed reader is settled (or the hold's time is up)."""
         if self.declared:
-            self.declared -= {info.node_name for info in self.node.get_subscriptions_info_by_topic(name)}
-        matched = self.publisher.get_subscription_count()
-        if not self.declared and matched >= max(self.node.count_subscribers(name), 1):
+            infos = self.node.get_subscriptions_info_by_topic(self.publisher.topic_name)
+            self.declared -= {info.node_name for info in infos}
+        if not self.declared and self.readers.settled():
             self.held_since = None
             return True
         now = time.monotonic()
         self.held_since = now if self.held_since is None else self.held_since
-        return matched >= 1 and now - self.held_since >= UNMATCHED_HOLD_S
+        return self.publisher.get_subscription_count() >= 1 and now - self.held_since >= READER_HOLD_LIMIT_S
 
 
 def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None) -> int:

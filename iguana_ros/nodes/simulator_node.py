@@ -29,7 +29,7 @@ from visualization_msgs.msg import Marker
 
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
-from iguana_ros.nodes.base import IguanaNode, node_main
+from iguana_ros.nodes.base import IguanaNode, node_main, READER_HOLD_LIMIT_S, ReaderCount
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.ros.cdr import triangle_list_marker_cdr
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
@@ -47,9 +47,6 @@ WATCHDOG_PERIOD = 0.1
 
 FINISH_ACK_TIMEOUT = 2.0
 """Seconds the simulator waits at the end for subscribers (e.g. the recorder) to acknowledge its last frame."""
-
-UNMATCHED_READER_WAIT_S = 1.0
-"""Longest wall-clock time a lockstep start waits for iguana_state readers the graph lists that do not match."""
 
 GOAL_MARKER_RADIUS = 0.05
 """Radius of the goal sphere in scene_markers, m."""
@@ -102,7 +99,8 @@ class SimulatorNode(IguanaNode):
 
     def _make_io(self) -> None:
         """Make publishers and subscriptions."""
-        self.state_pub = self.publisher('iguana_state')
+        self.state_readers = ReaderCount(self, 'iguana_state')
+        self.state_pub = self.state_readers.publisher
         self.clock_pub = self.publisher('clock')
         self.mesh_pub = self.publisher('mesh_marker')
         self.scene_pub = self.publisher('scene_markers')
@@ -211,11 +209,12 @@ class SimulatorNode(IguanaNode):
 
     def lockstep_peers_ready(self) -> bool:
         """
-        Two iguana_state subscriptions and a spring_rest_lengths publisher, each listed in the graph and matched.
+        Two iguana_state subscriptions and a spring_rest_lengths publisher listed in the graph, every reader settled.
 
         (the planner's and the terrain adaptation's, besides the recorder's and `iguana run`'s progress monitor's; a
-        state published to a listed reader not matched yet is lost, and the run waits a lockstep timeout). A listed
-        reader that does not match (an incompatible QoS) is waited for UNMATCHED_READER_WAIT_S only.
+        state published to a listed reader not matched yet is lost, and the run waits a lockstep timeout). Every listed
+        reader must be matched or report an incompatible QoS (`ReaderCount`); one that does neither holds the start
+        for READER_HOLD_LIMIT_S only.
         """
         listed = self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])
         peers = [info for info in listed if info.node_name not in (RECORDER_NODE_NAME, MONITOR_NODE_NAME)]
@@ -223,9 +222,8 @@ class SimulatorNode(IguanaNode):
             self.peers_listed_since = None
             return False
         now = time.monotonic()
-        self.peers_listed_since = self.peers_listed_since or now    # a reader that cannot match is waited for 1 s
-        return (self.state_pub.get_subscription_count() >= len(listed)
-                or now - self.peers_listed_since >= UNMATCHED_READER_WAIT_S)
+        self.peers_listed_since = self.peers_listed_since or now
+        return self.state_readers.settled() or now - self.peers_listed_since >= READER_HOLD_LIMIT_S
 
     def on_lockstep_timeout(self, waited: float) -> None:
         """Log, re-send the state (a peer may have missed it), give up after lockstep_max_timeouts."""

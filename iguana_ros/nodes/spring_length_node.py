@@ -42,10 +42,10 @@ class SpringLengthNode(IguanaNode):
         self.n_bones = model.skeleton.n_bones
         self.rest_lengths = model.spring_rest_lengths
         self.bound = world_bound(self.scene.terrain.extent)
-        self.lengths_pub = self.publisher('spring_rest_lengths')
+        self.reader_hold = ReaderHold(self, 'spring_rest_lengths', retry=self.publish_held)
+        self.lengths_pub = self.reader_hold.publisher
         self.pose_gate = FrameGate(self, 'reference_pose', self.lengths_pub, keep=RESEND_FRAMES)
         self.held: list[bytes] = []                  # serialized lengths not published yet, in frame order
-        self.reader_hold = ReaderHold(self, self.lengths_pub, 'spring_rest_lengths', retry=self.publish_held)
         self.subscription('reference_pose', self.guarded('reference_pose', self.on_pose), raw=True)
         self.get_logger().info(f'spring lengths ready: {self.computer.n_springs} springs, '
                                f'{model.n_nodes} nodes')

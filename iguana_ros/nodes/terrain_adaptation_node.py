@@ -54,8 +54,8 @@ class TerrainAdaptationNode(IguanaNode):
         self.newest_clip = -1
         self.next_frame = 0
         self.sent: dict[int, object] = {}
-        self.pose_pub = self.publisher('reference_pose')
-        self.reader_hold = ReaderHold(self, self.pose_pub, 'reference_pose', retry=self.publish_ready)
+        self.reader_hold = ReaderHold(self, 'reference_pose', retry=self.publish_ready)
+        self.pose_pub = self.reader_hold.publisher
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)

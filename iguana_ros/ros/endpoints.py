@@ -15,6 +15,7 @@
 """Turns the ROS-free topic table into rclpy QoS profiles and message classes."""
 from __future__ import annotations
 
+from collections.abc import Callable
 import importlib
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -81,7 +82,12 @@ def listener(node, cls, name: str, callback, qos: QoSProfile, raw: bool = False)
                                     event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
 
-def talker(node, cls, name: str, qos: QoSProfile):
-    """Return a publisher without rclpy's default QoS event handlers (see `listener`)."""
+def talker(node, cls, name: str, qos: QoSProfile, on_incompatible: Callable | None = None):
+    """
+    Return a publisher without rclpy's default QoS event handlers (see `listener`).
+
+    `on_incompatible` (optional) handles the incompatible-QoS event: a reader this writer will never match.
+    """
     from rclpy.event_handler import PublisherEventCallbacks
-    return node.create_publisher(cls, name, qos, event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
+    return node.create_publisher(cls, name, qos, event_callbacks=PublisherEventCallbacks(
+        incompatible_qos=on_incompatible, use_default_callbacks=False))

@@ -231,13 +231,13 @@ def test_terrain_node_holds_poses_until_a_reader_matches(tmp_path, make_node, ex
 
 
 def test_terrain_node_does_not_wait_for_a_reader_that_cannot_match(tmp_path, make_node, executor):
-    """A reader asking for transient-local poses never matches the volatile writer: the others still get them."""
+    """A reader asking for transient-local poses is reported incompatible and not waited for: the others get them."""
     from rclpy.qos import DurabilityPolicy
     from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
     skeleton = iguana_skeleton()
     clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
-    probe = Probe(make_node('probe'), executor)
+    probe = Probe(make_node('spring_length_node'), executor)      # the declared reader, listening twice
     name, cls, qos = probe.resolve('reference_pose')
     qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
     probe.node.create_subscription(cls, name, lambda _m: None, qos)
@@ -247,7 +247,8 @@ def test_terrain_node_does_not_wait_for_a_reader_that_cannot_match(tmp_path, mak
         probe.wait_matched('motion_clip')
         probe.wait_matched('iguana_state')
         probe.deliver(clip_pub, clip_to_msg(clip, skeleton, 0))
-        assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6, 30), node.output
+        # reported incompatible, not waited for: out before READER_HOLD_LIMIT_S (5 s)
+        assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6, 3), node.output
         for frame in range(1, 4):                    # later poses are not held again
             probe.deliver(state_pub, _state(frame))
             assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6 + frame, 0.5), node.output
@@ -284,17 +285,19 @@ def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_
         node.destroy_node()
 
 
-def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, executor, ros_context):
+def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, executor, ros_context, monkeypatch):
     """
     The simulator starts once two iguana_state peers and a lengths publisher are listed and every listed reader matched.
 
-    A listed reader that cannot match (it asks for transient-local states from the volatile writer) holds the start
-    for UNMATCHED_READER_WAIT_S only.
+    A listed reader that cannot match (it asks for transient-local states from the volatile writer) is reported
+    incompatible and does not hold the start; a listed reader neither matched nor incompatible holds it for
+    READER_HOLD_LIMIT_S only.
     """
     import time
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy
-    from iguana_ros.nodes.simulator_node import SimulatorNode, UNMATCHED_READER_WAIT_S
+    from iguana_ros.nodes import simulator_node
+    from iguana_ros.nodes.simulator_node import SimulatorNode
     node = SimulatorNode(context=ros_context, parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
     executor.add_node(node)
     try:
@@ -311,10 +314,14 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
         stranger = make_node('stranger')
         stranger.create_subscription(cls, name, lambda _m: None, qos)
         assert spin_until(executor, lambda: len(node.get_subscriptions_info_by_topic(name)) >= 3, 30)
+        assert spin_until(executor, lambda: node.state_readers.incompatible >= 1, 30)
         node.peers_listed_since = None
-        assert not node.lockstep_peers_ready()       # listed, never matched: held ...
-        time.sleep(UNMATCHED_READER_WAIT_S)
-        assert node.lockstep_peers_ready()           # ... for UNMATCHED_READER_WAIT_S only
+        assert node.lockstep_peers_ready()           # listed, reported incompatible: not waited for
+        node.state_readers.incompatible = 0          # as if it had not been reported yet
+        monkeypatch.setattr(simulator_node, 'READER_HOLD_LIMIT_S', 0.5)
+        assert not node.lockstep_peers_ready()       # listed, neither matched nor incompatible: held ...
+        time.sleep(0.5)
+        assert node.lockstep_peers_ready()           # ... for READER_HOLD_LIMIT_S only
     finally:
         executor.remove_node(node)
         node.destroy_node()
@@ -333,7 +340,7 @@ def test_spring_node_holds_lengths_until_the_simulator_reader_matches(tmp_path, 
     from iguana_ros.nodes.spring_length_node import SpringLengthNode
     from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_cdr
     from iguana_ros.terrain.adaptation import pose_kinematics
-    monkeypatch.setattr(base, 'UNMATCHED_HOLD_S', 120.0)     # released by the match, not by the hold's time limit
+    monkeypatch.setattr(base, 'READER_HOLD_LIMIT_S', 120.0)  # released by the match, not by the hold's time limit
     clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)
     node = SpringLengthNode(context=ros_context, parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
     executor.add_node(node)
