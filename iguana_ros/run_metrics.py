@@ -91,10 +91,14 @@ def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, of
     `(n_frames, n_feet)`.
     """
     idx = np.concatenate(feet)                       # every foot's sole nodes: one terrain query for all
-    starts = np.cumsum([0] + [len(f) for f in feet[:-1]])
     sole = node_positions[:, idx]
     ground = terrain.height(sole[..., :2].reshape(-1, 2)).reshape(sole.shape[:2])
-    return np.minimum.reduceat(sole[..., 2] - offset[idx] - ground, starts, axis=1)
+    return np.minimum.reduceat(sole[..., 2] - offset[idx] - ground, _group_starts(feet), axis=1)
+
+
+def _group_starts(groups: list[np.ndarray]) -> np.ndarray:
+    """Offsets `(n_groups,)` of each group in their concatenation (for `ufunc.reduceat`)."""
+    return np.cumsum([0] + [len(g) for g in groups[:-1]])
 
 
 def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np.ndarray], terrain,
@@ -105,8 +109,7 @@ def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np
     Per frame and foot, the height of the lowest sole point above the terrain `(n_frames, n_feet)` m (`foot_heights`),
     whether any sole node touches the ground `(n_frames, n_feet)` bool, and the sole centroid `(n_frames, n_feet, 3)` m.
     """
-    starts = np.cumsum([0] + [len(f) for f in feet[:-1]])
-    contact = np.logical_or.reduceat(in_contact[:, np.concatenate(feet)], starts, axis=1)
+    contact = np.logical_or.reduceat(in_contact[:, np.concatenate(feet)], _group_starts(feet), axis=1)
     return foot_heights(node_positions, feet, terrain, offset), contact, group_centroids(node_positions, feet)
 
 

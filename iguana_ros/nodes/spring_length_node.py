@@ -26,8 +26,9 @@ class SpringLengthNode(IguanaNode):
     Skins the reference mesh to each reference pose (DQS) and publishes the node-pair distances.
 
     Lengths go out in frame order once the topic's declared reader (`topics.yaml`: the simulator node) is in this
-    node's graph and every reader it lists is matched (`ReaderHold`): lengths published before this node's writer
-    had matched the simulator's reader were lost, and the simulator waited a lockstep timeout for frame 0.
+    node's graph and every reader it lists is matched or reported incompatible (`ReaderHold`): lengths published
+    before this node's writer had matched the simulator's reader were lost, and the simulator waited a lockstep
+    timeout for frame 0.
     """
 
     KIND = 'spring_length_node'
