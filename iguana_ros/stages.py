@@ -250,8 +250,7 @@ class StrideLookahead:
         """
         self.adaptation = adaptation
         self.springs = springs
-        self._executor = (ThreadPoolExecutor(1, thread_name_prefix='lookahead', initializer=_lower_thread_priority)
-                          if threaded else None)
+        self._executor = ThreadPoolExecutor(1, thread_name_prefix='lookahead') if threaded else None
         self._clip: AlignedClip | None = None
         self._start = 0
         self._pending: dict[int, Future] = {}
@@ -330,23 +329,6 @@ class StrideLookahead:
         """Stop the worker thread (frames not yet computed are dropped)."""
         if self._executor is not None:
             self._executor.shutdown(wait=True, cancel_futures=True)
-
-
-LOOKAHEAD_NICENESS = 5
-"""Niceness added to the lookahead's worker thread: its frames are needed a stride later, while a stride's first
-frame, its spring lengths and the simulator's next step wait at a stride end; on two shared cores the worker's 40 ms
-burst at each stride end otherwise takes a core from them."""
-
-
-def _lower_thread_priority() -> None:
-    """Make the calling thread LOOKAHEAD_NICENESS nicer (Linux: per-thread niceness); nothing where unsupported."""
-    import os
-    import threading
-    try:
-        tid = threading.get_native_id()
-        os.setpriority(os.PRIO_PROCESS, tid, os.getpriority(os.PRIO_PROCESS, tid) + LOOKAHEAD_NICENESS)
-    except (AttributeError, OSError):
-        pass
 
 
 # ----------------------------------------------------------------------------------------- spring lengths
