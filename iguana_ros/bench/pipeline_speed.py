@@ -46,4 +46,6 @@ def bench_pipeline(scene_name: str = 'hills', duration: float = 5.0, single_proc
         'nodes_realtime_factor': summary.realtime_factor, 'nodes_wall_s': summary.wall_s,
         'nodes_total_s': nodes_total, 'nodes_layout': 'one process' if single_process else 'four processes',
         'nodes_reached_goal': summary.reached_goal,
+        'nodes_cpu_ms_per_frame': sum(summary.cpu_ms_per_frame.values()) if summary.cpu_ms_per_frame else None,
+        'nodes_cpu_ms_per_frame_by_process': summary.cpu_ms_per_frame,
     }

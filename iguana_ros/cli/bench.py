@@ -89,6 +89,7 @@ def register(subparsers) -> None:
 def run_pipeline_bench(args) -> int:
     """`iguana bench pipeline`."""
     from iguana_ros.bench.pipeline_speed import bench_pipeline
+    from iguana_ros.supervisor.cpu import cpu_line
 
     result = bench_pipeline(args.scene, args.seconds, args.single_process)
     if args.json:
@@ -99,6 +100,8 @@ def run_pipeline_bench(args) -> int:
           f"({result['library_wall_s']:.1f} s wall)")
     print(f"  nodes ({result['nodes_layout']}): realtime factor {result['nodes_realtime_factor']:.2f} "
           f"({result['nodes_wall_s']:.1f} s wall in the loop, {result['nodes_total_s']:.1f} s with start-up)")
+    if result['nodes_cpu_ms_per_frame_by_process']:
+        print('  ' + cpu_line(result['nodes_cpu_ms_per_frame_by_process']))
     return 0
 
 

@@ -42,6 +42,7 @@ from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
 from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
 from iguana_ros.scene import load_scene, Scene, scene_path
+from iguana_ros.supervisor.cpu import CpuWindow
 from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
 from iguana_ros.supervisor.process import describe_exit, NodeProcess, RUN_ID_ENV, run_processes, stop_all
 from iguana_ros.supervisor.run_gait import RunGait
@@ -55,6 +56,9 @@ NODE_KINDS = NODE_EXECUTABLES
 
 POLL_S = 0.1
 """Wall seconds between checks on the children."""
+
+CPU_SAMPLE_S = 0.05
+"""Wall seconds between samples of the processes' CPU time (`cpu.CpuWindow`; the summary's CPU per frame)."""
 
 NODE_STOP_S = 5.0
 """Wall seconds the nodes get for each step of SIGINT, SIGTERM, SIGKILL when the run stops."""
@@ -238,6 +242,8 @@ class SceneRun:
         self.leftovers: list = []
         self.watch = None
         self.watch_until = self._next_watch = 0.0
+        self.cpu = CpuWindow()
+        self._cpu_sampled = 0.0
 
     @property
     def planned_s(self) -> float:
@@ -306,6 +312,7 @@ class SceneRun:
         If no node has been heard STARTUP_SILENCE_S after they were started, the doctor's loopback decides: IguanaError
         with its line if DDS connects no processes here.
         """
+        self.sample_cpu()
         if self.monitor is None:
             time.sleep(timeout)
             return
@@ -395,6 +402,15 @@ class SceneRun:
         self.sim_code = sim.proc.returncode
         return self.sim_code
 
+    def sample_cpu(self) -> None:
+        """Note the CPU of this process and of every child still running, every CPU_SAMPLE_S at most (`cpu.py`)."""
+        now = time.time()
+        if now - self._cpu_sampled < CPU_SAMPLE_S:
+            return
+        self._cpu_sampled = now
+        pids = {name: child.pid for name, child in self.children.items() if child.running}
+        self.cpu.sample({**pids, 'iguana run': os.getpid()}, now)
+
     def stop(self) -> None:
         """
         Stop every node (all at once), then the recorder (which finalises the bag).
@@ -481,7 +497,10 @@ class SceneRun:
         return RunSummary(self.scene.name, self.bag, self.logs, simulated, progress.loop_wall_s, reached, when,
                           final, exit_code, tail, gait, planned_s=self.planned_s, outcome=outcome, reason=reason,
                           total_wall_s=total, bag_note=progress.note(), failed_node=node,
-                          phases=self.monitor.clock.finished() if self.monitor is not None else ())
+                          phases=self.monitor.clock.finished() if self.monitor is not None else (),
+                          cpu_ms_per_frame=self.cpu.ms_per_frame(progress.state_first_ns / 1e9,
+                                                                 progress.state_last_ns / 1e9,
+                                                                 round(simulated * FRAME_RATE)))
 
 
 def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:

@@ -26,6 +26,7 @@ import math
 from pathlib import Path
 
 from iguana_ros.progress import startup_line
+from iguana_ros.supervisor.cpu import cpu_line
 from iguana_ros.supervisor.run_gait import RunGait
 
 STATE_TOPIC = '/iguana_state'
@@ -119,6 +120,8 @@ class RunSummary:
     failed_node: str = ''
     phases: tuple = ()
     """Start-up phases that finished (iguana_ros.progress.PhaseTime), from the node processes' run_events."""
+    cpu_ms_per_frame: dict = field(default_factory=dict)
+    """CPU ms per simulated frame of each process of the run while it stepped (`supervisor/cpu.py`; {} off Linux)."""
 
     @property
     def realtime_factor(self) -> float:
@@ -161,4 +164,5 @@ class RunSummary:
                 f'simulated {self.simulated_s:.2f} s in {self.wall_s:.2f} s wall '
                 f'(realtime factor {self.realtime_factor:.2f}{total})',
                 *([startup_line(self.phases)] if self.phases else []),
+                *([cpu_line(self.cpu_ms_per_frame)] if self.cpu_ms_per_frame else []),
                 *gait, *detail, bag, f'logs: {self.logs}']

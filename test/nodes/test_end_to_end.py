@@ -127,6 +127,11 @@ def test_lockstep_run_summary_has_the_gait_figures_of_the_library_run(shared_run
     lines = summary.lines()
     assert any(line.startswith('  stance fraction fl ') and '(clip ' in line for line in lines), lines
     assert any(line.startswith('  speed: ') and "% of the clips'" in line for line in lines), lines
+    cpu = summary.cpu_ms_per_frame                  # every process of the run, sampled while it stepped
+    assert set(cpu) == {'simulator_node', 'planner_node', 'terrain_adaptation_node', 'spring_length_node', 'recorder',
+                        'iguana run'}, cpu
+    assert cpu['simulator_node'] > 0.0 and all(ms >= 0.0 for ms in cpu.values()), cpu
+    assert any(line.startswith('CPU per frame while stepping: ') for line in lines), lines
 
 
 def test_recorded_run_replays(shared_run, make_node, executor):
