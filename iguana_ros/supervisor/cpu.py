@@ -25,14 +25,15 @@ from __future__ import annotations
 import os
 import time
 
+from iguana_ros.supervisor.process import stat_fields
+
 
 def process_cpu_s(pid: int) -> float | None:
     """Return user + system CPU seconds of process `pid` (all threads) so far; None if it is gone or has no /proc."""
+    fields = stat_fields(pid)
     try:
-        with open(f'/proc/{pid}/stat', encoding='ascii') as fh:
-            fields = fh.read().rsplit(')', 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
-    except (OSError, IndexError, ValueError):
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')   # utime, stime in clock ticks
+    except (TypeError, IndexError, ValueError, OSError):
         return None
 
 

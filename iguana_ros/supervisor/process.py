@@ -260,13 +260,19 @@ def _environ(pid: int) -> dict[str, str] | None:
     return env
 
 
+def stat_fields(pid: int) -> list[str] | None:
+    """Fields of `/proc/<pid>/stat` after the command name (state first, see proc(5)); None if it is gone or unread."""
+    try:
+        fields = Path(f'/proc/{pid}/stat').read_text().rpartition(')')[2].split()
+    except OSError:
+        return None
+    return fields or None
+
+
 def _alive(pid: int) -> bool:
     """Return True unless process `pid` is gone or a zombie."""
-    try:
-        stat = Path(f'/proc/{pid}/stat').read_text()
-    except OSError:
-        return False
-    return stat.rpartition(')')[2].split()[0] != 'Z'
+    fields = stat_fields(pid)
+    return fields is not None and fields[0] != 'Z'
 
 
 def processes_with_env(key: str, value: str | None = None) -> list[ProcessInfo]:
