@@ -28,6 +28,7 @@ imports no message package for it); the message classes are imported when a mark
 from __future__ import annotations
 
 from dataclasses import dataclass
+import functools
 import struct
 import typing
 
@@ -97,14 +98,17 @@ def _alignment(fmt: str) -> int:
     return struct.calcsize('<' + fmt.lstrip('0123456789')[0])
 
 
+@functools.lru_cache(maxsize=None)
 def _default(kind) -> object:
-    """Return the value a field takes when a writer is not given it: zeros, '' or an empty sequence."""
+    """Return the value a field takes when a writer is not given it: zeros, '' or an empty sequence (immutable)."""
     if kind == STRING:
         return ''
     if kind == STRINGS:
-        return []
+        return ()
     if isinstance(kind, Sequence):
-        return np.zeros((0, kind.width), kind.dtype)
+        empty = np.zeros((0, kind.width), kind.dtype)
+        empty.flags.writeable = False
+        return empty
     return tuple(0 for _ in struct.unpack('<' + kind, bytes(struct.calcsize('<' + kind))))
 
 

@@ -303,3 +303,15 @@ def test_lengths_reading_matches_the_message_path(rng):
         with pytest.raises(InputError, match='truncated or not a JointState|not little-endian CDR'):
             lengths_from_cdr(data[:cut], 40, rest)
     assert frame_of_cdr(data) == 77 and frame_of_cdr(data[:6]) == '?'
+
+
+def test_defaults_of_unset_fields_are_shared_and_read_only():
+    """A field a writer is not given takes one cached default: nothing a message does can change the next one."""
+    first = cdr.joint_state_cdr((1, 2), 'world', ['a', 'b'], np.zeros(2))
+    empty = cdr._default(cdr.VALUES)
+    assert cdr._default(cdr.VALUES) is empty and empty.shape == (0, 1)
+    with pytest.raises(ValueError):
+        empty.resize((1, 1))
+    assert cdr._default(cdr.STRINGS) == () and cdr._default('36d') == (0,) * 36
+    assert cdr.joint_state_cdr((1, 2), 'world', ['a', 'b'], np.zeros(2)) == first
+    assert cdr.joint_state_from_cdr(first)['velocity'].shape == (0,)
