@@ -310,8 +310,9 @@ def test_defaults_of_unset_fields_are_shared_and_read_only():
     first = cdr.joint_state_cdr((1, 2), 'world', ['a', 'b'], np.zeros(2))
     empty = cdr._default(cdr.VALUES)
     assert cdr._default(cdr.VALUES) is empty and empty.shape == (0, 1)
-    with pytest.raises(ValueError):
-        empty.resize((1, 1))
+    assert not empty.flags.writeable
+    with pytest.raises(ValueError, match='read-only'):
+        empty[...] = 1.0
     assert cdr._default(cdr.STRINGS) == () and cdr._default('36d') == (0,) * 36
     assert cdr.joint_state_cdr((1, 2), 'world', ['a', 'b'], np.zeros(2)) == first
     assert cdr.joint_state_from_cdr(first)['velocity'].shape == (0,)
