@@ -20,13 +20,19 @@ from pathlib import Path
 import tempfile
 import time
 
+from iguana_ros.bench.sim import cpu_model
+from iguana_ros.constants import FRAME_RATE
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.scene import load_scene
 from iguana_ros.supervisor.run import run_scene, RunOptions
 
 
 def bench_pipeline(scene_name: str = 'hills', duration: float = 5.0, single_process: bool = False) -> dict:
-    """Run `scene_name` for `duration` simulated s as a library loop and as lockstep nodes; report both."""
+    """
+    Run `scene_name` for `duration` simulated s as a library loop and as lockstep nodes; report both.
+
+    The node overhead is the nodes' wall time per 1/30 s frame less the library loop's (the same frames simulated).
+    """
     scene = dataclasses.replace(load_scene(scene_name), duration=float(duration))
     start = time.perf_counter()
     library = run_pipeline(scene)
@@ -48,4 +54,6 @@ def bench_pipeline(scene_name: str = 'hills', duration: float = 5.0, single_proc
         'nodes_reached_goal': summary.reached_goal,
         'nodes_cpu_ms_per_frame': sum(summary.cpu_ms_per_frame.values()) if summary.cpu_ms_per_frame else None,
         'nodes_cpu_ms_per_frame_by_process': summary.cpu_ms_per_frame,
+        'node_overhead_ms_per_frame': 1e3 * (summary.wall_s - library.wall_seconds) / (scene.duration * FRAME_RATE),
+        'cpu_model': cpu_model(),
     }

@@ -100,6 +100,8 @@ def run_pipeline_bench(args) -> int:
           f"({result['library_wall_s']:.1f} s wall)")
     print(f"  nodes ({result['nodes_layout']}): realtime factor {result['nodes_realtime_factor']:.2f} "
           f"({result['nodes_wall_s']:.1f} s wall in the loop, {result['nodes_total_s']:.1f} s with start-up)")
+    print(f"  node overhead:            {result['node_overhead_ms_per_frame']:.2f} ms per frame (the nodes' wall "
+          f"less the library loop's); CPU {result['cpu_model']}")
     if result['nodes_cpu_ms_per_frame_by_process']:
         print('  ' + cpu_line(result['nodes_cpu_ms_per_frame_by_process']))
     return 0
