@@ -30,7 +30,7 @@ from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
 from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, tool_node
-from iguana_ros.ros.wait_loop import ListenerLoop
+from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
 from iguana_ros.topics import default_topics
 
 BATCH_S = 0.02
@@ -130,6 +130,7 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
         node = tool_node(RECORDER_NODE_NAME, context)
         loop = ListenerLoop(node)
         recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))
+        settle_heap()
         print(f'recording to {writer.path}', flush=True)
         chores = [(DISCOVERY_PERIOD_S, recorder.poll_discovery),
                   (min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)]

@@ -31,6 +31,7 @@ from iguana_ros.parameters import node_parameters, ParamSpec
 from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import run_event_msg
+from iguana_ros.ros.wait_loop import settle_heap
 from iguana_ros.scene import load_scene, Scene
 from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
@@ -266,6 +267,7 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
         executor = SingleThreadedExecutor()
         for node in nodes:
             executor.add_node(node)
+        settle_heap()
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

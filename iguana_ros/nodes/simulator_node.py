@@ -31,7 +31,7 @@ from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.base import IguanaNode, node_main, READER_HOLD_LIMIT_S, ReaderCount
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.ros.cdr import triangle_list_marker_cdr
+from iguana_ros.ros.cdr import TriangleListMarkerWriter
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
 from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
@@ -78,6 +78,8 @@ class SimulatorNode(IguanaNode):
         self.half_extent = scene.terrain.extent / 2.0
         self.peers_listed_since: float | None = None
         self.probe = FootProbe(self.model, self.terrain)
+        self.mesh_writer = TriangleListMarkerWriter(self.model.surface_triangles, self.model.n_nodes, WORLD_FRAME,
+                                                    'iguana')
         self.latest_lengths: np.ndarray | None = None
         self.pending_lengths: dict[int, np.ndarray] = {}
         self.live_pushes: list[PushSpec] = []
@@ -285,10 +287,9 @@ class SimulatorNode(IguanaNode):
         self.foot_pub.publish(foot_state_to_cdr(heights, contact, frame))
         self.foot_positions_pub.publish(foot_positions_to_cdr(soles, frame))
         if frame % self.param('mesh_every_n_frames') == 0:
-            self.mesh_pub.publish(triangle_list_marker_cdr(
-                self.stage.sim.positions, self.model.surface_triangles,
-                body_colors(self.model.n_nodes, self.stage.sim.in_contact), stamp=frame_stamp(frame),
-                frame_id=WORLD_FRAME, ns='iguana'))
+            self.mesh_pub.publish(self.mesh_writer.write(
+                self.stage.sim.positions, body_colors(self.model.n_nodes, self.stage.sim.in_contact),
+                frame_stamp(frame)))
 
     def publish_scene_markers(self) -> None:
         """Terrain mesh and goal spheres (latched)."""

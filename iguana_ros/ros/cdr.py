@@ -395,24 +395,63 @@ def _marker_data(fields: dict) -> MarkerData:
                       fields['points'].astype(np.float64), fields['colors'].astype(np.float64))
 
 
+class TriangleListMarkerWriter:
+    """
+    Serialized triangle-list Markers of one indexed mesh, for a frame loop.
+
+    The bytes of `conversions.triangle_list_marker` for triangles `(n_t, 3)` over `n_vertices` vertices: the layout is
+    written once, and each `write` copies it and fills in the stamp, the per-corner points and colours.
+    """
+
+    def __init__(self, triangles, n_vertices: int, frame_id: str = WORLD_FRAME, ns: str = 'iguana',
+                 marker_id: int = 0) -> None:
+        """Validate the triangles (`conversions.triangle_soup`) and lay out their message once."""
+        from iguana_ros.ros.conversions import triangle_soup
+
+        self.n_vertices = int(n_vertices)
+        points, rgba = triangle_soup(np.zeros((self.n_vertices, 3)), triangles, np.zeros((self.n_vertices, 4)))
+        self.corners = np.asarray(triangles, np.intp).reshape(-1)
+        values = {'stamp': (0, 0), 'frame_id': frame_id, 'ns': ns, 'id': int(marker_id), 'type': _TRIANGLE_LIST,
+                  'action': _ADD, 'pose': (0.0,) * 6 + (1.0,), 'scale': (1.0, 1.0, 1.0), 'color': (1.0, 1.0, 1.0, 1.0),
+                  'points': points, 'colors': rgba}
+        head = CdrWriter()
+        head.write(MARKER[:[name for name, _ in MARKER].index('points')], values)
+        head.pack('I', len(self.corners))
+        payload_points = head.size + (-head.size) % 8
+        self.points_at = len(CDR_LE_HEADER) + payload_points
+        self.colors_at = self.points_at + 24 * len(self.corners) + 4      # after the colours' uint32 count
+        self.template = write_layout(MARKER, values)
+
+    def write(self, vertices, colors, stamp: float | Time = 0.0) -> bytes:
+        """Return the bytes for vertices `(n_vertices, 3)` m, RGBA `(n_vertices, 4)` and a stamp (s or Time)."""
+        from builtin_interfaces.msg import Time  # noqa: F811 (the class itself, for isinstance)
+
+        from iguana_ros.ros.conversions import time_to_msg
+        from iguana_ros.validation import validate_array
+
+        verts = validate_array('vertices', vertices, (self.n_vertices, 3))
+        rgba = validate_array('colors', colors, (self.n_vertices, 4)).astype(np.float32)
+        t = stamp if isinstance(stamp, Time) else time_to_msg(stamp)
+        n = len(self.corners)
+        buf = bytearray(self.template)
+        struct.pack_into('<iI', buf, len(CDR_LE_HEADER), t.sec, t.nanosec)
+        np.take(verts, self.corners, axis=0, out=np.frombuffer(buf, '<f8', 3 * n, self.points_at).reshape(n, 3))
+        np.take(rgba, self.corners, axis=0, out=np.frombuffer(buf, '<f4', 4 * n, self.colors_at).reshape(n, 4))
+        return bytes(buf)
+
+
 def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 0.0,
                              frame_id: str = WORLD_FRAME, ns: str = 'iguana',
                              marker_id: int = 0) -> bytes:
     """
     Return serialized bytes of exactly the Marker `conversions.triangle_list_marker` builds from vertices `(n_v, 3)`.
 
-    triangles `(n_t, 3)` and RGBA `(n_v, 4)` (the fast path to publish: `publisher.publish(bytes)`).
+    triangles `(n_t, 3)` and RGBA `(n_v, 4)` (in a frame loop, a `TriangleListMarkerWriter` lays the message out once).
     """
-    from builtin_interfaces.msg import Time  # noqa: F811 (the class itself, for isinstance)
+    from iguana_ros.validation import validate_array
 
-    from iguana_ros.ros.conversions import time_to_msg, triangle_soup
-
-    points, rgba = triangle_soup(vertices, triangles, colors)
-    t = stamp if isinstance(stamp, Time) else time_to_msg(stamp)
-    return write_layout(MARKER, {'stamp': (t.sec, t.nanosec), 'frame_id': frame_id, 'ns': ns, 'id': int(marker_id),
-                                 'type': _TRIANGLE_LIST, 'action': _ADD, 'pose': (0.0,) * 6 + (1.0,),
-                                 'scale': (1.0, 1.0, 1.0), 'color': (1.0, 1.0, 1.0, 1.0), 'points': points,
-                                 'colors': rgba})
+    verts = validate_array('vertices', vertices, (None, 3))
+    return TriangleListMarkerWriter(triangles, len(verts), frame_id, ns, marker_id).write(verts, colors, stamp)
 
 
 def triangle_list_from_cdr(data: bytes) -> tuple[np.ndarray, np.ndarray]:

@@ -36,7 +36,7 @@ from iguana_ros.ros.conversions import time_from_msg
 from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, resolve, tool_node
 from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.ros.run_events import run_event_from_msg
-from iguana_ros.ros.wait_loop import ListenerLoop
+from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
 
 MAX_TAKES = 500
 """Most messages one `poll` takes in (a burst after a stall is drained over a few polls)."""
@@ -64,6 +64,7 @@ class RunMonitor:
             name, cls, qos = resolve(key)
             listener(self.node, cls, name, callback, qos, raw=raw)
         self.loop = ListenerLoop(self.node)
+        settle_heap()
 
     def launched(self) -> None:
         """Note that the supervisor starts the run's processes now."""

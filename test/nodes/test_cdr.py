@@ -25,7 +25,7 @@ from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate  # noqa: E4
 from iguana_ros.bag.schema import message_definition  # noqa: E402
 from iguana_ros.errors import InputError  # noqa: E402
 from iguana_ros.ros import cdr  # noqa: E402
-from iguana_ros.ros.conversions import triangle_list_marker  # noqa: E402
+from iguana_ros.ros.conversions import frame_stamp, triangle_list_marker, triangle_soup  # noqa: E402
 
 
 @pytest.fixture
@@ -316,3 +316,28 @@ def test_defaults_of_unset_fields_are_shared_and_read_only():
     assert cdr._default(cdr.STRINGS) == () and cdr._default('36d') == (0,) * 36
     assert cdr.joint_state_cdr((1, 2), 'world', ['a', 'b'], np.zeros(2)) == first
     assert cdr.joint_state_from_cdr(first)['velocity'].shape == (0,)
+
+
+@pytest.mark.parametrize('ns', ['', 'a', 'ab', 'abc', 'abcd', 'abcde', 'abcdef', 'abcdefg', 'iguana'])
+def test_a_reused_marker_writer_gives_rclpys_bytes_every_frame_whatever_the_padding(rng, ns):
+    """
+    Strings of every length mod 8 move the points' 8-byte alignment; bad vertices fail and leave later frames whole.
+
+    (rclpy's serializer leaves its padding bytes unset, so its bytes are compared by what they decode to.)
+    """
+    verts, tris, rgba = _mesh(rng, n_t=9)
+    writer = cdr.TriangleListMarkerWriter(tris, len(verts), frame_id='world', ns=ns, marker_id=2)
+    template = bytes(writer.template)
+    for frame in range(3):
+        moved = verts + 0.01 * frame
+        stamp = frame_stamp(frame + 7)
+        data = writer.write(moved, rgba, stamp)
+        message = triangle_list_marker(moved, tris, rgba, stamp=stamp, frame_id='world', ns=ns, marker_id=2)
+        assert len(data) == len(serialize_message(message)) and deserialize_message(data, Marker) == message
+        points, colors = triangle_soup(moved, tris, rgba)
+        assert data == cdr.write_layout(cdr.MARKER, {
+            'stamp': (stamp.sec, stamp.nanosec), 'frame_id': 'world', 'ns': ns, 'id': 2, 'type': Marker.TRIANGLE_LIST,
+            'pose': (0.0,) * 6 + (1.0,), 'scale': (1.0,) * 3, 'color': (1.0,) * 4, 'points': points, 'colors': colors})
+        with pytest.raises(InputError, match='vertices has 1 non-finite'):
+            writer.write(np.where(np.arange(len(verts))[:, None] == 1, [np.nan, 0.0, 0.0], moved), rgba, stamp)
+    assert bytes(writer.template) == template
