@@ -73,7 +73,7 @@ def test_settle_heap_collects_start_up_garbage_and_freezes_the_rest():
     import subprocess
     import sys
 
-    code = '''
+    code = """
 import gc, weakref
 from iguana_ros.ros.wait_loop import settle_heap
 class Node: pass
@@ -86,6 +86,6 @@ b = Node(); b.me = b; later = weakref.ref(b); del b
 gc.collect()
 assert later() is None, 'a cycle made after the freeze was not collected'
 print('ok', gc.get_freeze_count())
-'''
+"""
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.startswith('ok'), out.stderr[-1500:]
