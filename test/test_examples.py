@@ -99,8 +99,9 @@ def test_read_bag_example_reads_the_driven_run(driven, tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     assert re.search(r'^301 states from t=0\.00 to 10\.00 s; root moved \d\.\d\d m', done.stdout, re.MULTILINE), \
         done.stdout
-    assert re.search(r'^301 foot frames; fraction in contact: fl 0\.\d\d fr 0\.\d\d hl 0\.\d\d hr 0\.\d\d$',
-                     done.stdout, re.MULTILINE), done.stdout
+    fraction = r'[01]\.\d\d'                         # a foot may stand the whole run (1.00)
+    assert re.search(rf'^301 foot frames; fraction in contact: fl {fraction} fr {fraction} hl {fraction} '
+                     rf'hr {fraction}$', done.stdout, re.MULTILINE), done.stdout
     assert re.search(r'^goal 0: \(\d\.\d\d, -?\d\.\d\d\)', done.stdout, re.MULTILINE), done.stdout  # the example's
     header, *rows = csv.read_text().splitlines()
     assert header.startswith('t,x,y,z,vx,vy,vz,height_fl') and len(rows) == 301

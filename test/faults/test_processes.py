@@ -156,7 +156,9 @@ def test_a_child_gets_sigterm_when_its_parent_is_killed(tmp_path):
                               env={**os.environ, 'IGUANA_TEST_MARKER': marker})
     try:
         child_pid = int(parent.stdout.readline())
-        assert {p.pid for p in processes_with_env('IGUANA_TEST_MARKER', marker)} == {parent.pid, child_pid}
+        both = {parent.pid, child_pid}                 # a process in execve shows no environment for a moment
+        assert wait_for(lambda: {p.pid for p in processes_with_env('IGUANA_TEST_MARKER', marker)} == both, 5.0), \
+            f'not both of {both} seen: {processes_with_env("IGUANA_TEST_MARKER", marker)}'
         parent.kill()
         parent.wait()
         assert wait_for(lambda: not processes_with_env('IGUANA_TEST_MARKER', marker), 10.0), \
