@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import base64
 from collections.abc import Callable
+import importlib.util
 import json
 from pathlib import Path
 import sys
@@ -57,6 +58,14 @@ class NodeProcess(_PackageNodeProcess):
     def __init__(self, args: list[str], name: str = 'proc', log_dir: str | Path | None = None,
                  env: dict | None = None) -> None:
         super().__init__(args, name, log_dir, env, cwd=REPO)
+
+
+def tool_module(name: str):
+    """Load tools/<name>.py as a module (tools/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(name, REPO / 'tools' / f'{name}.py')
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def helper(script: str, *args) -> list[str]:

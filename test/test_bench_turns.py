@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """tools/bench_turns.py: each side runs its own checkout's code, pairs alternate, medians per field."""
-import importlib.util
 from pathlib import Path
 import subprocess
 import sys
 
 import pytest
+
+from ros_harness import tool_module
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -26,10 +27,7 @@ REPO = Path(__file__).resolve().parent.parent
 @pytest.fixture(scope='module')
 def turns():
     """Load the tool as a module (tools/ is not a package)."""
-    spec = importlib.util.spec_from_file_location('bench_turns', REPO / 'tools' / 'bench_turns.py')
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return tool_module('bench_turns')
 
 
 def test_a_run_in_a_checkout_imports_that_checkout(turns, tmp_path):

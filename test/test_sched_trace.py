@@ -14,22 +14,17 @@
 
 
 """tools/sched_trace.py: reading perf's scheduler switches, the walk's window, preemptions and who took the core."""
-import importlib.util
-from pathlib import Path
-
 import pytest
 
-REPO = Path(__file__).resolve().parent.parent
+from ros_harness import tool_module
+
 SIM, OTHER, DDS = 100, 200, 300
 
 
 @pytest.fixture(scope='module')
 def trace():
     """Load the tool as a module (tools/ is not a package)."""
-    spec = importlib.util.spec_from_file_location('sched_trace', REPO / 'tools' / 'sched_trace.py')
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return tool_module('sched_trace')
 
 
 def _line(cpu, t, prev, state, nxt):
