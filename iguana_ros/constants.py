@@ -96,6 +96,53 @@ TROT_DUTY_FACTOR = 0.65
 TROT_STRIDE_LENGTH = 0.55 * SNOUT_VENT_LENGTH
 """Stride length of the slow trot, m (0.55 SVL, 0.16 m; assumed, the longest the model's legs reach)."""
 
+WALK_STRIDE_FREQUENCY = 1.2
+"""Stride frequency of the slow walk (a walking trot), Hz: 25 frames per stride (assumed; lizards keep the diagonal
+footfalls at low speed with a higher duty factor, Fieler & Jayne 1998)."""
+
+WALK_DUTY_FACTOR = 0.75
+"""Fraction of a stride a foot is on the ground in the slow walk (assumed; above the trot's 0.65)."""
+
+WALK_STRIDE_LENGTH = 0.6 * TROT_STRIDE_LENGTH
+"""Stride length of the slow walk, m (0.096 m: 0.12 m/s at WALK_STRIDE_FREQUENCY)."""
+
+FAST_STRIDE_FREQUENCY = 2.0
+"""Stride frequency of the fast trot, Hz: 15 frames per stride (assumed; speed grows by frequency at a stride length
+the legs already reach at their limit)."""
+
+FAST_DUTY_FACTOR = 0.55
+"""Fraction of a stride a foot is on the ground in the fast trot (Fieler & Jayne 1998: duty falls with speed)."""
+
+FAST_TURN_PER_STRIDE = 0.175
+"""Heading change of a turn in the fast trot, rad per stride (10 deg: 20 deg/s at FAST_STRIDE_FREQUENCY, a radius of
+~0.9 m; enough to hold a course, where the trot's 15 deg turns are for turning)."""
+
+PIVOT_TURN_PER_STRIDE = 0.698
+"""Heading change of a turn on the spot, rad per walk stride (40 deg: 48 deg/s at WALK_STRIDE_FREQUENCY; at 45 deg a
+stance foot of the right pivot leaves the legs' reach whatever the centre and bend)."""
+
+PIVOT_CENTRE = 0.09
+"""Distance (m) ahead of the pelvis of the point a turn on the spot rotates about, between the girdles (with
+PIVOT_TURN_BEND, the middle of the centres 0.08-0.10 m at which every stance foot of both pivots stays within the legs'
+reach)."""
+
+PIVOT_TURN_BEND = 0.1
+"""Fraction of a turn on the spot held as a static trunk bend toward the turn."""
+
+PIVOT_DUTY_FACTOR = 0.5
+"""Fraction of a stride a foot is on the ground in a turn on the spot: the body turns ~22 deg over a stance, the
+most the sprawled legs follow (at the walk's 0.75 a planted foot leaves their reach)."""
+
+SHARP_DUTY_FACTOR = 0.55
+"""Fraction of a stride a foot is on the ground in a sharp turn (reach-limited as PIVOT_DUTY_FACTOR)."""
+
+SHARP_TURN_PER_STRIDE = 0.524
+"""Heading change of a sharp turn, rad per walk stride (30 deg at the walk's stride length: radius ~0.18 m)."""
+
+SHARP_TURN_BEND = 0.75
+"""Fraction of a sharp turn's heading change per stride held as a static trunk bend toward the turn (the trot's
+turns hold 0.5; at 0.5 the outer fore foot leaves its reach late in stance)."""
+
 PELVIC_YAW_AMPLITUDE = 0.21
 """Pelvic rotation in the horizontal plane, rad, amplitude (±12°; Fieler & Jayne 1998 report 36° peak to
 peak in Dipsosaurus, we assume 24° for a slow trot)."""

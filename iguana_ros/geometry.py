@@ -238,6 +238,23 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
     return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
 
 
+def planar_compose(pose: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """Planar poses `(..., 3)` (x, y, yaw) reached by moving from `pose (..., 3)` by `delta (..., 3)` in its own frame."""
+    pose, delta = np.asarray(pose, dtype=float), np.asarray(delta, dtype=float)
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    return np.stack([pose[..., 0] + c * delta[..., 0] - s * delta[..., 1],
+                     pose[..., 1] + s * delta[..., 0] + c * delta[..., 1],
+                     pose[..., 2] + delta[..., 2]], axis=-1)
+
+
+def planar_relative(pose: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """Planar poses `(..., 3)` of `other (..., 3)` in the frame of `pose (..., 3)` (yaw difference wrapped)."""
+    pose, other = np.asarray(pose, dtype=float), np.asarray(other, dtype=float)
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    dx, dy = other[..., 0] - pose[..., 0], other[..., 1] - pose[..., 1]
+    return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(other[..., 2] - pose[..., 2])], axis=-1)
+
+
 def quat_between(a: np.ndarray, b: np.ndarray, min_angle: float = 1e-9) -> np.ndarray | None:
     """
     Return the smallest rotation `(4,)` taking unit vector `a (3,)` to unit vector `b (3,)`.

@@ -51,6 +51,7 @@ class RunResult:
     clip_history: list = field(default_factory=list)  # (start frame, clip name)
     goals: list = field(default_factory=list)         # (time, x, y)
     wall_seconds: float = 0.0
+    events: list = field(default_factory=list)        # stages.PlannerEvent: waypoints, arrival, stuck, recovery
 
     def save(self, path: str | Path) -> Path:
         """Write the trajectories to an `.npz` file; returns its path."""
@@ -111,9 +112,8 @@ def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict |
     computed on a second thread while the body steps.
     """
     terrain, model = scene_terrain(scene), scene_model(scene)
-    planner = planner_stage(scene, library, blend_frames)
-    for goal in scene.goals:
-        planner.schedule_goal(np.array([goal.x, goal.y]), goal.at)
+    planner = planner_stage(scene, library, blend_frames, terrain=terrain)
+    schedule_scene_goals(planner, scene)
     adapt, springs = adaptation_stage(scene, adaptation, model.skeleton, terrain), spring_stage(scene, model)
     pipe = Pipeline(scene=scene, planner=planner, adaptation=adapt, springs=springs,
                     simulator=simulator_stage(scene, model=model, terrain=terrain, options=simulator_options),
@@ -122,14 +122,27 @@ def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict |
     return pipe
 
 
+def schedule_scene_goals(planner: PlannerStage, scene: Scene) -> None:
+    """Schedule the scene's goals at their times and its route at 0 s, as `iguana run` sends them."""
+    for goal in scene.goals:
+        planner.schedule_goal(np.array([goal.x, goal.y]), goal.at, _radians(goal.yaw_deg))
+    if scene.route:
+        planner.schedule_route(planner.route_targets([(w.x, w.y, _radians(w.yaw_deg)) for w in scene.route]))
+
+
+def _radians(degrees: float | None) -> float | None:
+    """Return an angle in rad, None for none."""
+    return None if degrees is None else float(np.radians(degrees))
+
+
 def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
         progress: Callable[[int, int], None] | None = None, stop_after_goal: float | None = None,
         simulator_options: dict | None = None) -> RunResult:
     """
     Run `scene` for its duration (or `n_frames`) and return the trajectories.
 
-    With `stop_after_goal` (s), the run ends that long after the root first comes within the goal radius of the
-    scene's last goal (the arrays then hold only the frames simulated). `simulator_options`: SoftBodySimulator
+    With `stop_after_goal` (s), the run ends that long after the planner reached the scene's last goal or the end of
+    its route (`PlannerStage.finished`) (the arrays then hold only the frames simulated). `simulator_options`: SoftBodySimulator
     keywords (fidelity fields, `friction`) that no scene file names; a sweep's knobs.
     """
     import time as _time
@@ -138,7 +151,6 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
     model = pipe.simulator.model
     rows = _allocate(total, model.n_nodes, model.skeleton.n_bones)
-    last_goal = np.array([scene.goals[-1].x, scene.goals[-1].y]) if scene.goals else None
     stop_frame = total
     start = _time.perf_counter()
     try:
@@ -148,8 +160,7 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
             _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations), pipe.planner.reference_contacts(f))
             if progress is not None:
                 progress(f + 1, total)
-            if (stop_after_goal is not None and last_goal is not None and stop_frame == total
-                    and np.hypot(*(root[:2] - last_goal)) <= scene.goal_radius):
+            if stop_after_goal is not None and stop_frame == total and pipe.planner.finished:
                 stop_frame = min(total, f + 1 + int(round(stop_after_goal * FRAME_RATE)))
             if f + 1 >= stop_frame:
                 break
@@ -160,7 +171,7 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     rows = {k: v[:done] for k, v in rows.items()}
     goals = [(g.at, g.x, g.y) for g in scene.goals]
     return RunResult(times=(np.arange(done) + 1) / FRAME_RATE, clip_history=list(pipe.planner.history),
-                     goals=goals, wall_seconds=wall, **rows)
+                     goals=goals, wall_seconds=wall, events=list(pipe.planner.events), **rows)
 
 
 def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:

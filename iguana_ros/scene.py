@@ -94,12 +94,21 @@ class StartSpec:
 
 @dataclass(frozen=True)
 class GoalSpec:
-    """A goal position (m) sent at simulated time `at` (s), optionally with a heading (deg)."""
+    """A goal position (m) sent at simulated time `at` (s), optionally with a heading (deg; none: any heading)."""
 
     x: float = 0.0
     y: float = 0.0
     at: float = 0.0
-    yaw_deg: float = 0.0
+    yaw_deg: float | None = None
+
+
+@dataclass(frozen=True)
+class WaypointSpec:
+    """A waypoint of a route (m); a heading (deg) counts for the last one only."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw_deg: float | None = None
 
 
 @dataclass(frozen=True)
@@ -131,6 +140,8 @@ class Scene:
     start: StartSpec = field(default_factory=StartSpec)
     goals: tuple = ()
     goal_radius: float = 0.15
+    goal_yaw_tolerance_deg: float = 30.0
+    route: tuple = ()
     pushes: tuple = ()
     duration: float = 10.0
     fidelity: str = 'balanced'
@@ -147,14 +158,22 @@ class Scene:
         """Push handling is built only when the scene has pushes."""
         return bool(self.pushes)
 
+    @property
+    def destination(self) -> GoalSpec | None:
+        """The last place the scene sends the iguana: its last goal, or its route's last waypoint (None: neither)."""
+        if self.route:
+            last = self.route[-1]
+            return GoalSpec(x=last.x, y=last.y, yaw_deg=last.yaw_deg)
+        return self.goals[-1] if self.goals else None
 
-_ITEM_TYPES = {'goals': GoalSpec, 'pushes': PushSpec}
+
+_ITEM_TYPES = {'goals': GoalSpec, 'pushes': PushSpec, 'route': WaypointSpec}
 _CHOICES = {
     'terrain.kind': TERRAIN_KINDS, 'model.resolution': RESOLUTIONS,
     'model.stiffness': STIFFNESS_PRESETS, 'fidelity': FIDELITY_PRESETS,
     'pushes.region': ('trunk_left', 'trunk_right', 'tail', 'head', 'feet', 'legs', 'all'),
 }
-_POSITIVE = {'duration', 'goal_radius', 'terrain.wavelength', 'terrain.extent', 'terrain.spacing',
+_POSITIVE = {'duration', 'goal_radius', 'goal_yaw_tolerance_deg', 'terrain.wavelength', 'terrain.extent', 'terrain.spacing',
              'terrain.scale', 'terrain.block_size', 'pushes.duration', 'record.mesh_every_n_frames'}
 _NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude', 'terrain.step_min', 'terrain.step_max', 'terrain.seed'}
 
@@ -171,6 +190,8 @@ MAX_GOALS = 100
 """Most goals in a scene."""
 MAX_PUSHES = 100
 """Most pushes in a scene."""
+MAX_WAYPOINTS = 100
+"""Most waypoints in a scene's route."""
 MAX_EXTENT = 1000.0
 """Largest terrain side and length of any terrain feature, m."""
 MAX_RELIEF = 100.0
@@ -196,8 +217,11 @@ _AT_MOST = {
     'record.mesh_every_n_frames': (int(MAX_DURATION * FRAME_RATE), 'frames'),
 }
 _WITHIN = {'start.yaw_deg': (MAX_ANGLE_DEG, 'deg'), 'goals.yaw_deg': (MAX_ANGLE_DEG, 'deg'),
+           'route.yaw_deg': (MAX_ANGLE_DEG, 'deg'),
            'terrain.direction_deg': (MAX_ANGLE_DEG, 'deg')}
-_MAX_ITEMS = {'goals': MAX_GOALS, 'pushes': MAX_PUSHES}
+_MAX_ITEMS = {'goals': MAX_GOALS, 'pushes': MAX_PUSHES, 'route': MAX_WAYPOINTS}
+_MAY_BE_INFINITE = {'goal_yaw_tolerance_deg'}
+"""Number fields that accept .inf: a yaw tolerance of inf ignores a goal's heading."""
 
 
 def _fail(source: str, path: str, message: str) -> typing.NoReturn:
@@ -233,6 +257,8 @@ def _number_problem(value, key: str, expected: type) -> str:
     """Return what is wrong with `value` as number field `key` ('goals.at'; ranges in _POSITIVE ... _WITHIN), or ''."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return f'expected a number, got {_show(value)}'
+    if isinstance(value, float) and math.isinf(value) and value > 0 and key in _MAY_BE_INFINITE:
+        return ''
     if isinstance(value, float) and not math.isfinite(value):
         return f'expected a finite number, got {value!r}'
     if expected is int and isinstance(value, float) and not value.is_integer():
@@ -371,9 +397,13 @@ def _cross_checks(scene: Scene, source: str) -> None:
     if max(abs(scene.start.x), abs(scene.start.y)) > half:
         _fail(source, 'start', f'start ({scene.start.x:g}, {scene.start.y:g}) is off the terrain '
                                f'(|x|, |y| <= {half:g})')
-    for i, goal in enumerate(scene.goals):
-        if max(abs(goal.x), abs(goal.y)) > half:
-            _fail(source, f'goals[{i}]', f'goal ({goal.x:g}, {goal.y:g}) is off the terrain (|x|, |y| <= {half:g})')
+    for key, what, items in (('goals', 'goal', scene.goals), ('route', 'waypoint', scene.route)):
+        for i, goal in enumerate(items):
+            if max(abs(goal.x), abs(goal.y)) > half:
+                _fail(source, f'{key}[{i}]', f'{what} ({goal.x:g}, {goal.y:g}) is off the terrain '
+                                             f'(|x|, |y| <= {half:g})')
+    if scene.goals and scene.route:
+        _fail(source, 'route', 'a scene sends either goals or a route, not both')
 
 
 def _check_pushes(pushes: tuple, source: str) -> None:

@@ -34,8 +34,11 @@ from iguana_ros.body.root_tracking import RootTracker
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
-from iguana_ros.geometry import yaw_of
-from iguana_ros.motion.motion_graph import AlignedClip, MotionGraph, PolicyParams
+from iguana_ros.geometry import wrap_angle, yaw_of
+from iguana_ros.motion.clips import ANY_GAIT
+from iguana_ros.motion.motion_graph import AlignedClip, IDLE_CLIP, MotionGraph
+from iguana_ros.motion.planning import clip_table, MotionPlanner, rest_steps, STAND, Target
+from iguana_ros.motion.tracking import LibraryTracking, load_tracking
 from iguana_ros.parameters import node_parameters
 from iguana_ros.physics.pushes import region_force
 from iguana_ros.physics.simulator import SoftBodySimulator
@@ -70,46 +73,147 @@ def stride_ended(clip_start: int, clip_points: int, frame: int) -> bool:
     return frame >= clip_start + clip_points - 1
 
 
-class PlannerStage:
-    """Section IV: at each stride end, picks the next clip toward the goal and aligns it to the body."""
+@dataclasses.dataclass(frozen=True)
+class PlannerEvent:
+    """Something the planner noticed at `frame`: `kind` (one of PLANNER_EVENTS) and a one-line `detail`."""
 
-    def __init__(self, graph: MotionGraph, params: PolicyParams = PolicyParams()) -> None:
-        """Plan over `graph` with policy `params`."""
-        self.graph = graph
-        self.params = params
-        self.goal: np.ndarray | None = None
+    frame: int
+    kind: str
+    detail: str
+
+
+PLANNER_EVENTS = ('waypoint', 'arrived', 'stuck', 'circling', 'recovered')
+"""The planner's event kinds: a route's waypoint passed, the last target reached, no progress (turning or not) and the
+recovery strategy taken, progress again."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RecoveryParams:
+    """When the planner counts as stuck and what it does then (see `PlannerStage`)."""
+
+    window: int = 8
+    """Strides over which the distance to the target must shrink."""
+    progress: float = 0.08
+    """Least shrinking (m) of the least distance to the target over `window` strides (or of the heading error, rad,
+    at the goal)."""
+    detour_distance: float = 0.5
+    """Distance (m) of a detour waypoint from the body."""
+    detour_angle: float = np.radians(70.0)
+    """Angle (rad) of a detour waypoint from the bearing to the target, alternating sides."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannerStatus:
+    """
+    Where the planner is: `state` ('idle', 'walking', 'recovering', 'arrived'), the current target's index and the
+    number of targets, its distance (m) and the heading error (rad, 0 if none is asked), the recovery level.
+    """
+
+    state: str
+    waypoint: int
+    waypoints: int
+    distance: float
+    heading_error: float
+    recovery: int
+
+
+class PlannerStage:
+    """
+    Section IV: at each stride end, the next clip toward the goal or along the route, aligned to the body.
+
+    A goal is one target, a route a list of them passed in order (`motion.planning.Target`); the clip is the first of
+    the best sequence of the motion-graph search (`MotionPlanner`) from the body's planar pose, whose clip motions are
+    corrected online from every stride played. Every frame checks whether the current waypoint is passed or the goal
+    reached (a heading goal: at rest, facing it within the tolerance); once there the body comes to rest. Every stride
+    end checks progress: if the least distance to the target has not shrunk by `RecoveryParams.progress` over
+    `window` strides, that is 'stuck' (or 'circling' if the body turned a full turn meanwhile), reported as an event,
+    and answered by a recovery: first the slow walk with its turns on the spot only, then detour waypoints to either
+    side; progress again ends it ('recovered').
+    """
+
+    def __init__(self, graph: MotionGraph, planner: MotionPlanner, goal_radius: float = 0.15,
+                 yaw_tolerance: float = np.inf, recovery: RecoveryParams = RecoveryParams()) -> None:
+        """Plan over `graph` with the search `planner`; goals are reached within `goal_radius` m, `yaw_tolerance` rad."""
+        self.graph, self.planner, self.recovery_params = graph, planner, recovery
+        self.goal_radius, self.yaw_tolerance = float(goal_radius), float(yaw_tolerance)
+        self.targets: tuple = ()
+        self.waypoint = 0
+        self.arrived = False
+        self.settled = False
         self.clip: AlignedClip | None = None
         self.clip_start = 0
         self.frame = -1
         self.history: list[tuple[int, str]] = []
-        self._scheduled: list[tuple[float, int, np.ndarray]] = []
+        self.events: list[PlannerEvent] = []
+        self._scheduled: list[tuple[float, int, tuple]] = []
+        self._stride_start: np.ndarray | None = None
+        self._progress: list[tuple[float, float]] = []
+        self.recovery = 0
+        self._detour: tuple = ()
+        self._rest = rest_steps(planner.table)
 
-    def set_goal(self, goal_xy: np.ndarray | None) -> None:
-        """Set the goal `(2,)` (world x, y) used from the next stride on; None = stop."""
-        self.goal = None if goal_xy is None else np.asarray(goal_xy, float)[:2].copy()
+    # ----------------------------------------------------------------------------------------- goals, routes
+    def target(self, x: float, y: float, yaw: float | None = None, final: bool = True) -> Target:
+        """A Target at (x, y) m, heading `yaw` rad (None: any), with this planner's radius and yaw tolerance."""
+        return Target((float(x), float(y)), None if yaw is None else float(yaw), self.goal_radius,
+                      self.yaw_tolerance, final)
 
-    def schedule_goal(self, goal_xy: np.ndarray, at: float = 0.0) -> None:
-        """Make `goal_xy (2,)` the goal once simulated time reaches `at` s (0 = at the next frame)."""
-        entry = (float(at), len(self._scheduled), np.asarray(goal_xy, float)[:2].copy())
+    def set_route(self, targets: tuple) -> None:
+        """Follow `targets` (Target, the last final) from the next stride on; () = stop."""
+        self.targets, self.waypoint, self.arrived, self.settled = tuple(targets), 0, False, False
+        self._progress, self.recovery, self._detour = [], 0, ()
+
+    def set_goal(self, goal_xy: np.ndarray | None, yaw: float | None = None) -> None:
+        """Walk to `goal_xy (2,)` (world x, y), facing `yaw` rad if given, from the next stride on; None = stop."""
+        self.set_route(() if goal_xy is None else (self.target(goal_xy[0], goal_xy[1], yaw),))
+
+    def route_targets(self, waypoints: list) -> tuple:
+        """Targets of a route of (x, y, yaw or None) waypoints: passed in order, the last one reached."""
+        last = len(waypoints) - 1
+        return tuple(self.target(x, y, yaw if i == last else None, final=i == last)
+                     for i, (x, y, yaw) in enumerate(waypoints))
+
+    def schedule_route(self, targets: tuple, at: float = 0.0) -> None:
+        """Make `targets` the route once simulated time reaches `at` s (0 = at the next frame)."""
+        entry = (float(at), len(self._scheduled), tuple(targets))
         self._scheduled = sorted(self._scheduled + [entry], key=lambda e: (e[0], e[1]))
 
-    def accept_goal(self, goal_xy: np.ndarray, at: float) -> float:
+    def schedule_goal(self, goal_xy: np.ndarray, at: float = 0.0, yaw: float | None = None) -> None:
+        """Make `goal_xy (2,)` (facing `yaw` rad if given) the goal once simulated time reaches `at` s."""
+        self.schedule_route((self.target(goal_xy[0], goal_xy[1], yaw),), at)
+
+    def accept_route(self, targets: tuple, at: float) -> float:
         """
-        Schedule a received goal `(2,)` stamped `at` s.
+        Schedule a received goal or route stamped `at` s.
 
         A stamp more than MAX_SCHEDULE_AHEAD past the frame planned last is a wall-clock stamp and adopted now (0).
         Returns the adoption time used, s.
         """
         if at > max(self.frame, 0) / FRAME_RATE + MAX_SCHEDULE_AHEAD:
             at = 0.0
-        self.schedule_goal(goal_xy, at)
+        self.schedule_route(targets, at)
         return at
 
-    def activate_due_goals(self, time: float) -> None:
-        """Apply, in time order, every scheduled goal due at simulated `time` s."""
-        while self._scheduled and self._scheduled[0][0] <= time + 1e-9:
-            self.set_goal(self._scheduled.pop(0)[2])
+    def accept_goal(self, goal_xy: np.ndarray, at: float, yaw: float | None = None) -> float:
+        """Schedule a received goal `(2,)` (heading `yaw` rad or None) stamped `at` s (see `accept_route`)."""
+        return self.accept_route((self.target(goal_xy[0], goal_xy[1], yaw),), at)
 
+    def activate_due_goals(self, time: float) -> None:
+        """Apply, in time order, every scheduled goal or route due at simulated `time` s."""
+        while self._scheduled and self._scheduled[0][0] <= time + 1e-9:
+            self.set_route(self._scheduled.pop(0)[2])
+
+    @property
+    def finished(self) -> bool:
+        """Whether the body rests at the last target and no other goal or route is scheduled."""
+        return self.settled and not self._scheduled
+
+    @property
+    def goal(self) -> np.ndarray | None:
+        """Return the final target's position `(2,)`, None without one."""
+        return np.array(self.targets[-1].xy) if self.targets else None
+
+    # ------------------------------------------------------------------------------------------------ frames
     def stride_ends_at(self, frame: int) -> bool:
         """Whether a new clip must be chosen at `frame` (no clip yet, or the current one is used up)."""
         return self.clip is None or stride_ended(self.clip_start, len(self.clip.root_positions), frame)
@@ -122,18 +226,118 @@ class PlannerStage:
         return np.asarray(self.clip.contacts[int(np.clip(index, 0, len(self.clip.contacts) - 1))], bool)
 
     def update(self, frame: int, root_position: np.ndarray, root_orientation: np.ndarray) -> AlignedClip | None:
-        """At a stride end, choose and align the next clip from the body's root pose; else None."""
+        """Every frame: follow the route; at a stride end, choose and align the next clip from the body's root pose."""
         self.frame = frame
         self.activate_due_goals(frame / FRAME_RATE)
+        pose = np.array([root_position[0], root_position[1], float(yaw_of(root_orientation))])
+        self._follow(frame, pose, self.stride_ends_at(frame))
         if not self.stride_ends_at(frame):
             return None
-        heading = float(yaw_of(root_orientation))
-        current = self.clip.name if self.clip is not None else None
-        name = self.graph.choose_next(root_position[:2], heading, self.goal, current, self.params)
-        self.clip = self.graph.align(name, root_position[:2], heading, previous=self.clip)
-        self.clip_start = frame
+        if self.clip is not None and self._stride_start is not None:
+            self.planner.observe(self.clip.name, self._stride_start, pose)
+        self._check_progress(frame, pose)
+        name = self.choose(pose)
+        self.clip = self.graph.align(name, root_position[:2], pose[2], previous=self.clip)
+        self.clip_start, self._stride_start = frame, pose
         self.history.append((frame, name))
         return self.clip
+
+    def _follow(self, frame: int, pose: np.ndarray, stride_end: bool) -> None:
+        """
+        Pass the current waypoint, or note the goal reached (within the radius and heading tolerance: 'arrived') and,
+        at a stride end that brings the body to rest there, settled.
+        """
+        if self.settled or not self.targets:
+            return
+        current = self.targets[self.waypoint]
+        if not current.final:
+            if current.distance(pose[:2]) <= current.radius:
+                self.waypoint += 1
+                self._progress, self._detour = [], ()
+                self.events.append(PlannerEvent(frame, 'waypoint', f'waypoint {self.waypoint} of '
+                                                                   f'{len(self.targets)} passed'))
+            return
+        if not current.reached(pose):
+            return
+        if not self.arrived:
+            self.arrived = True
+            self.events.append(PlannerEvent(frame, 'arrived', f'goal ({current.xy[0]:.2f}, {current.xy[1]:.2f}) '
+                                                              f'reached'))
+        resting = self.clip is None or getattr(self.clip.source, 'exit', ANY_GAIT) in (STAND, ANY_GAIT)
+        self.settled = stride_end and resting
+
+    def choose(self, pose: np.ndarray) -> str:
+        """Name of the clip to play next from planar `pose (3,)` (x, y, yaw)."""
+        current = self.clip.name if self.clip is not None else None
+        if self.settled or not self.targets:
+            return self._toward_rest(current)
+        targets = self._detour + self.targets[self.waypoint:]
+        plan = self.planner.plan(pose, current, list(targets), self._allowed())
+        return plan.first if plan.clips else self._toward_rest(current)
+
+    def _toward_rest(self, current: str | None) -> str:
+        """The next clip of the quickest way to rest (the idle clip, or the first clip of a library without one)."""
+        step = self._rest[self.planner.table.index(current)]
+        if step >= 0:
+            return self.planner.table.names[step]
+        return IDLE_CLIP if IDLE_CLIP in self.graph.clips else self.graph.names[0]
+
+    # ------------------------------------------------------------------------------------ progress, recovery
+    def _check_progress(self, frame: int, pose: np.ndarray) -> None:
+        """Record the distance to the target at this stride end; raise the recovery level when it stopped shrinking."""
+        if self.settled or not self.targets:
+            return
+        target = self.targets[self.waypoint]
+        distance = target.distance(pose[:2])
+        measure = distance if distance > target.radius else target.radius - 1.0 + target.heading_error(pose[2])
+        self._progress.append((measure, pose[2]))
+        params = self.recovery_params
+        if len(self._progress) <= params.window:
+            return
+        before = min(m for m, _ in self._progress[:-params.window])
+        recent = min(m for m, _ in self._progress[-params.window:])
+        if recent < before - params.progress:
+            if self.recovery:
+                self.events.append(PlannerEvent(frame, 'recovered', f'progress again at recovery level '
+                                                                    f'{self.recovery}'))
+            self.recovery, self._detour = 0, ()
+            return
+        turned = abs(float(np.sum(wrap_angle(np.diff([y for _, y in self._progress[-params.window - 1:]])))))
+        kind = 'circling' if turned >= 2.0 * np.pi else 'stuck'
+        self._recover(frame, pose, target, kind)
+
+    def _recover(self, frame: int, pose: np.ndarray, target: Target, kind: str) -> None:
+        """Take the next recovery strategy and report it; progress is then measured afresh."""
+        self.recovery += 1
+        self._progress = self._progress[-1:]
+        if self.recovery == 1:
+            strategy = 'slow walk and turns on the spot'
+        else:
+            side = 1.0 if self.recovery % 2 == 0 else -1.0
+            bearing = np.arctan2(target.xy[1] - pose[1], target.xy[0] - pose[0]) + side * self.recovery_params.detour_angle
+            d = self.recovery_params.detour_distance
+            self._detour = (self.target(pose[0] + d * np.cos(bearing), pose[1] + d * np.sin(bearing), final=False),)
+            strategy = f'detour by ({self._detour[0].xy[0]:.2f}, {self._detour[0].xy[1]:.2f})'
+        self.events.append(PlannerEvent(frame, kind, f'no progress toward ({target.xy[0]:.2f}, {target.xy[1]:.2f}) '
+                                                     f'in {self.recovery_params.window} strides; {strategy}'))
+
+    def _allowed(self) -> np.ndarray | None:
+        """The clips the search may use: all, or in recovery those of the slow walk and the ways down to it."""
+        if not self.recovery:
+            return None
+        table = self.planner.table
+        slow = [table.gaits.names.index(g) for g in (STAND, 'walk', ANY_GAIT) if g in table.gaits.names]
+        return np.isin(table.exit, slow) | ~np.isin(table.entry, slow)
+
+    def status(self) -> PlannerStatus:
+        """Return where the planner is (see PlannerStatus), from the last stride end's pose."""
+        if not self.targets:
+            return PlannerStatus('idle', 0, 0, float('nan'), 0.0, 0)
+        pose = self._stride_start if self._stride_start is not None else np.zeros(3)
+        target = self.targets[min(self.waypoint, len(self.targets) - 1)]
+        state = 'arrived' if self.settled else 'recovering' if self.recovery else 'walking'
+        return PlannerStatus(state, self.waypoint, len(self.targets), target.distance(pose[:2]),
+                             target.heading_error(pose[2]), self.recovery)
 
 
 def motion_graph(library: dict | None = None, blend_frames: int | None = None) -> MotionGraph:
@@ -151,14 +355,23 @@ def motion_graph(library: dict | None = None, blend_frames: int | None = None) -
 
 
 def planner_stage(scene: Scene, library: dict | None = None, blend_frames: int | None = None,
-                  goal_radius: float = 0.0) -> PlannerStage:
+                  goal_radius: float = 0.0, yaw_tolerance: float = 0.0, terrain: HeightField | None = None,
+                  tracking: dict | None = None) -> PlannerStage:
     """
     Return the planner of `scene`.
 
-    Its motion graph (`motion_graph`) and the scene's goal radius unless `goal_radius` (m) > 0. The scene's goals are
-    not scheduled here: the library loop schedules them, a node receives them.
+    Its motion graph (`motion_graph`), a search over it on the scene's terrain (or `terrain`) with the library's
+    tracking figures (a LibraryTracking; default: the shipped ones, none for another library), and the scene's goal radius and yaw
+    tolerance unless `goal_radius` (m) or `yaw_tolerance` (rad) > 0. The scene's goals and route are not scheduled
+    here: the library loop schedules them, a node receives them.
     """
-    return PlannerStage(motion_graph(library, blend_frames), PolicyParams(goal_radius=goal_radius or scene.goal_radius))
+    graph = motion_graph(library, blend_frames)
+    if tracking is None:
+        tracking = load_tracking() if library is None else LibraryTracking({})
+    planner = MotionPlanner(clip_table(graph.clips, tracking.clips, tracking.carry),
+                            scene_terrain(scene) if terrain is None else terrain)
+    return PlannerStage(graph, planner, goal_radius or scene.goal_radius,
+                        yaw_tolerance or np.radians(scene.goal_yaw_tolerance_deg))
 
 
 # -------------------------------------------------------------------------------------------- adaptation

@@ -77,7 +77,7 @@ FLOORS = floors(
     ('ROS adapter', 'ros'),
     ('nodes and bag', 'nodes bag', True),
     ('supervisor', 'supervisor'),
-    ('tools', 'bench faults view sweep locomotion_bench push_experiment'),
+    ('tools', 'bench faults view sweep locomotion_bench push_experiment clip_calibration'),
     ('cli', 'cli'),
 )
 """The floors of iguana_ros, lowest first (see the module docstring)."""

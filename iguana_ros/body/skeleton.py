@@ -53,14 +53,14 @@ def _leg(side: str, front: bool) -> list:
     if front:  # humerus sideways, forearm down, hand forward-out
         rows = [
             (f'shoulder_{tag}', 'spine_5', (0.0, 0.032 * s, -0.008), _deg(70, 80, 80)),
-            (f'elbow_{tag}', f'shoulder_{tag}', (0.0, 0.050 * s, 0.0), _deg(30, 100, 40)),
+            (f'elbow_{tag}', f'shoulder_{tag}', (0.0, 0.050 * s, 0.0), _deg(45, 100, 40)),
             (f'wrist_{tag}', f'elbow_{tag}', (0.008, 0.008 * s, -0.058), _deg(40, 60, 40)),
             (f'foot_{tag}', f'wrist_{tag}', (0.022, 0.010 * s, -0.006), _deg(30, 45, 30)),
         ]
     else:  # femur sideways, shank down, long-toed foot out and slightly back
         rows = [
             (f'hip_{tag}', 'pelvis', (-0.005, 0.030 * s, -0.010), _deg(70, 80, 80)),
-            (f'knee_{tag}', f'hip_{tag}', (0.0, 0.068 * s, 0.0), _deg(30, 110, 40)),
+            (f'knee_{tag}', f'hip_{tag}', (0.0, 0.068 * s, 0.0), _deg(45, 110, 40)),
             (f'ankle_{tag}', f'knee_{tag}', (-0.005, 0.010 * s, -0.057), _deg(40, 60, 40)),
             (f'foot_{tag}', f'ankle_{tag}', (0.015, 0.022 * s, -0.006), _deg(30, 45, 30)),
         ]

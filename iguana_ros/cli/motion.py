@@ -36,6 +36,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument('--capture-dir', help='where to write the .c3d takes (default: package data)')
     build.add_argument('--library', help='where to write clips.npz (default: next to the captures)')
     build.set_defaults(func=run_build)
+    calibrate = actions.add_parser('calibrate', help='measure what the soft body achieves with each clip (level '
+                                                     'ground, slopes) and write the tracking figures the planner uses')
+    calibrate.add_argument('-o', '--output', help='tracking file to write (default: the shipped clip_tracking.json)')
+    calibrate.add_argument('--workers', type=int, default=None, help='processes (default: one per core)')
+    calibrate.set_defaults(func=run_calibrate)
 
 
 def run_inspect(args: argparse.Namespace) -> int:
@@ -50,6 +55,7 @@ def run_inspect(args: argparse.Namespace) -> int:
         print(f'{clip.name:12s} {clip.n_frames:6d} {clip.stride_length:8.3f} '
               f'{np.degrees(clip.heading_change):8.1f} {clip.duty_factor:5.2f}  {clip.source} '
               f'frames {clip.metadata.get("start_frame")}..{clip.metadata.get("end_frame")}')
+    _print_tracking(library if args.library is None else {})
     with np.load(args.library or default_library_path()) as data:
         takes = sorted({key.split('/')[1] for key in data.files if key.startswith('take/')})
         if takes:
@@ -92,4 +98,35 @@ def run_build(args: argparse.Namespace) -> int:
     clips, _ = build_library(seed=DEFAULT_SEED if args.seed is None else args.seed,
                              capture_dir=args.capture_dir, library_path=args.library)
     print(f'built {len(clips)} clips: {", ".join(clips)}')
+    return 0
+
+
+def _print_tracking(library: dict) -> None:
+    """Print what the body achieves with each clip against the clip's own stride motion (shipped library only)."""
+    import numpy as np
+
+    from iguana_ros.motion.tracking import load_tracking
+
+    tracking = load_tracking().clips if library else {}
+    if not tracking:
+        return
+    print(f'\n{"tracking":12s} {"nominal dx dy m, turn deg":>26s} {"achieved on level ground":>26s} {"slip m":>7s} '
+          f'{"strides":>7s}  achieved uphill / downhill / across a slope (dx m, turn deg)')
+    for name, t in tracking.items():
+        by = ' / '.join(f'{t.by_terrain[k]["motion"][0]:.3f} {np.degrees(t.by_terrain[k]["motion"][2]):+.0f}'
+                        if k in t.by_terrain else '-' for k in ('uphill', 'downhill', 'cross'))
+        print(f'{name:12s} {t.nominal[0]:8.3f} {t.nominal[1]:7.3f} {np.degrees(t.nominal[2]):+8.1f}  '
+              f'{t.level[0]:8.3f} {t.level[1]:7.3f} {np.degrees(t.level[2]):+8.1f}  {t.slip:7.3f} {t.samples:7d}  {by}')
+
+
+def run_calibrate(args: argparse.Namespace) -> int:
+    """Run the calibration tours and write the tracking figures."""
+    from iguana_ros.clip_calibration import calibrate, write_calibration
+    from iguana_ros.motion.tracking import default_tracking_path
+
+    tracking, samples = calibrate(args.workers)
+    path = args.output or default_tracking_path()
+    write_calibration(path, tracking, samples, 'balanced', 'normal')
+    print(f'wrote {path}: {len(tracking.clips)} clips from {len(samples)} strides (heading carry-over '
+          f'{tracking.carry:.2f})')
     return 0

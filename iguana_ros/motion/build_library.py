@@ -26,21 +26,63 @@ from pathlib import Path
 
 import numpy as np
 
-from iguana_ros.constants import TROT_STRIDE_FREQUENCY
 from iguana_ros.errors import IguanaError
 from iguana_ros.motion.c3d_io import read_capture, write_c3d
 from iguana_ros.motion.capture import CaptureQuality, synthesize_capture
 from iguana_ros.motion.clips import cut_clip, save_clip_library
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model
-from iguana_ros.motion.gait import GaitParameters, generate_take, SYNTHETIC_TAKES
+from iguana_ros.motion.gait import GAITS, GaitParameters, generate_take, SYNTHETIC_TAKES
 from iguana_ros.motion.ik import IKResult, IKSettings, solve_ik
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
 
 DEFAULT_SEED = 2018
 """Seed of the shipped capture (the paper's year)."""
-CLIP_SOURCES = {'forward': 'trot_straight', 'turn_left': 'trot_turn_left', 'turn_right': 'trot_turn_right',
-                'idle': 'stand'}
-"""Clip name -> take it is cut from."""
+
+
+@dataclass(frozen=True)
+class ClipSource:
+    """
+    Where a clip is cut from, and the gaits it starts and ends in (the motion graph's edges).
+
+    `cut` says which stride of take `take`: 'middle' (the full stride nearest the middle), 'rest' (a stand of a stride
+    of gait `exit`, in the middle of the take), 'from_rest' (from the frame at `at` s, when the take starts stepping, to
+    the first touchdown a stride of the `exit` gait later), 'to_rest' (the stride of gait `entry` from the touchdown
+    nearest `at` s, when it stops), 'across' (the stride in which the take's gait changes, the one holding `at` s).
+    """
+
+    take: str
+    cut: str = 'middle'
+    entry: str = 'trot'
+    exit: str = 'trot'
+    at: float = 0.0
+
+    @property
+    def cyclic(self) -> bool:
+        """Whether the clip repeats (it ends in the gait and pose it starts in)."""
+        return self.cut in ('middle', 'rest')
+
+
+CLIP_SOURCES = {
+    'forward': ClipSource('trot_straight'), 'turn_left': ClipSource('trot_turn_left'),
+    'turn_right': ClipSource('trot_turn_right'), 'idle': ClipSource('stand', 'rest', 'stand', 'stand'),
+    'walk': ClipSource('walk_straight', entry='walk', exit='walk'),
+    'pivot_left': ClipSource('pivot_left', entry='walk', exit='walk'),
+    'pivot_right': ClipSource('pivot_right', entry='walk', exit='walk'),
+    'sharp_left': ClipSource('walk_sharp_left', entry='walk', exit='walk'),
+    'sharp_right': ClipSource('walk_sharp_right', entry='walk', exit='walk'),
+    'fast': ClipSource('trot_fast', entry='fast', exit='fast'),
+    'fast_left': ClipSource('trot_fast_left', entry='fast', exit='fast'),
+    'fast_right': ClipSource('trot_fast_right', entry='fast', exit='fast'),
+    'start': ClipSource('stand_walk_stand', 'from_rest', 'stand', 'walk', 2.0 / GAITS['walk'][0]),
+    'stop': ClipSource('stand_walk_stand', 'to_rest', 'walk', 'stand', 6.0 / GAITS['walk'][0]),
+    'walk_to_trot': ClipSource('gait_changes', 'across', 'walk', 'trot', 2.9),
+    'trot_to_fast': ClipSource('gait_changes', 'across', 'trot', 'fast', 5.85),
+    'fast_to_trot': ClipSource('gait_changes', 'across', 'fast', 'trot', 8.95),
+    'trot_to_walk': ClipSource('gait_changes', 'across', 'trot', 'walk', 11.55),
+}
+"""Clip name -> where it is cut from and its gaits: the trot (forward, turns of 15 deg), standing, the slow walk with
+its turns on the spot (40 deg) and sharp turns (30 deg), the fast trot with its turns (10 deg), and the transitions
+between them."""
 
 
 @dataclass(frozen=True)
@@ -87,30 +129,75 @@ def process_capture(path: str | Path, model: BodyModel | None = None,
                       missing_fraction=float(np.isnan(observed).any(axis=-1).mean()), frame_rate=rate)
 
 
-def middle_stride(result: TakeResult, nominal: int) -> tuple:
-    """(start, end) frames of the full stride nearest the middle of the take, about `nominal` frames long."""
+def middle_stride(result: TakeResult, nominal: int, duty: float | None = None) -> tuple:
+    """
+    (start, end) frames of a full stride of the take, about `nominal` frames long.
+
+    Of the strides nearest that length, the one whose detected duty factor is nearest `duty` (in steps of 0.05: where
+    a capture gap made the contacts wrong it is off), then the one nearest the middle of the take.
+    """
     b = result.boundaries
     strides = [(s, e) for s, e in zip(b[:-1], b[1:]) if s >= 1 and abs((e - s) - nominal) <= 2]
     if not strides:
         raise IguanaError(f'take {result.name}: no full stride found between touchdowns {b.tolist()}')
     middle = 0.5 * len(result.contacts)
-    return min(strides, key=lambda se: (abs((se[1] - se[0]) - nominal), abs(0.5 * (se[0] + se[1]) - middle)))
+
+    def off_duty(se: tuple) -> int:
+        return 0 if duty is None else int(round(abs(result.contacts[se[0]:se[1]].mean() - duty) / 0.05))
+    return min(strides, key=lambda se: (abs((se[1] - se[0]) - nominal), off_duty(se), abs(0.5 * (se[0] + se[1]) - middle)))
+
+
+def take_gait(take: str) -> str:
+    """The gait (a name in GAITS) a take starts in: its first gait knot's, else the trot."""
+    spec = next((s for s in SYNTHETIC_TAKES if s.name == take), None)
+    return spec.gait_knots[0][1] if spec is not None and spec.gait_knots else 'trot'
+
+
+def nominal_frames(gait: str, frame_rate: float) -> int:
+    """Frames of one stride of gait `gait` (a name in GAITS; 'stand' stands for a trot stride) at `frame_rate`."""
+    return int(round(frame_rate / GAITS.get(gait, GAITS['trot'])[0]))
+
+
+def source_frames(result: TakeResult, source: ClipSource) -> tuple:
+    """(start, end) take frames of the clip `source` cuts from the processed take `result`."""
+    rate, b = result.frame_rate, result.boundaries
+    at = int(round(source.at * rate))
+    if source.cut == 'middle':
+        gait = take_gait(source.take)
+        return middle_stride(result, nominal_frames(gait, rate), GAITS[gait][1])
+    if source.cut == 'rest':
+        nominal = nominal_frames(source.exit, rate)
+        start = (len(result.contacts) - nominal) // 2
+        return start, start + nominal
+    if source.cut == 'from_rest':
+        later = b[b >= at + nominal_frames(source.exit, rate) // 2]
+        return at, _first(later, result, source)
+    if source.cut == 'to_rest':
+        start = int(b[np.argmin(np.abs(b - at))]) if len(b) else -1
+        return start, start + nominal_frames(source.entry, rate)
+    holding = [(int(s), int(e)) for s, e in zip(b[:-1], b[1:]) if s <= at < e]
+    if not holding:
+        raise IguanaError(f'take {result.name}: no stride holds frame {at} (touchdowns {b.tolist()})')
+    return holding[0]
+
+
+def _first(frames: np.ndarray, result: TakeResult, source: ClipSource) -> int:
+    """The first of `frames`, or IguanaError naming the take and the cut."""
+    if not len(frames):
+        raise IguanaError(f'take {result.name}: no touchdown after {source.at:g} s for its {source.cut!r} clip')
+    return int(frames[0])
 
 
 def cut_library(results: dict, model: BodyModel | None = None) -> dict:
     """Return the clip library (name -> Clip) cut from processed takes (name -> TakeResult)."""
     model = model or iguana_body_model()
     clips = {}
-    for name, take_name in CLIP_SOURCES.items():
-        result = results[take_name]
-        nominal = int(round(result.frame_rate / TROT_STRIDE_FREQUENCY))
-        if name == 'idle':
-            start = (len(result.contacts) - nominal) // 2
-            end = start + nominal
-        else:
-            start, end = middle_stride(result, nominal)
+    for name, source in CLIP_SOURCES.items():
+        result = results[source.take]
+        start, end = source_frames(result, source)
         clips[name] = cut_clip(name, result.ik.theta, result.contacts, start, end, result.frame_rate,
-                               source=take_name, model=model)
+                               source=source.take, model=model, cyclic=source.cyclic, entry=source.entry,
+                               exit=source.exit)
     return clips
 
 

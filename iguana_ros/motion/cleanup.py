@@ -104,12 +104,13 @@ def _smoothstep(s: np.ndarray) -> np.ndarray:
     return s * s * (3.0 - 2.0 * s)
 
 
-def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarray, stride: StrideTransform,
+def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarray, stride: StrideTransform | None,
                          min_clearance: float = MIN_SWING_CLEARANCE) -> np.ndarray:
     """
-    Return cleaned foot-marker targets `(N+1, n_feet, 3)` of a cyclic clip from its foot markers `(N+1, n_feet, 3)`.
+    Return cleaned foot-marker targets `(N+1, n_feet, 3)` of a clip from its foot markers `(N+1, n_feet, 3)`.
 
-    stance flags `(N+1, n_feet)` and each foot's marker height on the floor `(n_feet,)` m.
+    stance flags `(N+1, n_feet)` and each foot's marker height on the floor `(n_feet,)` m; `stride` is the motion of a
+    cyclic clip (None: a window of a take, whose first and last stance and swing are cut by its ends).
 
     Each stance is planted at its mean horizontal position, at floor height; each swing keeps its shape,
     offset smoothly from the correction at lift-off to the one at touch-down, kept above the floor, and raised
@@ -117,9 +118,11 @@ def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarr
     that never leaves the ground stays planted.
     """
     n = len(feet) - 1
-    # three strides unrolled (previous, this, next), so runs across the seam are whole
-    ext = np.concatenate([stride.apply(feet[:n], -1), feet[:n], stride.apply(feet[:n], 1)])
-    flags = np.concatenate([contacts[:n]] * 3)
+    if stride is None:
+        ext, flags = np.array(feet, dtype=float), np.asarray(contacts, bool)
+    else:  # three strides unrolled (previous, this, next), so runs across the seam are whole
+        ext = np.concatenate([stride.apply(feet[:n], -1), feet[:n], stride.apply(feet[:n], 1)])
+        flags = np.concatenate([contacts[:n]] * 3)
     targets = ext.copy()
     for k in range(feet.shape[1]):
         stance_runs = _runs(flags[:, k])
@@ -128,6 +131,8 @@ def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarr
             targets[a:b + 1, k, 2] = floor[k]
         for (_, lift), (down, _) in zip(stance_runs[:-1], stance_runs[1:]):
             _clean_swing(ext, targets, k, lift, down, floor[k], min_clearance)
+    if stride is None:
+        return targets
     middle = targets[n:2 * n + 1]
     return np.concatenate([middle[:n], stride.apply(middle[:1], 1)])
 
@@ -164,36 +169,42 @@ def floor_pivot_heights(model: BodyModel) -> np.ndarray:
 
 
 def clean_footskate(theta: np.ndarray, contacts: np.ndarray, model: BodyModel,
-                    min_clearance: float = MIN_SWING_CLEARANCE) -> tuple:
+                    min_clearance: float = MIN_SWING_CLEARANCE, cyclic: bool = True) -> tuple:
     """
-    (poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the cyclic clip `theta (N+1, n_dof)`.
+    (poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the clip `theta (N+1, n_dof)`.
 
     with its legs re-solved so that the foot pivots follow `planted_foot_targets` of `contacts (N+1, 4)`; trunk
-    unchanged.
+    unchanged. A cyclic clip (frame N = frame 0 moved by the stride) is cleaned across its seam; otherwise
+    (`cyclic` False) the poses are a window of a take whose ends the caller crops off.
 
     A stance frame at the start or end of a stance in which the leg cannot reach the planted point (a leg
     stretched to lift-off: the captured foot rolled there) becomes a swing frame, up to TRIM_ROUNDS times.
     """
     theta = np.asarray(theta, dtype=float)
     contacts = np.array(contacts, dtype=bool, copy=True)
-    floor, stride = floor_pivot_heights(model), stride_transform(theta, model.dofs)
+    floor = floor_pivot_heights(model)
+    stride = stride_transform(theta, model.dofs) if cyclic else None
     pivots = foot_pivots(model, theta)
     for _ in range(TRIM_ROUNDS):
         targets = planted_foot_targets(pivots, contacts, floor, stride, min_clearance)
         solved = leg_ik(model, theta, targets, contacts, tolerance=np.inf, effectors=foot_pivots)
         miss = contacts & (np.linalg.norm(targets - foot_pivots(model, solved), axis=-1) > STANCE_TOLERANCE)
-        ends = miss & _stance_ends(contacts)
+        ends = miss & _stance_ends(contacts, cyclic)
         if not ends.any():
             break
         contacts[ends] = False
-        contacts[-1] = contacts[0]
+        if cyclic:
+            contacts[-1] = contacts[0]
     solved = leg_ik(model, theta, planted_foot_targets(pivots, contacts, floor, stride, min_clearance), contacts,
                     tolerance=STANCE_TOLERANCE, effectors=foot_pivots)
     return solved, contacts
 
 
-def _stance_ends(contacts: np.ndarray) -> np.ndarray:
-    """Return flags `(N+1, n_feet)` of the first and last frame of every stance of a cyclic clip (seam-aware)."""
+def _stance_ends(contacts: np.ndarray, cyclic: bool = True) -> np.ndarray:
+    """Return flags `(N+1, n_feet)` of the first and last frame of every stance of a clip (seam-aware if `cyclic`)."""
+    if not cyclic:
+        padded = np.pad(contacts, ((1, 1), (0, 0)), mode='edge')
+        return contacts & ~(padded[:-2] & padded[2:])
     body = contacts[:-1]
     before = np.roll(body, 1, axis=0)
     after = np.roll(body, -1, axis=0)
@@ -232,18 +243,22 @@ def _slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return quat_normalize(quat_mul(a, quat_from_rotvec(quat_to_rotvec(delta)[None, :] * t[:, None])))
 
 
-def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float) -> np.ndarray:
+def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float | None) -> np.ndarray:
     """
-    World rotations `(N+1, 4)` of one foot's pivot bone in a cyclic clip.
+    World rotations `(N+1, 4)` of one foot's pivot bone in a clip.
 
     Flat (heading only, the stance's mean heading) in stance, and in swing the original rotations `world (N+1, 4)`
     corrected by a rotation eased from the lift-off correction to the touch-down one. `contacts (N+1,)`, `turn` the
-    stride's heading change (rad).
+    stride's heading change (rad) of a cyclic clip, None for a clip that is not (a transition: its first and last
+    stance are flattened as far as the clip holds them).
     """
     n = len(world) - 1
-    spin = [quat_from_yaw(np.full(n, k * turn)) for k in (-1, 0, 1)]
-    ext = np.concatenate([quat_mul(spin[k], world[:n]) for k in range(3)])
-    flags = np.concatenate([contacts[:n]] * 3)
+    if turn is None:
+        ext, flags = np.array(world, dtype=float), np.asarray(contacts, bool)
+    else:
+        spin = [quat_from_yaw(np.full(n, k * turn)) for k in (-1, 0, 1)]
+        ext = np.concatenate([quat_mul(spin[k], world[:n]) for k in range(3)])
+        flags = np.concatenate([contacts[:n]] * 3)
     out = ext.copy()
     runs = _runs(flags)
     for a, b in runs:
@@ -256,16 +271,19 @@ def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float) ->
         fix_down = quat_mul(out[down], quat_conjugate(ext[down]))
         s = _smoothstep((np.arange(lift + 1, down) - lift) / (down - lift))
         out[lift + 1:down] = quat_mul(_slerp(fix_lift, fix_down, s), ext[lift + 1:down])
+    if turn is None:
+        return out
     middle = out[n:2 * n]
     return np.concatenate([middle, quat_mul(quat_from_yaw(turn), middle[:1])])
 
 
 def flat_soles(skeleton: Skeleton, root_positions: np.ndarray, local_rotations: np.ndarray,
-               contacts: np.ndarray, turn: float) -> np.ndarray:
+               contacts: np.ndarray, turn: float | None) -> np.ndarray:
     """
-    Local rotations `(N+1, n_bones, 4)` of a cyclic clip with every stance sole flat on the floor.
+    Local rotations `(N+1, n_bones, 4)` of a clip with every stance sole flat on the floor.
 
-    (see `flat_sole_rotations`); only the FOOT_PIVOTS bones change, so no joint position moves but the feet's.
+    (see `flat_sole_rotations`; `turn` None for a clip that is not cyclic); only the FOOT_PIVOTS bones change, so no
+    joint position moves but the feet's.
     """
     local = np.array(local_rotations, dtype=float, copy=True)
     contacts = np.asarray(contacts, dtype=bool)

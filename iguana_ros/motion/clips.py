@@ -20,7 +20,9 @@ starts the stride, frame N the next such touchdown, which is the pose the follow
 to (so playing a clip advances N frames). Poses are in a canonical frame: frame 0's root (pelvis) at x = y = 0,
 facing +x (its yaw is zero; heights kept). Clips are cyclic-ready: frame N equals frame 0 moved by
 (`root_displacement`, `heading_change`), and the last frames are blended so velocity is continuous across the
-seam. Foot order everywhere: fl, fr, hl, hr.
+seam. A transition clip (start, stop, a change of gait) is not cyclic: its first pose is of the gait it leaves
+(`entry`), its last of the gait it enters (`exit`), and the motion graph lets it follow only clips that end in its
+entry gait. Foot order everywhere: fl, fr, hl, hr.
 """
 from __future__ import annotations
 
@@ -41,6 +43,8 @@ CLIP_LIBRARY_FILE = 'clips.npz'
 """Package-data file of the clip library (`iguana_ros/data/clips.npz`)."""
 REQUIRED_CLIPS = ('forward', 'turn_left', 'turn_right', 'idle')
 """Clips every library must hold."""
+ANY_GAIT = ''
+"""The entry or exit gait of a clip that may follow or precede any clip (a library without gaits: a complete graph)."""
 FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 
 
@@ -53,7 +57,8 @@ class Clip:
     entries keep stance soles flat, `motion.cleanup.flat_soles`), contacts `(N+1, 4)`, per-stride
     `root_displacement (2,)` (m, start heading frame) and `heading_change` (rad), `residual_heights` {'feet':
     `(N+1, 4)`, 'tail_tip': `(N+1,)`} (m above the capture floor, Section VI-A), `duty_factor`, `stride_length` (m),
-    active DOFs `theta (N+1, n_dof)`.
+    active DOFs `theta (N+1, n_dof)`; the gait it starts in (`entry`) and ends in (`exit`), and whether it is cyclic
+    (frame N = frame 0 moved by the stride) or a transition.
     """
 
     name: str
@@ -69,6 +74,9 @@ class Clip:
     theta: np.ndarray
     source: str = ''
     metadata: dict = field(default_factory=dict)
+    entry: str = ANY_GAIT
+    exit: str = ANY_GAIT
+    cyclic: bool = True
 
     @property
     def n_frames(self) -> int:
@@ -122,8 +130,9 @@ def canonical(theta: np.ndarray, dofs) -> np.ndarray:
 
 
 def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_rate: float = FRAME_RATE,
-                    source: str = '', model: BodyModel | None = None, metadata: dict | None = None) -> Clip:
-    """Return a Clip from canonical cyclic poses `theta (N+1, n_dof)` and contacts `(N+1, 4)`."""
+                    source: str = '', model: BodyModel | None = None, metadata: dict | None = None,
+                    entry: str = ANY_GAIT, exit: str = ANY_GAIT, cyclic: bool = True) -> Clip:
+    """Return a Clip from canonical poses `theta (N+1, n_dof)` (cyclic unless `cyclic` is False), contacts `(N+1, 4)`."""
     model = model or iguana_body_model()
     d = model.dofs
     theta = np.asarray(theta, dtype=float)
@@ -136,39 +145,56 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
                                                                                  d.index('root_y')]]
     c, s = np.cos(theta[0, yaw]), np.sin(theta[0, yaw])
     displacement = np.array([c * displacement[0] + s * displacement[1], -s * displacement[0] + c * displacement[1]])
+    turn = float(theta[-1, yaw] - theta[0, yaw])
     roots = root_positions(d, theta)
-    rotations = flat_soles(model.skeleton, roots, local_rotations(d, theta), contacts,
-                           float(theta[-1, yaw] - theta[0, yaw]))
+    rotations = flat_soles(model.skeleton, roots, local_rotations(d, theta), contacts, turn if cyclic else None)
     joints = forward_kinematics(model.skeleton, roots, rotations)[0]
     heights = {'feet': joints[:, model.skeleton.indices(list(FEET)), 2],
                'tail_tip': joints[:, model.skeleton.index('tail_tip'), 2]}
     return Clip(name=name, frame_rate=float(frame_rate), root_positions=roots,
                 local_rotations=rotations, contacts=contacts,
-                root_displacement=displacement, heading_change=float(theta[-1, yaw] - theta[0, yaw]),
+                root_displacement=displacement, heading_change=turn,
                 residual_heights=heights, duty_factor=float(contacts[:-1].mean()),
                 stride_length=float(np.hypot(*displacement)), theta=theta, source=source,
-                metadata=dict(metadata or {}))
+                metadata=dict(metadata or {}), entry=str(entry), exit=str(exit), cyclic=bool(cyclic))
 
 
 def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end: int,
              frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None,
-             clean: bool = True) -> Clip:
+             clean: bool = True, cyclic: bool = True, entry: str = ANY_GAIT, exit: str = ANY_GAIT) -> Clip:
     """
-    Return the cyclic-ready, canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`).
+    Return the canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`).
 
-    With `clean`, its tail rests on the floor and its stance feet are planted on it with swings lifted
-    (`motion.cleanup`).
+    Cyclic-ready unless `cyclic` is False (a transition from gait `entry` to gait `exit`: cut as it is, cleaned in a
+    window of a stride more of the take on each side). With `clean`, its tail rests on the floor and its stance feet
+    are planted on it with swings lifted (`motion.cleanup`).
     """
     model = model or iguana_body_model()
     if not 0 <= start < end < len(theta):
         raise InputError(f'clip {name!r}: frames {start}..{end} are outside the take (0..{len(theta) - 1})')
-    cyclic = canonical(make_cyclic(theta, start, end, model.dofs), model.dofs)
-    clip_contacts = np.array(contacts[start:end + 1], dtype=bool, copy=True)
-    clip_contacts[-1] = clip_contacts[0]
+    if cyclic:
+        segment = canonical(make_cyclic(theta, start, end, model.dofs), model.dofs)
+        clip_contacts = np.array(contacts[start:end + 1], dtype=bool, copy=True)
+        clip_contacts[-1] = clip_contacts[0]
+        if clean:
+            segment, clip_contacts = clean_footskate(support_tail(segment, model), clip_contacts, model)
+    else:
+        segment, clip_contacts = _transition_segment(theta, contacts, start, end, model, clean)
+    return clip_from_theta(name, segment, clip_contacts, frame_rate, source, model,
+                           {'start_frame': int(start), 'end_frame': int(end)}, entry, exit, cyclic)
+
+
+def _transition_segment(theta: np.ndarray, contacts: np.ndarray, start: int, end: int, model: BodyModel,
+                        clean: bool) -> tuple:
+    """(canonical poses `(N+1, n_dof)`, contacts `(N+1, 4)`) of take frames start..end, cleaned in a wider window."""
+    pad = end - start
+    first, last = max(start - pad, 0), min(end + pad, len(theta) - 1)
+    window = np.array(theta[first:last + 1], dtype=float, copy=True)
+    window_contacts = np.array(contacts[first:last + 1], dtype=bool, copy=True)
     if clean:
-        cyclic, clip_contacts = clean_footskate(support_tail(cyclic, model), clip_contacts, model)
-    return clip_from_theta(name, cyclic, clip_contacts, frame_rate, source, model,
-                           {'start_frame': int(start), 'end_frame': int(end)})
+        window, window_contacts = clean_footskate(support_tail(window, model), window_contacts, model, cyclic=False)
+    crop = slice(start - first, end - first + 1)
+    return canonical(window[crop], model.dofs), window_contacts[crop]
 
 
 def repeated_clip(clip: Clip, repeat: int) -> tuple:
@@ -199,6 +225,8 @@ def save_clip_library(path: str | Path, clips: dict, extra: dict | None = None) 
         arrays[f'clip/{name}/source'] = np.array(clip.source)
         arrays[f'clip/{name}/frames'] = np.array([clip.metadata.get('start_frame', -1),
                                                   clip.metadata.get('end_frame', -1)])
+        arrays[f'clip/{name}/gaits'] = np.array([clip.entry, clip.exit])
+        arrays[f'clip/{name}/cyclic'] = np.array(clip.cyclic)
     arrays.update(extra or {})
     np.savez_compressed(path, **arrays)
 
@@ -221,10 +249,12 @@ def load_clip_library(path: str | Path | None = None) -> dict:
         library = {}
         for name in names:
             start, end = (int(v) for v in data[f'clip/{name}/frames'])
+            gaits = data.get(f'clip/{name}/gaits', np.array([ANY_GAIT, ANY_GAIT]))
             library[name] = clip_from_theta(
                 name, data[f'clip/{name}/theta'], data[f'clip/{name}/contacts'],
                 float(data[f'clip/{name}/frame_rate']), str(data[f'clip/{name}/source']),
-                metadata={'start_frame': start, 'end_frame': end})
+                metadata={'start_frame': start, 'end_frame': end}, entry=str(gaits[0]), exit=str(gaits[1]),
+                cyclic=bool(data.get(f'clip/{name}/cyclic', True)))
     return library
 
 

@@ -30,8 +30,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from iguana_ros.constants import (FRAME_RATE, PELVIC_YAW_AMPLITUDE, TROT_DUTY_FACTOR, TROT_STRIDE_FREQUENCY,
-                                  TROT_STRIDE_LENGTH)
+from iguana_ros.constants import (FAST_DUTY_FACTOR, FAST_STRIDE_FREQUENCY, FAST_TURN_PER_STRIDE, FRAME_RATE, PELVIC_YAW_AMPLITUDE,
+                                  PIVOT_CENTRE, PIVOT_DUTY_FACTOR, PIVOT_TURN_BEND, PIVOT_TURN_PER_STRIDE, SHARP_DUTY_FACTOR,
+                                  SHARP_TURN_BEND, SHARP_TURN_PER_STRIDE, TROT_DUTY_FACTOR,
+                                  TROT_STRIDE_FREQUENCY, TROT_STRIDE_LENGTH, WALK_DUTY_FACTOR, WALK_STRIDE_FREQUENCY,
+                                  WALK_STRIDE_LENGTH)
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import quat_to_rotvec
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, LEGS, local_rotations
@@ -72,13 +75,27 @@ class GaitParameters:
     idle_frequency: float = 0.3
 
 
+GAITS = {
+    'walk': (WALK_STRIDE_FREQUENCY, WALK_DUTY_FACTOR, WALK_STRIDE_LENGTH),
+    'pivot': (WALK_STRIDE_FREQUENCY, PIVOT_DUTY_FACTOR, WALK_STRIDE_LENGTH),
+    'sharp': (WALK_STRIDE_FREQUENCY, SHARP_DUTY_FACTOR, WALK_STRIDE_LENGTH),
+    'trot': (TROT_STRIDE_FREQUENCY, TROT_DUTY_FACTOR, TROT_STRIDE_LENGTH),
+    'fast': (FAST_STRIDE_FREQUENCY, FAST_DUTY_FACTOR, TROT_STRIDE_LENGTH),
+}
+"""The named gaits of the motion library: (stride frequency Hz, duty factor, stride length m); all keep the trot's
+diagonal footfalls."""
+
+
 @dataclass(frozen=True)
 class TakeSpec:
     """
     One synthetic take.
 
-    Duration (s), heading change per stride at full speed (rad, + = left), and the speed factor as piecewise-linear
-    knots `((time s, factor), ...)` smoothed over ~0.3 s.
+    Duration (s), heading change per stride at full speed (rad, + = left), the speed factor as piecewise-linear
+    knots `((time s, factor), ...)` smoothed over ~0.3 s, the gait as knots `((time s, name in GAITS), ...)` blended
+    likewise (empty: the `GaitParameters` given to `generate_take` throughout), the fraction of the stride length the
+    root moves forward (0: a turn on the spot), the distance (m) ahead of the pelvis of the point the body turns
+    about, and the fraction of the turn held as a static trunk bend (None: the `GaitParameters`' `turn_bend`).
     """
 
     name: str
@@ -86,6 +103,15 @@ class TakeSpec:
     turn_per_stride: float = 0.0
     speed_knots: tuple = ((0.0, 1.0),)
     phase_offset: float = 0.37
+    gait_knots: tuple = ()
+    forward: float = 1.0
+    pivot_centre: float = 0.0
+    turn_bend: float | None = None
+
+
+def _walk_strides(k: float) -> float:
+    """Time (s) of the k-th stride start of a walk take with phase offset 0 (a FL+HR touchdown)."""
+    return k / WALK_STRIDE_FREQUENCY
 
 
 SYNTHETIC_TAKES = (
@@ -95,8 +121,29 @@ SYNTHETIC_TAKES = (
     TakeSpec('stand', 4.0, speed_knots=((0.0, 0.0),)),
     TakeSpec('stand_trot_stand', 9.0,
              speed_knots=((0.0, 0.0), (1.2, 0.0), (2.6, 1.0), (6.0, 1.0), (7.4, 0.0), (9.0, 0.0))),
+    TakeSpec('walk_straight', 7.0, gait_knots=((0.0, 'walk'),)),
+    TakeSpec('pivot_left', 7.0, turn_per_stride=PIVOT_TURN_PER_STRIDE, gait_knots=((0.0, 'pivot'),),
+             forward=0.0, pivot_centre=PIVOT_CENTRE, turn_bend=PIVOT_TURN_BEND),
+    TakeSpec('pivot_right', 7.0, turn_per_stride=-PIVOT_TURN_PER_STRIDE, gait_knots=((0.0, 'pivot'),),
+             forward=0.0, pivot_centre=PIVOT_CENTRE, turn_bend=PIVOT_TURN_BEND),
+    TakeSpec('walk_sharp_left', 7.0, turn_per_stride=SHARP_TURN_PER_STRIDE, gait_knots=((0.0, 'sharp'),),
+             turn_bend=SHARP_TURN_BEND),
+    TakeSpec('walk_sharp_right', 7.0, turn_per_stride=-SHARP_TURN_PER_STRIDE, gait_knots=((0.0, 'sharp'),),
+             turn_bend=SHARP_TURN_BEND),
+    TakeSpec('trot_fast', 7.0, gait_knots=((0.0, 'fast'),)),
+    TakeSpec('trot_fast_left', 7.0, turn_per_stride=FAST_TURN_PER_STRIDE, gait_knots=((0.0, 'fast'),)),
+    TakeSpec('trot_fast_right', 7.0, turn_per_stride=-FAST_TURN_PER_STRIDE, gait_knots=((0.0, 'fast'),)),
+    TakeSpec('stand_walk_stand', 8.0, phase_offset=0.0, gait_knots=((0.0, 'walk'),),
+             speed_knots=((0.0, 0.0), (_walk_strides(2), 0.0), (_walk_strides(3), 1.0), (_walk_strides(6), 1.0),
+                          (_walk_strides(7), 0.0), (8.0, 0.0))),
+    TakeSpec('gait_changes', 14.0, phase_offset=0.0,
+             gait_knots=((0.0, 'walk'), (_walk_strides(3), 'walk'), (_walk_strides(3) + 0.75, 'trot'),
+                         (5.5, 'trot'), (6.2, 'fast'), (8.6, 'fast'), (9.3, 'trot'), (11.2, 'trot'),
+                         (11.9, 'walk'))),
 )
-"""The shipped takes: straight trot, turning left and right, standing still, and a start-stop transition."""
+"""The shipped takes: the trot straight, turning left and right, standing still, a start-stop transition; the slow
+walk straight, turning on the spot and sharply both ways; the fast trot straight and turning both ways; the walk from
+and to a stand; and a take that changes gait walk -> trot -> fast -> trot -> walk."""
 
 
 @dataclass(frozen=True)
@@ -140,13 +187,18 @@ def _smooth(values: np.ndarray, sigma: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class RootPath:
-    """Root path on a time grid `(n,)`: speed factor, phase (strides), heading (rad) and position xy `(n, 2)`."""
+    """
+    Root path on a time grid `(n,)`.
+
+    Speed factor, phase (strides), heading (rad), position xy `(n, 2)`, and the gait's duty factor `(n,)` there.
+    """
 
     time: np.ndarray
     speed: np.ndarray
     phase: np.ndarray
     heading: np.ndarray
     xy: np.ndarray
+    duty: np.ndarray
 
     def at(self, t: np.ndarray) -> tuple:
         """(xy `(..., 2)`, heading `(...)`) interpolated at times `t`."""
@@ -154,20 +206,41 @@ class RootPath:
         xy = np.stack([np.interp(t, self.time, self.xy[:, k]) for k in range(2)], axis=-1)
         return xy, np.interp(t, self.time, self.heading)
 
+    def time_at_phase(self, phase: np.ndarray) -> np.ndarray:
+        """Times `(...)` s at which the stride phase reaches `phase (...)` (the phase only grows)."""
+        return np.interp(phase, self.phase, self.time)
+
+
+def gait_schedule(spec: TakeSpec, gait: GaitParameters, time: np.ndarray, sigma: int) -> tuple:
+    """(stride frequency Hz, duty factor, stride length m), each `(n,)`, at `time (n,)` s: the spec's gait knots."""
+    if not spec.gait_knots:
+        return tuple(np.full(time.shape, value) for value in (gait.stride_frequency, gait.duty_factor,
+                                                              gait.stride_length))
+    unknown = [name for _, name in spec.gait_knots if name not in GAITS]
+    if unknown:
+        raise IguanaError(f'take {spec.name}: unknown gait {unknown[0]!r} (gaits: {", ".join(GAITS)})')
+    at = np.array([t for t, _ in spec.gait_knots], dtype=float)
+    values = np.array([GAITS[name] for _, name in spec.gait_knots], dtype=float)
+    return tuple(_smooth(np.interp(time, at, values[:, k]), sigma) for k in range(3))
+
 
 def root_path(spec: TakeSpec, gait: GaitParameters, frame_rate: float, margin: float = 2.0) -> RootPath:
-    """Integrate speed and turn rate on a fine grid from `-margin` to `duration + margin` s (origin at t=0)."""
+    """Integrate speed, turn rate and stride phase on a fine grid from `-margin` to `duration + margin` s (origin t=0)."""
     dt = 1.0 / (frame_rate * _FINE)
     time = np.arange(-margin, spec.duration + margin + dt, dt)
     knots = np.asarray(spec.speed_knots, dtype=float)
-    speed = np.clip(_smooth(np.interp(time, knots[:, 0], knots[:, 1]), int(0.12 / dt)), 0.0, 1.0)
-    velocity = gait.stride_length * gait.stride_frequency * speed
-    turn_rate = spec.turn_per_stride * gait.stride_frequency * speed
+    sigma = int(0.12 / dt)
+    speed = np.clip(_smooth(np.interp(time, knots[:, 0], knots[:, 1]), sigma), 0.0, 1.0)
+    frequency, duty, stride = gait_schedule(spec, gait, time, sigma)
+    velocity = spec.forward * stride * frequency * speed
+    turn_rate = spec.turn_per_stride * frequency * speed
+    lateral = -spec.pivot_centre * turn_rate  # turning about a point ahead of it, the pelvis swings outward
     heading = _cumulative(turn_rate, dt, time)
-    xy = np.stack([_cumulative(velocity * np.cos(heading), dt, time),
-                   _cumulative(velocity * np.sin(heading), dt, time)], axis=-1)
-    phase = spec.phase_offset + gait.stride_frequency * time
-    return RootPath(time=time, speed=speed, phase=phase, heading=heading, xy=xy)
+    c, s = np.cos(heading), np.sin(heading)
+    xy = np.stack([_cumulative(velocity * c - lateral * s, dt, time),
+                   _cumulative(velocity * s + lateral * c, dt, time)], axis=-1)
+    phase = spec.phase_offset + _cumulative(frequency, dt, time)
+    return RootPath(time=time, speed=speed, phase=phase, heading=heading, xy=xy, duty=duty)
 
 
 def _cumulative(rate: np.ndarray, dt: float, time: np.ndarray) -> np.ndarray:
@@ -190,7 +263,7 @@ def trunk_theta(model: BodyModel, path: RootPath, spec: TakeSpec, gait: GaitPara
     rest_height = model.skeleton.offsets[0, 2]
     theta[:, d.index('root_z')] = rest_height + gait.root_bob * s * twice
     pelvis = gait.pelvis_yaw_amplitude * s * wave  # + = pelvis turned left, at the FL+HR touchdown
-    turn_bend = gait.turn_bend * spec.turn_per_stride * s
+    turn_bend = (gait.turn_bend if spec.turn_bend is None else spec.turn_bend) * spec.turn_per_stride * s
     theta[:, d.index('root_yaw')] = heading + pelvis - 0.5 * turn_bend
     theta[:, d.index('root_pitch')] = gait.root_pitch_amplitude * s * twice
     theta[:, d.index('root_roll')] = gait.root_roll_amplitude * s * np.sin(2.0 * np.pi * phase)
@@ -215,24 +288,33 @@ def trunk_theta(model: BodyModel, path: RootPath, spec: TakeSpec, gait: GaitPara
 
 
 def foot_targets(model: BodyModel, path: RootPath, gait: GaitParameters, t: np.ndarray) -> tuple:
-    """Foot marker targets `(F, 4, 3)`, true contacts `(F, 4)` and touchdown times per leg at times `t`."""
+    """
+    Foot marker targets `(F, 4, 3)`, true contacts `(F, 4)` and touchdown times per leg at times `t`.
+
+    Each step of a foot lands where the root path places it at mid-stance; its duty factor is the gait's at its
+    touchdown. A swing lifts the foot by `gait.swing_height` times the speed factor, or more for a longer step (the
+    full height at half the gait's stride length): a stepping foot lifts even where it moves little (the inner feet
+    of a sharp turn), a standing one not.
+    """
     rest_root, rest_local = model.skeleton.rest_pose()
     rest_theta = np.zeros((1, model.dofs.n_dof))
     rest_theta[0, :3] = rest_root
     neutral = model.marker_positions(rest_theta)[0, :4]  # FOOT_FL, FOOT_FR, FOOT_HL, FOOT_HR
     neutral[:, 0] += np.asarray(gait.stance_shift)
     phase = np.interp(t, path.time, path.phase)
+    duty = np.interp(t, path.time, path.duty)
+    active = np.interp(t, path.time, path.speed)
     targets = np.empty((t.size, 4, 3))
     contacts = np.empty((t.size, 4), dtype=bool)
     touchdowns = {}
-    f0, duty = gait.stride_frequency, gait.duty_factor
-    offset = path.phase[0] - f0 * path.time[0]
+    _, swing_heading = path.at(t)
     for i, leg in enumerate(LEGS):
         foot_phase = phase - FOOT_PHASE[leg]
         k = np.floor(foot_phase)
         within = foot_phase - k
         steps = np.arange(k.min() - 1, k.max() + 2)
-        t_mid = (steps + FOOT_PHASE[leg] + 0.5 * duty - offset) / f0
+        t_down = path.time_at_phase(steps + FOOT_PHASE[leg])
+        t_mid = path.time_at_phase(steps + FOOT_PHASE[leg] + 0.5 * np.interp(t_down, path.time, path.duty))
         xy, heading = path.at(t_mid)
         c, s = np.cos(heading), np.sin(heading)
         placed = xy + np.stack([c * neutral[i, 0] - s * neutral[i, 1], s * neutral[i, 0] + c * neutral[i, 1]], -1)
@@ -241,15 +323,14 @@ def foot_targets(model: BodyModel, path: RootPath, gait: GaitParameters, t: np.n
         u = np.clip((within - duty) / (1.0 - duty), 0.0, 1.0)
         ease = 0.5 * (1.0 - np.cos(np.pi * u))
         step = np.linalg.norm(end - start, axis=-1)
-        lift = gait.swing_height * np.minimum(1.0, step / (0.5 * gait.stride_length))
+        lift = gait.swing_height * np.minimum(1.0, np.maximum(step / (0.5 * gait.stride_length), active))
         raise_ = lift * np.sin(np.pi * u)
-        _, swing_heading = path.at(t)
         outward = np.sign(neutral[i, 1]) * gait.swing_outward[i] * raise_
         targets[:, i, 0] = start[:, 0] + ease * (end - start)[:, 0] - np.sin(swing_heading) * outward
         targets[:, i, 1] = start[:, 1] + ease * (end - start)[:, 1] + np.cos(swing_heading) * outward
         targets[:, i, 2] = neutral[i, 2] + raise_
         contacts[:, i] = (within < duty) | (lift < 0.002)
-        touchdowns[leg] = (steps + FOOT_PHASE[leg] - offset) / f0
+        touchdowns[leg] = t_down
     return targets, contacts, touchdowns
 
 

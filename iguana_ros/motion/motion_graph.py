@@ -15,12 +15,13 @@
 """
 The motion graph of Section IV.
 
-Stride clips as nodes of a complete graph, a goal-seeking policy that picks the next clip at each stride end, and root
-alignment to the simulated body (end of Section VII).
+Stride clips as nodes, an edge wherever a clip may follow another (the gait one ends in is the gait the other starts
+in: the paper's complete graph for a library without gaits, Figure 4), and root alignment of a chosen clip to the
+simulated body (end of Section VII). Which clip to play is the search's (`iguana_ros.motion.planning`).
 
 Clips are duck-typed (see `iguana_ros.motion.clips.Clip`): `name`, `root_positions (n_frames, 3)`,
 `local_rotations (n_frames, n_bones, 4)` in a canonical frame (first root at x = y = 0 facing +x),
-`contacts (n_frames, 4)`, `root_displacement (2,)` and `heading_change` (rad) per stride.
+`contacts (n_frames, 4)`, `root_displacement (2,)` and `heading_change` (rad) per stride, `entry` and `exit` gaits.
 """
 from __future__ import annotations
 
@@ -29,21 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from iguana_ros.geometry import (quat_conjugate, quat_from_rotvec, quat_from_yaw, quat_mul,
-                                 quat_normalize, quat_rotate, quat_to_rotvec, wrap_angle, yaw_of)
+                                 quat_normalize, quat_rotate, quat_to_rotvec, yaw_of)
+from iguana_ros.motion.planning import may_follow
 
 IDLE_CLIP = 'idle'
-
-
-@dataclass(frozen=True)
-class PolicyParams:
-    """Weights of the one-stride look-ahead policy."""
-
-    goal_radius: float = 0.15
-    """Inside this distance (m) to the goal the iguana stops (idle clip)."""
-    bearing_weight: float = 0.08
-    """Cost (m per rad) of the goal's bearing after the stride; favours facing the goal."""
-    switch_cost: float = 0.005
-    """Cost (m) of changing clip, to avoid dithering between two nearly equal choices."""
 
 
 @dataclass(frozen=True)
@@ -58,7 +48,7 @@ class AlignedClip:
 
 
 class MotionGraph:
-    """Complete graph over a clip library (every clip may follow every clip, Figure 4)."""
+    """The graph over a clip library: clip b may follow clip a where a's exit gait is b's entry gait."""
 
     def __init__(self, library: dict, blend_frames: int) -> None:
         """
@@ -78,36 +68,8 @@ class MotionGraph:
         return list(self.clips)
 
     def edges(self) -> list[tuple[str, str]]:
-        """Every directed edge: the complete graph including self-loops (a clip can repeat)."""
-        return [(a, b) for a in self.clips for b in self.clips]
-
-    def choose_next(self, root_xy: np.ndarray, heading: float, goal_xy: np.ndarray | None,
-                    current: str | None = None, params: PolicyParams = PolicyParams()) -> str:
-        """Name of the next clip for a body at `root_xy (2,)` facing `heading` (rad) with goal `goal_xy (2,)`."""
-        if goal_xy is None or not np.all(np.isfinite(goal_xy)):
-            return self._idle_or_first()
-        to_goal = np.asarray(goal_xy, float) - np.asarray(root_xy, float)
-        if np.hypot(*to_goal) < params.goal_radius:
-            return self._idle_or_first()
-        costs = {name: self._stride_cost(clip, root_xy, heading, goal_xy, params)
-                 + (params.switch_cost if current is not None and name != current else 0.0)
-                 for name, clip in self.clips.items() if name != IDLE_CLIP}
-        return min(costs, key=costs.get) if costs else self._idle_or_first()
-
-    def _idle_or_first(self) -> str:
-        """Return the idle clip if the library has one, else the first clip."""
-        return IDLE_CLIP if IDLE_CLIP in self.clips else next(iter(self.clips))
-
-    @staticmethod
-    def _stride_cost(clip, root_xy, heading, goal_xy, params: PolicyParams) -> float:
-        """Distance to goal plus weighted bearing error after playing `clip` once from the current pose."""
-        c, s = np.cos(heading), np.sin(heading)
-        dx, dy = np.asarray(clip.root_displacement, float)[:2]
-        end_xy = np.asarray(root_xy, float) + np.array([c * dx - s * dy, s * dx + c * dy])
-        end_heading = heading + float(clip.heading_change)
-        to_goal = np.asarray(goal_xy, float) - end_xy
-        bearing = wrap_angle(np.arctan2(to_goal[1], to_goal[0]) - end_heading)
-        return float(np.hypot(*to_goal) + params.bearing_weight * abs(bearing))
+        """Every directed edge (a, b): clip b may follow clip a (self-loops included: a cyclic clip repeats)."""
+        return [(a, b) for a in self.clips for b in self.clips if may_follow(self.clips[a], self.clips[b])]
 
     def align(self, name: str, root_xy: np.ndarray, heading: float,
               previous: AlignedClip | None = None) -> AlignedClip:

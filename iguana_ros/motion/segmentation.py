@@ -68,10 +68,31 @@ def touchdowns(contact: np.ndarray) -> np.ndarray:
 
 
 def stride_boundaries(contacts: np.ndarray, pair: tuple = BOUNDARY_PAIR, tolerance: int = 3) -> np.ndarray:
-    """Frames `(k,)` at which the diagonal `pair` touches down together (within `tolerance` frames)."""
+    """
+    Frames `(k,)` at which the diagonal `pair` touches down together (within `tolerance` frames).
+
+    Where a capture gap hid one foot's touchdown (a gap between boundaries over 1.5 times their median), the touchdown
+    of either foot of the pair inside the gap fills it in.
+    """
     first, second = touchdowns(contacts[:, pair[0]]), touchdowns(contacts[:, pair[1]])
     if first.size == 0 or second.size == 0:
         return np.zeros(0, dtype=int)
     nearest = second[np.abs(second[None, :] - first[:, None]).argmin(axis=1)]
     together = np.abs(nearest - first) <= tolerance
-    return np.minimum(first, nearest)[together]
+    return _fill_gaps(np.minimum(first, nearest)[together], np.union1d(first, second))
+
+
+def _fill_gaps(boundaries: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """`boundaries (k,)` with a candidate touchdown inserted into each gap over 1.5 median gaps (nearest a median)."""
+    if len(boundaries) < 3:
+        return boundaries
+    median = float(np.median(np.diff(boundaries)))
+    out = [int(boundaries[0])]
+    for b in boundaries[1:]:
+        while b - out[-1] > 1.5 * median:
+            inside = candidates[(candidates >= out[-1] + 0.6 * median) & (candidates <= b - 0.6 * median)]
+            if not inside.size:
+                break
+            out.append(int(inside[np.argmin(np.abs(inside - (out[-1] + median)))]))
+        out.append(int(b))
+    return np.array(out, dtype=boundaries.dtype)

@@ -1,0 +1,486 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A search over the motion graph (Section IV): which clips to play, several strides ahead, to reach a goal.
+
+The graph walks of the motion-graph literature (Kovar, Gleicher and Pighin 2002; Lee et al. 2002): from the body's
+measured planar pose (x, y, yaw of the root) and the clip it plays, a beam search expands every clip the graph lets
+follow, `depth` strides deep, keeping the `beam_width` sequences of least cost-so-far plus estimated cost-to-go. A
+stride moves the pose by what the soft body *achieves* with that clip (`motion.tracking`: level ground plus a gain per
+unit of terrain gradient in the body frame), corrected online by the error of the strides it has played
+(`MotionPlanner.observe`). The cost is time: clip durations, a small cost per change of clip, and terrain costs (slope
+across the heading, height steps along a stride). The cost-to-go (`heuristic`) is the quickest of turning in one gait
+and travelling in another, with the time to change gait between them, and of turning to a requested heading at the
+goal; a gait cannot turn toward a goal inside its turning circle. A sequence ends once it reaches its last target
+(position within the planning radius and, if asked, heading within the planning tolerance); a route's earlier
+waypoints are passed on the way. Re-planned at every stride end, the first clip of the best sequence is played.
+
+ROS-free; poses are planar `(x, y, yaw)` in the world frame, yaw being the root's heading (rad).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.geometry import planar_compose, planar_relative, wrap_angle
+from iguana_ros.motion.clips import ANY_GAIT
+
+STAND = 'stand'
+"""The gait of a body at rest (the idle clip's; the body before its first clip)."""
+
+FACING = 0.05
+"""A goal within this bearing (rad) of a gait's direction of travel needs no turn."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """
+    Where to go: a position (m), optionally a heading (rad), reached within `radius` m and `yaw_tolerance` rad.
+
+    An intermediate waypoint of a route (`final` False) is passed through (its heading is not asked for).
+    """
+
+    xy: tuple
+    yaw: float | None = None
+    radius: float = 0.15
+    yaw_tolerance: float = math.inf
+    final: bool = True
+
+    @property
+    def wants_heading(self) -> bool:
+        """Whether arrival asks for a heading (a final target with a yaw and a tolerance below pi)."""
+        return self.final and self.yaw is not None and self.yaw_tolerance < math.pi
+
+    def distance(self, xy: np.ndarray) -> float:
+        """Horizontal distance (m) from `xy (2,)` to the target."""
+        return float(math.hypot(xy[0] - self.xy[0], xy[1] - self.xy[1]))
+
+    def heading_error(self, yaw: float) -> float:
+        """|yaw - the target's heading| (rad, wrapped); 0 when no heading is asked for."""
+        return abs(float(wrap_angle(yaw - self.yaw))) if self.wants_heading else 0.0
+
+    def reached(self, pose: np.ndarray) -> bool:
+        """Whether planar pose `(3,)` is within the radius and (if asked) the heading tolerance."""
+        return self.distance(pose[:2]) <= self.radius and self.heading_error(pose[2]) <= self.yaw_tolerance
+
+
+@dataclass(frozen=True)
+class PlannerParams:
+    """Settings of the motion-graph search (`MotionPlanner`)."""
+
+    depth: int = 4
+    """Strides searched ahead."""
+    beam_width: int = 32
+    """Sequences kept at each depth."""
+    switch_cost: float = 0.05
+    """Cost (s) of changing clip: between two near-equal sequences, keep the clip playing."""
+    arrive_fraction: float = 0.6
+    """A sequence counts as arriving within this fraction of the target's radius and yaw tolerance (the body
+    does not end a stride exactly where predicted)."""
+    cross_slope_cost: float = 1.0
+    """Extra time per stride, as a fraction of its duration, per unit squared gradient across the heading."""
+    step_height: float = 0.02
+    """Height change (m) over a tenth of a stride's chord above which the terrain counts as a step."""
+    step_cost: float = 20.0
+    """Cost (s per m) of the step height above `step_height` along a stride."""
+    slope_probe: float = 0.15
+    """Half-width (m) of the body-scale finite differences that give the terrain gradient."""
+    correction_rate: float = 0.5
+    """Weight of the newest stride's error in a clip's online correction (exponential average)."""
+    correction_limit: tuple = (0.06, 0.06, 0.4)
+    """Largest |online correction| of a clip's stride motion: dx m, dy m, dyaw rad."""
+
+
+@dataclass(frozen=True)
+class GaitTable:
+    """
+    Per gait (index into `names`): speed m/s and direction of travel (rad, from the root's heading) of its straightest
+    cyclic clip, turn rate rad/s and turning radius m of its fastest-turning cyclic clip, and `switch_time (K, K)` s,
+    the least time from ending a clip in gait a to starting one in gait b.
+    """
+
+    names: tuple
+    speed: np.ndarray
+    direction: np.ndarray
+    turn_rate: np.ndarray
+    turn_radius: np.ndarray
+    switch_time: np.ndarray
+
+
+@dataclass(frozen=True)
+class ClipTable:
+    """
+    The clips as the search sees them, arrays over the `names` (n clips).
+
+    `duration (n,)` s; achieved stride motion on level ground `level (n, 3)` and its gain per unit gradient
+    `slope_gain (n, 3, 2)`; `entry`, `exit (n,)` gait indices; `successors (n + 1, n)`: which clip may follow which
+    (the last row: from rest, before any clip); `gaits` the per-gait figures of the cost-to-go; `carry` the fraction of
+    the previous stride's excess heading change a stride carries over (`motion.tracking.LibraryTracking`).
+    """
+
+    names: tuple
+    duration: np.ndarray
+    level: np.ndarray
+    slope_gain: np.ndarray
+    entry: np.ndarray
+    exit: np.ndarray
+    successors: np.ndarray
+    gaits: GaitTable
+    carry: float = 0.0
+
+    def index(self, name: str | None) -> int:
+        """Row of `successors` for a body playing clip `name` (None: at rest, the last row)."""
+        return len(self.names) if name is None else self.names.index(name)
+
+
+def may_follow(first, second) -> bool:
+    """Whether clip `second` may follow clip `first` (None: from rest): their gaits meet, or either is any gait."""
+    exit_gait = STAND if first is None else getattr(first, 'exit', ANY_GAIT)
+    entry_gait = getattr(second, 'entry', ANY_GAIT)
+    return ANY_GAIT in (exit_gait, entry_gait) or exit_gait == entry_gait
+
+
+def clip_table(clips: dict, tracking: dict | None = None, carry: float = 0.0) -> ClipTable:
+    """
+    Return the ClipTable of a clip library (name -> Clip) with its tracking figures (name -> ClipTracking; a clip
+    without them moves as captured) and heading carry-over.
+    """
+    tracking = tracking or {}
+    names = tuple(clips)
+    entries = [getattr(clips[n], 'entry', ANY_GAIT) for n in names]
+    exits = [getattr(clips[n], 'exit', ANY_GAIT) for n in names]
+    gaits = tuple(dict.fromkeys([STAND] + entries + exits))
+    duration = np.array([(len(clips[n].root_positions) - 1) / getattr(clips[n], 'frame_rate', FRAME_RATE)
+                         for n in names])
+    level = np.array([tracking[n].level if n in tracking else
+                      (*clips[n].root_displacement[:2], clips[n].heading_change) for n in names], dtype=float)
+    gain = np.array([tracking[n].slope_gain if n in tracking else np.zeros((3, 2)) for n in names], dtype=float)
+    entry = np.array([gaits.index(g) for g in entries])
+    exit_ = np.array([gaits.index(g) for g in exits])
+    successors = np.array([[may_follow(None if a is None else clips[a], clips[b]) for b in names]
+                           for a in names + (None,)], dtype=bool)
+    cyclic = np.array([getattr(clips[n], 'cyclic', True) and entry[i] == exit_[i] for i, n in enumerate(names)])
+    table = gait_table(gaits, duration, level, entry, exit_, cyclic)
+    return ClipTable(names, duration, level, gain, entry, exit_, successors, table, float(carry))
+
+
+def gait_table(gaits: tuple, duration: np.ndarray, level: np.ndarray, entry: np.ndarray, exit_: np.ndarray,
+               cyclic: np.ndarray) -> GaitTable:
+    """GaitTable of the gaits from the clips' durations `(n,)`, motions `(n, 3)`, gaits `(n,)` and cyclic flags `(n,)`."""
+    k = len(gaits)
+    speed, direction, turn_rate, turn_radius = np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k)
+    for g in range(k):
+        own = np.flatnonzero(cyclic & (entry == g))
+        if not len(own):
+            continue
+        rate = np.abs(level[own, 2]) / duration[own]
+        velocity = level[own, 0] / duration[own]
+        straight = own[np.argmax(np.where(np.abs(level[own, 2]) < 0.15, velocity, -np.inf))]
+        if level[straight, 0] > 1e-3:
+            speed[g] = np.hypot(*level[straight, :2]) / duration[straight]
+            direction[g] = math.atan2(level[straight, 1], level[straight, 0])
+        turner = own[np.argmax(rate)]
+        if rate.max() > 1e-3:
+            turn_rate[g] = rate.max()
+            turn_radius[g] = np.hypot(*level[turner, :2]) / abs(level[turner, 2])
+    switch = np.full((k, k), np.inf)
+    np.fill_diagonal(switch, 0.0)
+    for j in np.flatnonzero(entry != exit_):
+        switch[entry[j], exit_[j]] = min(switch[entry[j], exit_[j]], duration[j])
+    for m in range(k):                                    # Floyd-Warshall over the gaits
+        switch = np.minimum(switch, switch[:, m:m + 1] + switch[m:m + 1, :])
+    return GaitTable(gaits, speed, direction, turn_rate, turn_radius, switch)
+
+
+def rest_steps(table: ClipTable) -> np.ndarray:
+    """
+    The first clip `(n + 1,)` of the quickest way to rest (a clip ending in the stand gait) from each row of
+    `successors` (a clip just played, or rest itself: the idle clip); -1 where none leads there.
+    """
+    n, stand = len(table.names), table.gaits.names.index(STAND)
+    to_rest = np.where(table.exit == stand, 0.0, np.inf)       # s after a clip ends until the body rests
+    for _ in range(n):
+        via = np.where(table.successors[:n], table.duration[None, :] + to_rest[None, :], np.inf)
+        to_rest = np.minimum(to_rest, via.min(axis=1))
+    via = np.where(table.successors, table.duration[None, :] + to_rest[None, :], np.inf)
+    return np.where(np.isfinite(via.min(axis=1)), via.argmin(axis=1), -1)
+
+
+@dataclass
+class Plan:
+    """The best sequence found: its clips, the predicted planar poses `(k + 1, 3)`, its cost (s), whether it arrives."""
+
+    clips: tuple
+    poses: np.ndarray
+    cost: float
+    arrives: bool
+
+    @property
+    def first(self) -> str:
+        """The clip to play now."""
+        return self.clips[0]
+
+
+@dataclass
+class _Targets:
+    """The route's targets as arrays `(t,)`, and the time (s) of the rest of the route after each."""
+
+    xy: np.ndarray
+    yaw: np.ndarray
+    has_yaw: np.ndarray
+    radius: np.ndarray
+    tolerance: np.ndarray
+    final: np.ndarray
+    rest: np.ndarray
+
+
+@dataclass
+class _Level:
+    """One depth of the search: `(m,)` arrays of the sequences kept."""
+
+    pose: np.ndarray          # (m, 3) planar pose at the end of the sequence
+    turn: np.ndarray          # (m,) rad, heading change of its last stride
+    clip: np.ndarray          # (m,) row of successors: the clip the sequence ends with
+    target: np.ndarray        # (m,) index of the target it heads for
+    cost: np.ndarray          # (m,) s so far
+    estimate: np.ndarray      # (m,) s: cost so far plus cost to go
+    parent: np.ndarray        # (m,) index into the previous level
+    done: np.ndarray          # (m,) bool: it has reached its final target (not expanded further)
+
+
+@dataclass
+class MotionPlanner:
+    """Beam search over a ClipTable on a terrain (None: level ground), with online correction of the clips' motion."""
+
+    table: ClipTable
+    terrain: object = None
+    params: PlannerParams = PlannerParams()
+    correction: np.ndarray = field(default=None)
+    last_turn: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Start with no correction; note which clips bring the body to rest."""
+        if self.correction is None:
+            self.correction = np.zeros((len(self.table.names), 3))
+        resting = [self.table.gaits.names.index(g) for g in (STAND, ANY_GAIT) if g in self.table.gaits.names]
+        self._resting = np.isin(self.table.exit, resting)
+
+    # ---------------------------------------------------------------------------------------------- prediction
+    def gradient(self, pose: np.ndarray) -> np.ndarray:
+        """Body-frame terrain gradients `(m, 2)` (uphill ahead, uphill to the left) at planar poses `(m, 3)`."""
+        pose = np.atleast_2d(pose)
+        if self.terrain is None or getattr(self.terrain, 'is_flat', False):
+            return np.zeros((len(pose), 2))
+        a = self.params.slope_probe
+        offsets = np.array([[a, 0.0], [-a, 0.0], [0.0, a], [0.0, -a]])
+        heights = self.terrain.height((pose[:, None, :2] + offsets[None]).reshape(-1, 2)).reshape(len(pose), 4)
+        gx, gy = (heights[:, 0] - heights[:, 1]) / (2 * a), (heights[:, 2] - heights[:, 3]) / (2 * a)
+        c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        return np.stack([c * gx + s * gy, -s * gx + c * gy], axis=-1)
+
+    def motion(self, clips: np.ndarray, gradient: np.ndarray, turn: np.ndarray, corrected: bool = True) -> np.ndarray:
+        """
+        Predicted stride motions `(m, 3)` of clip indices `(m,)` started at body-frame gradients `(m, 2)` after strides
+        that turned by `turn (m,)` rad (the carry-over), with the online correction unless `corrected` is False.
+        """
+        steady = self.table.level[clips] + np.einsum('mij,mj->mi', self.table.slope_gain[clips], gradient)
+        if corrected:
+            steady = steady + self.correction[clips]
+        steady[:, 2] += self.table.carry * (turn - steady[:, 2])
+        return steady
+
+    def predict(self, name: str, pose: np.ndarray) -> np.ndarray:
+        """Planar pose `(3,)` after playing clip `name` from planar pose `(3,)` (after the last stride observed)."""
+        j = np.array([self.table.index(name)])
+        return planar_compose(pose, self.motion(j, self.gradient(pose), np.array([self.last_turn]))[0])
+
+    def observe(self, name: str, start: np.ndarray, end: np.ndarray) -> None:
+        """Update clip `name`'s online correction from a stride it played from planar pose `start` to `end` `(3,)`."""
+        j = np.array([self.table.index(name)])
+        model = self.motion(j, self.gradient(start), np.array([self.last_turn]), corrected=False)[0]
+        achieved = planar_relative(start, end)
+        rate, limit = self.params.correction_rate, np.asarray(self.params.correction_limit)
+        self.correction[j[0]] = np.clip((1.0 - rate) * self.correction[j[0]] + rate * (achieved - model), -limit, limit)
+        self.last_turn = float(achieved[2])
+
+    # ------------------------------------------------------------------------------------------------ search
+    def plan(self, pose: np.ndarray, current: str | None, targets: list, allowed: np.ndarray | None = None) -> Plan:
+        """
+        The best clip sequence from planar `pose (3,)` playing `current` (None: at rest) through `targets`.
+
+        The targets are the route's remaining ones in order (the last is final); `allowed (n,)` (optional) masks the
+        clips the search may use. At each depth the `beam_width` open sequences of least estimate are kept, and the
+        cheapest one that arrives; the plan is the cheapest arrival found or, if it costs more, the deepest open
+        sequence of least estimate.
+        """
+        table, p = self.table, self.params
+        goals = self._targets(targets)
+        allowed = np.ones(len(table.names), bool) if allowed is None else np.asarray(allowed, bool)
+        turn = self.last_turn if current is not None else 0.0
+        root = _Level(np.asarray(pose, float)[None, :3], np.array([turn]), np.array([table.index(current)]),
+                      np.zeros(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int), np.zeros(1, bool))
+        levels, best = [root], (np.inf, None)
+        for depth in range(1, p.depth + 1):
+            child, arrived = self._expand(levels[-1], goals, allowed)
+            if not len(child.cost):
+                break
+            keep = _smallest(np.where(arrived, np.inf, child.estimate), p.beam_width)
+            if arrived.any():
+                k = np.flatnonzero(arrived)[np.argmin(child.cost[arrived])]
+                keep = np.append(keep, k)
+                if child.cost[k] < best[0]:
+                    best = (float(child.cost[k]), (depth, len(keep) - 1, True))
+            levels.append(_take(child, keep))
+        last = levels[-1]
+        open_estimate = np.where(last.done, np.inf, last.estimate)
+        if len(levels) > 1 and open_estimate.min() < best[0]:
+            best = (float(open_estimate.min()), (len(levels) - 1, int(np.argmin(open_estimate)), False))
+        return self._backtrack(levels, best, pose)
+
+    def _targets(self, targets: list) -> _Targets:
+        """Arrays of the targets, and after each the time of the rest of the route at the fastest gait."""
+        xy = np.array([t.xy for t in targets], dtype=float).reshape(-1, 2)
+        legs = np.linalg.norm(np.diff(xy, axis=0), axis=1) / max(self.table.gaits.speed.max(), 1e-3)
+        rest = np.concatenate([np.cumsum(legs[::-1])[::-1], [0.0]]) if len(xy) > 1 else np.zeros(len(xy))
+        return _Targets(xy=xy, yaw=np.array([t.yaw if t.wants_heading else 0.0 for t in targets]),
+                        has_yaw=np.array([t.wants_heading for t in targets]),
+                        radius=np.array([t.radius for t in targets]) * self.params.arrive_fraction,
+                        tolerance=np.array([min(t.yaw_tolerance, math.pi) for t in targets])
+                        * self.params.arrive_fraction,
+                        final=np.array([t.final for t in targets]), rest=rest)
+
+    def _expand(self, level: _Level, goals: _Targets, allowed: np.ndarray) -> tuple:
+        """The children `_Level` of every open sequence of `level` (one per clip that may follow), and which arrive."""
+        table, p = self.table, self.params
+        parents, clips = np.nonzero(table.successors[level.clip] & allowed[None, :] & ~level.done[:, None])
+        start = level.pose[parents]
+        grad = self.gradient(start)
+        motion = self.motion(clips, grad, level.turn[parents])
+        end = planar_compose(start, motion)
+        cost = (level.cost[parents] + table.duration[clips] * (1.0 + p.cross_slope_cost * grad[:, 1] ** 2)
+                + p.switch_cost * (clips != level.clip[parents]) + self._step_cost(start, end))
+        target = level.target[parents].copy()
+        hit = _arrives(start, end, target, goals, self._resting[clips])
+        arrived = hit & goals.final[target]
+        target[hit & ~arrived] += 1                          # a waypoint passed: head for the next target
+        estimate = cost + np.where(arrived, 0.0, self.heuristic(end, table.exit[clips], target, goals))
+        return _Level(end, motion[:, 2], clips, target, cost, estimate, parents, arrived), arrived
+
+    def _step_cost(self, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+        """Cost `(m,)` s of the height steps along each stride's chord (none on level or unknown ground)."""
+        if self.terrain is None or getattr(self.terrain, 'is_flat', False) or not len(start):
+            return np.zeros(len(start))
+        u = np.linspace(0.0, 1.0, 11)
+        points = start[:, None, :2] + u[None, :, None] * (end[:, None, :2] - start[:, None, :2])
+        heights = self.terrain.height(points.reshape(-1, 2)).reshape(len(start), len(u))
+        step = np.abs(np.diff(heights, axis=1)).max(axis=1)
+        return self.params.step_cost * np.maximum(step - self.params.step_height, 0.0)
+
+    def heuristic(self, pose: np.ndarray, gait: np.ndarray, target: np.ndarray, goals: _Targets) -> np.ndarray:
+        """
+        Estimated time (s) `(m,)` from planar poses `(m, 3)` ending a clip in gait `(m,)` to the end of the route.
+
+        For each pair of gaits (turn in the first, travel in the second): the time to change into the first, turn
+        toward the target at its turn rate (impossible for a target inside its turning circle), change into the
+        second and travel the distance left at its speed, and at a final target come to rest (`_finish`: turning to
+        a heading asked there first); the least of them, plus the rest of the route.
+        """
+        g, t = self.table.gaits, target
+        if not len(pose):
+            return np.zeros(0)
+        delta = goals.xy[t] - pose[:, :2]
+        dist = np.hypot(delta[:, 0], delta[:, 1])
+        bearing = np.arctan2(delta[:, 1], delta[:, 0])
+        local = planar_relative(pose, np.concatenate([goals.xy[t], np.zeros((len(t), 1))], axis=1))
+        beta = np.abs(wrap_angle(bearing[:, None] - pose[:, 2:3] - g.direction[None, :]))
+        side = np.where(local[:, 1:2] >= 0.0, 1.0, -1.0)
+        inside = (np.hypot(local[:, 0:1], local[:, 1:2] - side * g.turn_radius[None, :]) < g.turn_radius[None, :]) \
+            & (g.turn_radius[None, :] > goals.radius[t][:, None])
+        with np.errstate(divide='ignore', invalid='ignore'):
+            turn = np.where(beta < FACING, 0.0, beta / g.turn_rate[None, :])
+            turn = np.where(inside | ~np.isfinite(turn), np.inf, turn)
+            travel = np.maximum(dist - goals.radius[t], 0.0)[:, None] / g.speed[None, :]
+        travel = np.where(np.isfinite(travel), travel, np.inf)
+        there = dist <= goals.radius[t]
+        travel[there], turn[there] = 0.0, 0.0
+        total = (g.switch_time[gait][:, :, None] + turn[:, :, None] + g.switch_time[None, :, :]
+                 + travel[:, None, :])                                  # (m, turning gait, travelling gait)
+        finish = self._finish(np.abs(wrap_angle(goals.yaw[t] - np.where(dist > goals.radius[t], bearing, pose[:, 2]))),
+                              goals.has_yaw[t], goals.final[t])            # (m, travelling gait)
+        h = (total + finish[:, None, :]).reshape(len(pose), -1).min(axis=1)
+        return np.where(np.isfinite(h), h, 1e6) + goals.rest[t]
+
+    def _finish(self, yaw_error: np.ndarray, has_yaw: np.ndarray, final: np.ndarray) -> np.ndarray:
+        """
+        Time (s) `(m, K)` from travelling in each gait to resting at a final target: change gait to one that turns, turn
+        by `yaw_error (m,)` rad if a heading is asked (`has_yaw (m,)`), change to the stand gait; 0 at a waypoint.
+        """
+        g = self.table.gaits
+        stand = g.names.index(STAND)
+        with np.errstate(divide='ignore', invalid='ignore'):
+            turning = np.where(g.turn_rate > 0, 1.0 / g.turn_rate, np.inf)
+        turn = np.where(has_yaw[:, None], yaw_error[:, None] * turning[None, :], 0.0)           # (m, turning gait)
+        via = g.switch_time[None, :, :] + turn[:, None, :] + g.switch_time[None, :, stand][:, None, :]
+        finish = np.minimum(via.min(axis=2), np.where(has_yaw[:, None], np.inf, g.switch_time[None, :, stand]))
+        return np.where(final[:, None], finish, 0.0)
+
+    def _backtrack(self, levels: list, best: tuple, pose: np.ndarray) -> Plan:
+        """The Plan of the best sequence found (`best`: cost, (depth, index, arrives)); idle-free fallback: none."""
+        if best[1] is None:
+            return Plan((), np.asarray(pose, float)[None, :3], math.inf, False)
+        depth, index, arrives = best[1]
+        clips, poses = [], []
+        while depth > 0:
+            level = levels[depth]
+            clips.append(self.table.names[level.clip[index]])
+            poses.append(level.pose[index])
+            index, depth = level.parent[index], depth - 1
+        poses.append(np.asarray(pose, float)[:3])
+        return Plan(tuple(clips[::-1]), np.array(poses[::-1]), float(best[0]), bool(arrives))
+
+
+def _arrives(start: np.ndarray, end: np.ndarray, target: np.ndarray, goals: _Targets,
+             resting: np.ndarray) -> np.ndarray:
+    """
+    Whether each stride from `start` to `end` `(m, 3)` reaches its target `(m,)` (an index into `goals`).
+
+    A waypoint is passed where the stride's chord comes within the planning radius; the final target is reached by a
+    stride that brings the body to rest (`resting (m,)`) within the radius and, if one is asked, the heading tolerance.
+    """
+    t = target
+    a, b, goal = start[:, :2], end[:, :2], goals.xy[t]
+    ab = b - a
+    length2 = np.einsum('mi,mi->m', ab, ab)
+    u = np.clip(np.einsum('mi,mi->m', goal - a, ab) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    closest = np.hypot(*(a + u[:, None] * ab - goal).T)
+    at_end = np.hypot(*(b - goal).T)
+    heading = ~goals.has_yaw[t] | (np.abs(wrap_angle(end[:, 2] - goals.yaw[t])) <= goals.tolerance[t])
+    return np.where(goals.final[t], (at_end <= goals.radius[t]) & heading & resting, closest <= goals.radius[t])
+
+
+def _smallest(values: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the `k` smallest finite `values`, in increasing order (ties by index: deterministic)."""
+    finite = np.flatnonzero(np.isfinite(values))
+    order = finite[np.lexsort((finite, values[finite]))]
+    return order[:k]
+
+
+def _take(level: _Level, keep: np.ndarray) -> _Level:
+    """The sequences `keep` of `level`."""
+    return _Level(level.pose[keep], level.turn[keep], level.clip[keep], level.target[keep], level.cost[keep],
+                  level.estimate[keep], level.parent[keep], level.done[keep])
