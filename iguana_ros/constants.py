@@ -118,8 +118,8 @@ FAST_TURN_PER_STRIDE = 0.175
 ~0.9 m; enough to hold a course, where the trot's 15 deg turns are for turning)."""
 
 PIVOT_TURN_PER_STRIDE = 0.698
-"""Heading change of a turn on the spot, rad per walk stride (40 deg: 48 deg/s at WALK_STRIDE_FREQUENCY; at 45 deg a
-stance foot of the right pivot leaves the legs' reach whatever the centre and bend)."""
+"""Heading change of a turn on the spot, rad per stride (40 deg: 60 deg/s at its stride frequency, the trot's; at
+45 deg a stance foot of the right pivot leaves the legs' reach whatever the centre and bend)."""
 
 PIVOT_CENTRE = 0.09
 """Distance (m) ahead of the pelvis of the point a turn on the spot rotates about, between the girdles (with

@@ -13,7 +13,13 @@
 # limitations under the License.
 
 """
-Randomized locomotion benchmark: many seeded terrains, one goal each, with and without terrain adaptation.
+Randomized locomotion benchmarks: the steering suite, and many seeded terrains with one goal each, with and without
+terrain adaptation.
+
+`steering_scenes` draws the steering suite (near and far goals in every direction, ahead/behind pairs, slopes, steps,
+headings, routes; both fidelity and stiffness presets), `steering_tasks` runs each with adaptation and
+`summarize_steering` reduces the rows per category: reach rate, time, path length over the straight way, headings
+within tolerance, routes completed in order, strides circling or stuck, and the behind/ahead time ratio.
 
 `random_scenes` (iguana_ros.random_scenes) draws the scenes (hills, tilted planes, steps, smooth noise; a goal 3 m from
 the start in a random direction, also behind the iguana, which starts facing +x), `run_benchmark` runs every (scene,
@@ -31,7 +37,7 @@ from typing import Callable
 import numpy as np
 
 from iguana_ros.random_scenes import (BENCH_KINDS, GOAL_DISTANCE, GOAL_RADIUS, random_scenes,  # noqa: F401
-                                      TERRAIN_EXTENT)
+                                      scene_category, STEERING_CATEGORIES, steering_scenes, TERRAIN_EXTENT)
 from iguana_ros.scene import Scene
 from iguana_ros.sweep.engine import error_row, run_local, Task, task_key
 from iguana_ros.sweep.scene_task import MODE_NAMES, run_scene, RunOptions, scene_identity
@@ -166,3 +172,101 @@ def _paired_times(rows: list[dict]) -> dict:
              for flag in MODE_NAMES}
     both = sorted(set(times[True]) & set(times[False]))
     return {flag: [times[flag][name] for name in both] for flag in MODE_NAMES}
+
+
+# ------------------------------------------------------------------------------------------- steering suite
+
+STRAIGHT_FOR_PATH = 2.0
+"""Scenes whose straight way is at least this long (m) give the path-ratio figure (near goals are all turning)."""
+
+
+def steering_identity(scene: Scene) -> dict:
+    """The row fields that say what a steering scene is: category, presets, straight way, heading asked."""
+    goal = scene.destination
+    return {**scene_identity(scene, True), 'category': scene_category(scene), 'fidelity': scene.fidelity,
+            'stiffness': scene.model.stiffness, 'heading': goal is not None and goal.yaw_deg is not None,
+            'route_waypoints': len(scene.route)}
+
+
+def run_steering_task(scene: Scene) -> dict:
+    """Run one steering scene with adaptation until 2 s past its goal; one plain row (an error row if it raised)."""
+    identity = steering_identity(scene)
+    start = time.perf_counter()
+    try:
+        return run_scene(scene, RunOptions(adaptation=True, stop_after_goal=STOP_AFTER_GOAL), identity)
+    except Exception as exc:                      # noqa: BLE001 - the row records the failure
+        return error_row(identity, exc, time.perf_counter() - start)
+
+
+def steering_tasks(scenes: list[Scene]) -> list[Task]:
+    """Return the sweep tasks of the steering scenes, in order."""
+    return [Task(task_key('steering', scene, STOP_AFTER_GOAL), run_steering_task, (scene,), steering_identity(scene),
+                 scene.name) for scene in scenes]
+
+
+def run_steering(scenes: list[Scene], workers: int | None = None,
+                 progress: Callable[[dict, int, int], None] | None = None) -> list[dict]:
+    """Rows of every steering scene, in scene order, run by the sweep engine on `workers` local processes."""
+    return run_local(steering_tasks(scenes), workers, progress)
+
+
+def _fraction(numerator: int, denominator: int) -> float | None:
+    """`numerator / denominator`, None for no denominator."""
+    return numerator / denominator if denominator else None
+
+
+def _steering_group(rows: list[dict]) -> dict:
+    """The figures of one group of steering rows (see `summarize_steering`)."""
+    finished = [r for r in rows if not r.get('error')]
+    reached = [r for r in finished if r.get('reached_goal') is True]
+    headed = [r for r in finished if r.get('heading')]
+    routes = [r for r in finished if r.get('route_waypoints')]
+    far = [r for r in finished if _is_number(r.get('straight_distance')) and r['straight_distance'] >= STRAIGHT_FOR_PATH]
+    return {
+        'n': len(rows), 'reached': len(reached), 'reach_rate': _fraction(len(reached), len(rows)),
+        'time_to_goal_median': _median(_values(reached, 'time_to_goal')),
+        'path_ratio_median': _median(_values(far, 'path_ratio')),
+        'heading_goals': len(headed),
+        'heading_within_tolerance': sum(r.get('reached_goal') is True for r in headed),
+        'heading_error_at_arrival_median_deg': _median(_values(headed, 'heading_error_at_arrival_deg')),
+        'final_heading_error_median_deg': _median(_values(headed, 'final_heading_error_deg')),
+        'routes': len(routes), 'routes_completed': sum(r.get('route_completed') is True for r in routes),
+        'circling_runs': sum((r.get('circling_strides') or 0) > 0 for r in finished),
+        'circling_strides': sum(r.get('circling_strides') or 0 for r in finished),
+        'stuck_strides': sum(r.get('stuck_strides') or 0 for r in finished),
+        'fell': sum(r.get('fell') is True for r in finished), 'errors': len(rows) - len(finished),
+        'realtime_factor_median': _median(_values(finished, 'realtime_factor')),
+    }
+
+
+def summarize_steering(rows: list[dict]) -> dict:
+    """
+    Per category (and 'all', and per fidelity and stiffness preset): `_steering_group`'s figures.
+
+    Also `behind_over_ahead`: the median, over the ahead/behind pairs both reached, of the behind scene's time to goal
+    over its ahead partner's (the pair shares terrain and presets), with the pair count; `near_goals` (straight way
+    <= 1.2 m), `slope_scenes` (12-20 deg) and `fast_scenes` counts.
+    """
+    groups = {'all': rows}
+    groups.update({c: [r for r in rows if r.get('category') == c] for c in dict.fromkeys(STEERING_CATEGORIES)})
+    groups.update({f'fidelity {v}': [r for r in rows if r.get('fidelity') == v] for v in ('balanced', 'fast')})
+    groups.update({f'stiffness {v}': [r for r in rows if r.get('stiffness') == v] for v in ('normal', 'softer')})
+    summary = {name: _steering_group(group) for name, group in groups.items() if group}
+    pairs = _behind_ahead_pairs(rows)
+    return {'groups': summary, 'behind_over_ahead': _median([b / a for a, b in pairs]), 'pairs': len(pairs),
+            'near_goals': sum(_is_number(r.get('straight_distance')) and r['straight_distance'] <= 1.2 for r in rows),
+            'slope_scenes': sum(r.get('kind') == 'tilted' and 12.0 <= r['terrain'].get('slope_deg', 0) <= 20.0
+                                for r in rows),
+            'fast_scenes': sum(r.get('fidelity') == 'fast' for r in rows)}
+
+
+def _behind_ahead_pairs(rows: list[dict]) -> list[tuple]:
+    """(ahead time, behind time) of each behind scene and the ahead scene just before it, both reached."""
+    by_index = {int(r['scene'].rsplit('_', 1)[1]): r for r in rows if r.get('category') in ('ahead', 'behind')}
+    pairs = []
+    for index, row in sorted(by_index.items()):
+        partner = by_index.get(index - 1)
+        if row['category'] == 'behind' and partner is not None and partner['category'] == 'ahead' \
+                and all(r.get('reached_goal') is True and _is_number(r.get('time_to_goal')) for r in (row, partner)):
+            pairs.append((partner['time_to_goal'], row['time_to_goal']))
+    return pairs

@@ -58,16 +58,39 @@ class LocomotionMetrics:
     stuck: bool
     strides: int
     gait: GaitMetrics | None = None
+    steering: SteeringMetrics | None = None
 
     def as_dict(self) -> dict:
         """
         Plain dict for JSON and the summary line (NaN, e.g. no arrival time, becomes None).
 
-        The gait figures are flattened in (per-foot figures as lists in the order fl, fr, hl, hr).
+        The gait and steering figures are flattened in (per-foot figures as lists in the order fl, fr, hl, hr).
         """
         values = asdict(self)
         gait = values.pop('gait') or {}
-        return {k: _plain(v) for k, v in {**values, **gait}.items()}
+        steering = values.pop('steering') or {}
+        return {k: _plain(v) for k, v in {**values, **gait, **steering}.items()}
+
+
+@dataclass(frozen=True)
+class SteeringMetrics:
+    """
+    How a run steered to its goal: `straight_distance` (m, from the start along the route's waypoints to the edge of
+    the goal's radius), `path_ratio` (the root's path length until it arrived, or of the whole run, over it), the heading error at arrival and at the end (deg; NaN where no
+    heading is asked or the goal was not reached), the stride ends before arrival spent circling (`circling_strides`,
+    two full turns without getting closer) or making no progress (`stuck_strides`, `no_progress`), and for a route its
+    waypoints, how many were passed in order and whether all were.
+    """
+
+    straight_distance: float
+    path_ratio: float
+    heading_error_at_arrival_deg: float
+    final_heading_error_deg: float
+    circling_strides: int
+    stuck_strides: int
+    waypoints: int = 0
+    waypoints_in_order: int = 0
+    route_completed: bool = False
 
 
 @dataclass(frozen=True)
@@ -115,11 +138,28 @@ def path_length(root_xy: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(root_xy, axis=0), axis=1)))
 
 
-def goal_arrival(times: np.ndarray, root_xy: np.ndarray, goal_xy: np.ndarray,
-                 radius: float) -> tuple[bool, float, float]:
-    """(reached, first time within `radius`, final distance) for root `(n_frames, 2)` and goal `(2,)`."""
+def heading_errors(yaw: np.ndarray, goal_yaw) -> np.ndarray:
+    """|yaw - goal_yaw| `(n,)` rad (wrapped) of root headings `(n,)` to a heading (or headings `(n,)`); 0 for None."""
+    yaw = np.asarray(yaw, dtype=float)
+    if goal_yaw is None:
+        return np.zeros(yaw.shape)
+    return np.abs((yaw - goal_yaw + np.pi) % (2.0 * np.pi) - np.pi)
+
+
+def goal_arrival(times: np.ndarray, root_xy: np.ndarray, goal_xy: np.ndarray, radius: float,
+                 yaw: np.ndarray | None = None, goal_yaw: float | None = None,
+                 yaw_tolerance: float = np.inf) -> tuple[bool, float, float]:
+    """
+    (reached, first time within `radius`, final distance) for root `(n_frames, 2)` and goal `(2,)`.
+
+    With a goal heading `goal_yaw` (rad) and root headings `yaw (n_frames,)`, arrival also needs the heading within
+    `yaw_tolerance` rad (as nav2's goal checker).
+    """
     dist = np.linalg.norm(root_xy - np.asarray(goal_xy)[None, :2], axis=1)
-    inside = np.flatnonzero(dist <= radius)
+    ok = dist <= radius
+    if goal_yaw is not None and yaw is not None and yaw_tolerance < np.pi:
+        ok &= heading_errors(yaw, goal_yaw) <= yaw_tolerance
+    inside = np.flatnonzero(ok)
     reached = inside.size > 0
     return reached, float(times[inside[0]]) if reached else float('nan'), float(dist[-1])
 
@@ -243,6 +283,105 @@ def gait_metrics(foot_contact: np.ndarray, reference_contact: np.ndarray, foot_h
         foot_height_error=tuple(height_error))
 
 
+BEARING_WEIGHT = 0.25
+"""Metres of progress a radian of turning toward the goal counts as (`remaining_way`)."""
+
+PROGRESS_WINDOW = 8
+"""Stride ends over which the remaining way to a goal must shrink (the planner's stuck check, `stuck_strides`)."""
+
+PROGRESS_MIN = 0.08
+"""Least shrinking (m) of the remaining way to a goal over PROGRESS_WINDOW strides."""
+
+CIRCLING_TURN = 4.0 * np.pi
+"""Net heading change (rad) of a circle counted as circling: two full turns without getting closer."""
+
+
+def remaining_way(xy: np.ndarray, yaw: np.ndarray, goal_xy: np.ndarray, radius: float,
+                  goal_yaw: float | None = None, bearing_weight: float = BEARING_WEIGHT) -> np.ndarray:
+    """
+    How far root poses (`xy (n, 2)`, `yaw (n,)`) are from a goal `(2,)`, m: the distance plus `bearing_weight` per rad
+    of bearing away from it; within `radius`, the heading error left (rad, 0 if no `goal_yaw`) less 1.
+    """
+    xy, yaw = np.atleast_2d(np.asarray(xy, dtype=float)), np.atleast_1d(np.asarray(yaw, dtype=float))
+    delta = np.asarray(goal_xy, dtype=float)[None, :2] - xy
+    distance = np.hypot(delta[:, 0], delta[:, 1])
+    bearing = heading_errors(yaw, np.arctan2(delta[:, 1], delta[:, 0])) if len(yaw) else np.zeros(0)
+    return np.where(distance <= radius, heading_errors(yaw, goal_yaw) - 1.0, distance + bearing_weight * bearing)
+
+
+def no_progress(measure: np.ndarray, window: int, progress: float) -> np.ndarray:
+    """
+    Flags `(s,)`: stride end k made no progress, the least of `measure (s,)` over its last `window` strides being no
+    smaller by `progress` than the least before them (the first `window` strides are never flagged).
+    """
+    measure = np.asarray(measure, dtype=float)
+    flags = np.zeros(len(measure), bool)
+    for k in range(window, len(measure)):
+        flags[k] = measure[k - window + 1:k + 1].min() >= measure[:k - window + 1].min() - progress
+    return flags
+
+
+def circling_strides(yaw: np.ndarray, distance: np.ndarray, progress: float = 0.05) -> int:
+    """
+    Stride ends `(s,)` (root headings rad, goal distances m) inside a stretch that turned CIRCLING_TURN net without
+    getting `progress` m closer to the goal.
+    """
+    turned = np.unwrap(np.asarray(yaw, dtype=float))
+    flagged = np.zeros(len(turned), bool)
+    for a in range(len(turned)):
+        later = np.flatnonzero(np.abs(turned[a + 1:] - turned[a]) >= CIRCLING_TURN)
+        if later.size and distance[a + 1 + later[0]] >= distance[a] - progress:
+            flagged[a:a + 2 + later[0]] = True
+    return int(flagged.sum())
+
+
+def route_progress(root_xy: np.ndarray, waypoints: np.ndarray, radius: float) -> np.ndarray:
+    """
+    Index `(n,)` of the waypoint `(k, 2)` each root position `(n, 2)` heads for: waypoints count as passed in order,
+    each once the root comes within `radius` of it after passing the ones before (k: all passed).
+    """
+    index, out = 0, np.empty(len(root_xy), dtype=int)
+    for f, xy in enumerate(np.asarray(root_xy, dtype=float)):
+        while index < len(waypoints) and np.hypot(*(xy - waypoints[index])) <= radius:
+            index += 1
+        out[f] = index
+    return out
+
+
+def steering_metrics(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray, waypoints: np.ndarray,
+                     goal_yaw: float | None, radius: float, yaw_tolerance: float,
+                     stride_frames: np.ndarray) -> SteeringMetrics:
+    """
+    SteeringMetrics of root positions `(n, 2)` and headings `(n,)` at `times (n,)` walking to `waypoints (k, 2)` (a goal:
+    k = 1) reached within `radius` m and, for `goal_yaw` (rad, None: any), `yaw_tolerance` rad; `stride_frames (s,)`
+    the frames at which strides began.
+    """
+    waypoints = np.atleast_2d(np.asarray(waypoints, dtype=float))
+    legs = np.concatenate([root_xy[:1], waypoints]) if len(root_xy) else waypoints
+    straight = max(float(np.sum(np.linalg.norm(np.diff(legs, axis=0), axis=1))) - radius, 0.0)
+    heading = goal_yaw if yaw_tolerance < np.pi else None
+    reached, t_goal, _ = goal_arrival(times, root_xy, waypoints[-1], radius, yaw, heading, yaw_tolerance)
+    arrival = int(np.searchsorted(times, t_goal)) if reached else len(times)
+    errors = np.degrees(heading_errors(yaw, goal_yaw)) if heading is not None else np.full(len(times), np.nan)
+    current = np.minimum(route_progress(root_xy, waypoints[:-1], radius), len(waypoints) - 1) \
+        if len(waypoints) > 1 else np.zeros(len(times), int)
+    strides = np.asarray([f for f in stride_frames if f < arrival], dtype=int)
+    goal_of = waypoints[current[strides]]
+    remaining = np.array([remaining_way(root_xy[f], yaw[f], g, radius, heading if k == len(waypoints) - 1 else None)[0]
+                          for f, g, k in zip(strides, goal_of, current[strides])])
+    passed = int(route_progress(root_xy, waypoints, radius)[-1]) if len(times) and len(waypoints) > 1 else 0
+    return SteeringMetrics(
+        straight_distance=straight,
+        path_ratio=path_length(root_xy[:arrival + 1]) / straight if straight > 0 else float('nan'),
+        heading_error_at_arrival_deg=float(errors[arrival]) if reached else float('nan'),
+        final_heading_error_deg=float(errors[-1]) if len(times) else float('nan'),
+        circling_strides=circling_strides(yaw[strides], np.hypot(*(root_xy[strides] - goal_of).T)),
+        stuck_strides=sum(int(no_progress(remaining[current[strides] == leg], PROGRESS_WINDOW, PROGRESS_MIN).sum())
+                          for leg in np.unique(current[strides])),
+        waypoints=len(waypoints) if len(waypoints) > 1 else 0, waypoints_in_order=passed,
+        route_completed=len(waypoints) > 1 and passed == len(waypoints))
+
+
 def lateral_bending(pelvis: np.ndarray, mid_trunk: np.ndarray, shoulders: np.ndarray) -> float:
     """
     Amplitude (deg) of the trunk's lateral bend: half the range of the horizontal angle at mid-trunk.
@@ -292,19 +431,28 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
                        root_up: np.ndarray, goal_xy: np.ndarray | None, goal_radius: float,
                        foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int,
                        trunk_landmarks: np.ndarray, landmarks: np.ndarray, reference_landmarks: np.ndarray,
-                       landmark_pairs: np.ndarray, gait: GaitMetrics | None = None) -> LocomotionMetrics:
+                       landmark_pairs: np.ndarray, gait: GaitMetrics | None = None, goal_yaw: float | None = None,
+                       yaw_tolerance: float = np.inf, stride_frames: np.ndarray | None = None,
+                       waypoints: np.ndarray | None = None) -> LocomotionMetrics:
     """
     All metrics of a run.
 
     Shapes as in the helper functions, `trunk_landmarks (n_frames, 3, 3)`. Without a goal (`goal_xy` None) no goal is
-    reached: reached_goal False, time and distance to the goal NaN, never stuck.
+    reached: reached_goal False, time and distance to the goal NaN, never stuck, no steering figures. A goal heading
+    `goal_yaw` (rad) counts within `yaw_tolerance` (rad) for arrival; `waypoints (k, 2)` is the route whose last point
+    is the goal; `stride_frames (s,)` the frames at which strides began (for the steering figures).
     """
     xy = root_positions[:, :2]
+    steering = None
     if goal_xy is None:
         reached, t_goal, final, dist = False, float('nan'), float('nan'), np.zeros(len(times))
     else:
-        reached, t_goal, final = goal_arrival(times, xy, goal_xy, goal_radius)
+        heading = goal_yaw if yaw_tolerance < np.pi else None
+        reached, t_goal, final = goal_arrival(times, xy, goal_xy, goal_radius, root_yaw, heading, yaw_tolerance)
         dist = np.linalg.norm(xy - np.asarray(goal_xy)[None, :2], axis=1)
+        route = np.asarray(goal_xy, dtype=float)[None, :2] if waypoints is None or not len(waypoints) else waypoints
+        steering = steering_metrics(times, xy, root_yaw, route, goal_yaw, goal_radius, yaw_tolerance,
+                                    np.zeros(0, int) if stride_frames is None else np.asarray(stride_frames))
     return LocomotionMetrics(
         reached_goal=reached, time_to_goal=t_goal, final_goal_distance=final,
         path_length=path_length(xy), mean_forward_speed=mean_forward_speed(times, xy, root_yaw),
@@ -312,4 +460,4 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
         lateral_bending_amplitude_deg=lateral_bending(*np.moveaxis(trunk_landmarks, 1, 0)),
         inter_joint_distance_variation=inter_joint_variation(landmarks, reference_landmarks, landmark_pairs),
         fell=fell(root_up), stuck=stuck(times, dist, goal_radius) and not reached,
-        strides=int(n_strides), gait=gait)
+        strides=int(n_strides), gait=gait, steering=steering)

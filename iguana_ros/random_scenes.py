@@ -15,9 +15,13 @@
 """
 Seeded random scenes of the locomotion benchmark.
 
-Hills, tilted planes, steps and smooth noise, each with one goal 3 m from the start in a random direction (also behind
-the iguana, which starts facing +x). ROS-free; used by `iguana bench locomotion` (iguana_ros.locomotion_bench) and
-`iguana sweep` (iguana_ros.sweep).
+Two suites. `random_scenes`: hills, tilted planes, steps and smooth noise, each with one goal 3 m from the start in a
+random direction (also behind the iguana, which starts facing +x), run with and without terrain adaptation.
+`steering_scenes`: the steering suite, cycling through STEERING_CATEGORIES: goals near (0.4-1.2 m) and far (2-4.5 m)
+in every direction, 3 m straight ahead and behind on the same hills (a pair), across 12-20 deg slopes in every
+direction, over step fields, with a heading to arrive in, and routes of 3-5 waypoints; every fourth scene at the `fast`
+fidelity preset, every fifth with the `softer` model. ROS-free; used by `iguana bench locomotion`
+(iguana_ros.locomotion_bench) and `iguana sweep` (iguana_ros.sweep).
 """
 from __future__ import annotations
 
@@ -28,7 +32,7 @@ from typing import Iterable
 import numpy as np
 
 from iguana_ros.errors import InputError
-from iguana_ros.scene import GoalSpec, ModelSpec, parse_scene, RESOLUTIONS, Scene, TerrainSpec
+from iguana_ros.scene import GoalSpec, ModelSpec, parse_scene, RESOLUTIONS, Scene, TerrainSpec, WaypointSpec
 
 BENCH_KINDS = ('hills', 'tilted', 'steps', 'noise')
 """Terrain kinds of the benchmark, in the order `random_scenes` cycles through them."""
@@ -92,3 +96,137 @@ def random_scenes(n_terrains: int, seed: int, duration: float = 40.0, resolution
                       duration=float(duration), fidelity='balanced', adaptation=True)
         scenes.append(parse_scene(dataclasses.asdict(scene), name))     # the scene file rules hold for these too
     return scenes
+
+
+STEERING_CATEGORIES = ('near', 'far', 'ahead', 'behind', 'slope', 'steps', 'heading', 'route', 'near')
+"""The steering suite's scene categories, in the order `steering_scenes` cycles through them (near goals twice)."""
+YAW_TOLERANCE_DEG = 30.0
+"""Heading tolerance of the steering suite's goals, deg."""
+
+
+def steering_scenes(n_scenes: int, seed: int, resolution: str = 'medium',
+                    categories: Iterable[str] = STEERING_CATEGORIES) -> list[Scene]:
+    """
+    `n_scenes` scenes `steer_<category>_<index>` cycling through `categories` (see the module docstring).
+
+    Scene `i` draws from its own generator `SeedSequence(seed, spawn_key=(i,))` (a 'behind' scene from the 'ahead'
+    scene before it, so the pair shares its terrain), so lists are prefix-stable and the same (n, seed) gives the same
+    scenes. Scene i uses the `fast` fidelity if i % 4 == 3, the `softer` model if i % 5 == 2 (a 'behind' scene as its
+    'ahead' partner). Duration: 15 s plus 8 s
+    per metre of the straight way, at most 60 s; goal radius GOAL_RADIUS, yaw tolerance YAW_TOLERANCE_DEG.
+    """
+    categories = tuple(categories)
+    if not categories or any(c not in STEERING_CATEGORIES for c in categories):
+        raise InputError(f'categories must be among {", ".join(sorted(set(STEERING_CATEGORIES)))}, '
+                         f'got {", ".join(categories) or "none"}')
+    _check_counts(n_scenes, seed, resolution)
+    scenes = []
+    for i in range(n_scenes):
+        category = categories[i % len(categories)]
+        key = i - 1 if category == 'behind' and i > 0 and categories[(i - 1) % len(categories)] == 'ahead' else i
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(key,)))
+        terrain, goals, route = _STEERING[category](rng)
+        if key != i:                                     # the pair's terrain, the goal mirrored behind the start
+            goals = (GoalSpec(x=-goals[0].x, y=goals[0].y),)
+        way = _way_length(goals, route)
+        scene = Scene(name=f'steer_{category}_{i:03d}',
+                      description=f'steering benchmark (seed {seed}): {category}, {way:.2f} m', terrain=terrain,
+                      model=ModelSpec(resolution=resolution, stiffness='softer' if key % 5 == 2 else 'normal'),
+                      goals=goals, route=route, goal_radius=GOAL_RADIUS, goal_yaw_tolerance_deg=YAW_TOLERANCE_DEG,
+                      duration=float(round(min(60.0, 15.0 + 8.0 * way), 1)),
+                      fidelity='fast' if key % 4 == 3 else 'balanced', adaptation=True)
+        scenes.append(parse_scene(dataclasses.asdict(scene), scene.name))
+    return scenes
+
+
+def scene_category(scene: Scene) -> str:
+    """Return the steering category of a `steering_scenes` scene ('' for another scene)."""
+    parts = scene.name.split('_')
+    return parts[1] if len(parts) == 3 and parts[0] == 'steer' and parts[1] in STEERING_CATEGORIES else ''
+
+
+def _check_counts(n: int, seed: int, resolution: str) -> None:
+    """InputError unless `n` and `seed` are integers >= 0 and `resolution` a mesh resolution."""
+    if resolution not in RESOLUTIONS:
+        raise InputError(f'mesh resolution must be one of {", ".join(RESOLUTIONS)}, got {resolution!r}')
+    for name, value in (('number of scenes', n), ('seed', seed)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise InputError(f'{name} must be an integer >= 0, got {value!r}')
+
+
+def _way_length(goals: tuple, route: tuple) -> float:
+    """Length (m) of the straight way from the start (0, 0) through the route's waypoints or to the goal."""
+    points = [(0.0, 0.0)] + [(p.x, p.y) for p in (route or goals)]
+    return float(sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(points[:-1], points[1:])))
+
+
+def _goal_at(rng: np.random.Generator, low: float, high: float, heading: bool = False) -> GoalSpec:
+    """A goal `low`..`high` m from the start in a uniformly drawn direction (with a uniform heading if asked)."""
+    distance, direction = rng.uniform(low, high), rng.uniform(0.0, 2.0 * np.pi)
+    yaw = round(float(rng.uniform(-180.0, 180.0)), 2) if heading else None
+    return GoalSpec(x=round(distance * math.cos(direction), 4), y=round(distance * math.sin(direction), 4),
+                    yaw_deg=yaw)
+
+
+def _gentle(rng: np.random.Generator) -> TerrainSpec:
+    """Flat ground or gentle hills (amplitude 2-5 cm), evenly."""
+    if rng.uniform() < 0.5:
+        return TerrainSpec(kind='flat', extent=TERRAIN_EXTENT)
+    return TerrainSpec(kind='hills', amplitude=round(float(rng.uniform(0.02, 0.05)), 4),
+                       wavelength=round(float(rng.uniform(0.6, 1.4)), 4), seed=int(rng.integers(0, 1_000_000)),
+                       extent=TERRAIN_EXTENT)
+
+
+def _near(rng):
+    """A goal 0.4-1.2 m away on gentle ground."""
+    return _gentle(rng), (_goal_at(rng, 0.4, 1.2),), ()
+
+
+def _far(rng):
+    """A goal 2-4.5 m away on hills or noise."""
+    return _random_terrain(('hills', 'noise')[int(rng.integers(0, 2))], rng), (_goal_at(rng, 2.0, 4.5),), ()
+
+
+def _ahead(rng):
+    """A goal 3 m ahead (within 15 deg) on hills."""
+    terrain = TerrainSpec(kind='hills', amplitude=round(float(rng.uniform(0.03, 0.08)), 4),
+                          wavelength=round(float(rng.uniform(0.6, 1.4)), 4), seed=int(rng.integers(0, 1_000_000)),
+                          extent=TERRAIN_EXTENT)
+    angle = np.radians(rng.uniform(-15.0, 15.0))
+    return terrain, (GoalSpec(x=round(3.0 * math.cos(angle), 4), y=round(3.0 * math.sin(angle), 4)),), ()
+
+
+def _slope(rng):
+    """A goal 2-4 m away on a plane tilted 12-20 deg in any direction."""
+    terrain = TerrainSpec(kind='tilted', slope_deg=round(float(rng.uniform(12.0, 20.0)), 3),
+                          direction_deg=round(float(rng.uniform(0.0, 360.0)), 2), extent=TERRAIN_EXTENT)
+    return terrain, (_goal_at(rng, 2.0, 4.0),), ()
+
+
+def _steps(rng):
+    """A goal 2-4 m away over a field of 3-5 cm steps."""
+    return _random_terrain('steps', rng), (_goal_at(rng, 2.0, 4.0),), ()
+
+
+def _heading(rng):
+    """A goal 0.4-2.5 m away with a heading, on gentle ground."""
+    return _gentle(rng), (_goal_at(rng, 0.4, 2.5, heading=True),), ()
+
+
+def _route(rng):
+    """A route of 3-5 waypoints, legs of 0.6-1.5 m turning up to 120 deg, the last with a heading half the time."""
+    terrain, points, direction = _gentle(rng), [], rng.uniform(0.0, 2.0 * np.pi)
+    x = y = 0.0
+    for k in range(int(rng.integers(3, 6))):
+        direction += rng.uniform(-np.radians(120.0), np.radians(120.0)) if k else 0.0
+        leg = rng.uniform(0.6, 1.5)
+        x, y = float(np.clip(x + leg * math.cos(direction), -4.0, 4.0)), float(np.clip(y + leg * math.sin(direction),
+                                                                                         -4.0, 4.0))
+        points.append(WaypointSpec(x=round(x, 4), y=round(y, 4)))
+    if rng.uniform() < 0.5:
+        points[-1] = dataclasses.replace(points[-1], yaw_deg=round(float(rng.uniform(-180.0, 180.0)), 2))
+    return terrain, (), tuple(points)
+
+
+_STEERING = {'near': _near, 'far': _far, 'ahead': _ahead, 'behind': _ahead, 'slope': _slope, 'steps': _steps,
+             'heading': _heading, 'route': _route}

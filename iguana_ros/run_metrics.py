@@ -72,9 +72,13 @@ def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetr
     goal = scene_goal(scene)
     up = quat_rotate(result.root_orientations, np.array([0.0, 0.0, 1.0]))
     gait = run_gait_metrics(model, result, scene, reference, heights, foot_xy, foot_contact, goal, library, terrain)
+    destination = scene.destination
+    goal_yaw = None if destination is None or destination.yaw_deg is None else np.radians(destination.yaw_deg)
     metrics = locomotion_metrics(result.times, result.root_positions, yaw_of(result.root_orientations), up, goal,
                                  scene.goal_radius, foot_xy, foot_contact, len(result.clip_history), trunk,
-                                 landmarks, reference_landmarks, np.array(pairs), gait)
+                                 landmarks, reference_landmarks, np.array(pairs), gait, goal_yaw,
+                                 np.radians(scene.goal_yaw_tolerance_deg), [f for f, _ in result.clip_history],
+                                 scene_waypoints(scene))
     # slip over the walk only: strides spent standing at the goal would dilute it
     return dataclasses.replace(metrics, foot_slip_per_stride=float(np.sum(gait.slip_per_foot_per_stride)))
 
@@ -222,11 +226,15 @@ def scene_goal(scene) -> np.ndarray | None:
     """
     Return the goal `(2,)` a run of `scene` is measured against.
 
-    Its last goal (None without goals: none is reached).
+    Its last goal or its route's last waypoint (None without either: none is reached).
     """
-    if scene.goals:
-        return np.array([scene.goals[-1].x, scene.goals[-1].y])
-    return None
+    destination = scene.destination
+    return None if destination is None else np.array([destination.x, destination.y])
+
+
+def scene_waypoints(scene) -> np.ndarray | None:
+    """Return the route `(k, 2)` a run of `scene` follows (None for a scene of goals)."""
+    return np.array([[w.x, w.y] for w in scene.route]) if scene.route else None
 
 
 @dataclass

@@ -366,8 +366,17 @@ def _build(cls: type, raw, source: str, prefix: str = ''):
     values = {}
     for name, value in raw.items():
         path = f'{prefix}.{name}' if prefix else name
+        if value is None and _optional(hints[name]):
+            values[name] = None                  # e.g. a goal's yaw_deg: null, no heading
+            continue
         values[name] = _check_value(value, _annotation(hints[name]), source, path)
     return cls(**values)
+
+
+def _optional(hint) -> bool:
+    """Whether a field's type hint admits None (`float | None`)."""
+    return (isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union) \
+        and type(None) in typing.get_args(hint)
 
 
 def _annotation(hint):

@@ -35,6 +35,7 @@ from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.geometry import wrap_angle, yaw_of
+from iguana_ros.metrics import no_progress, remaining_way
 from iguana_ros.motion.clips import ANY_GAIT
 from iguana_ros.motion.motion_graph import AlignedClip, IDLE_CLIP, MotionGraph
 from iguana_ros.motion.planning import clip_table, MotionPlanner, rest_steps, STAND, Target
@@ -94,8 +95,7 @@ class RecoveryParams:
     window: int = 8
     """Strides over which the distance to the target must shrink."""
     progress: float = 0.08
-    """Least shrinking (m) of the least distance to the target over `window` strides (or of the heading error, rad,
-    at the goal)."""
+    """Least shrinking over `window` strides of the least remaining way to the target (`metrics.remaining_way`)."""
     detour_distance: float = 0.5
     """Distance (m) of a detour waypoint from the body."""
     detour_angle: float = np.radians(70.0)
@@ -125,10 +125,10 @@ class PlannerStage:
     the best sequence of the motion-graph search (`MotionPlanner`) from the body's planar pose, whose clip motions are
     corrected online from every stride played. Every frame checks whether the current waypoint is passed or the goal
     reached (a heading goal: at rest, facing it within the tolerance); once there the body comes to rest. Every stride
-    end checks progress: if the least distance to the target has not shrunk by `RecoveryParams.progress` over
-    `window` strides, that is 'stuck' (or 'circling' if the body turned a full turn meanwhile), reported as an event,
-    and answered by a recovery: first the slow walk with its turns on the spot only, then detour waypoints to either
-    side; progress again ends it ('recovered').
+    end checks progress: if the least remaining way to the target (distance and bearing, `metrics.remaining_way`) has
+    not shrunk by `RecoveryParams.progress` over `window` strides, that is 'stuck' (or 'circling' if the body turned a
+    full turn meanwhile), reported as an event, and answered by a recovery: first the slow walk with its turns on the
+    spot only, then detour waypoints to either side; progress again ends it ('recovered').
     """
 
     def __init__(self, graph: MotionGraph, planner: MotionPlanner, goal_radius: float = 0.15,
@@ -149,6 +149,7 @@ class PlannerStage:
         self._stride_start: np.ndarray | None = None
         self._progress: list[tuple[float, float]] = []
         self.recovery = 0
+        self._stuck_at = np.inf
         self._detour: tuple = ()
         self._rest = rest_steps(planner.table)
 
@@ -249,6 +250,8 @@ class PlannerStage:
         """
         if self.settled or not self.targets:
             return
+        if self._detour and self._detour[0].distance(pose[:2]) <= self._detour[0].radius:
+            self._detour = ()
         current = self.targets[self.waypoint]
         if not current.final:
             if current.distance(pose[:2]) <= current.radius:
@@ -284,31 +287,28 @@ class PlannerStage:
 
     # ------------------------------------------------------------------------------------ progress, recovery
     def _check_progress(self, frame: int, pose: np.ndarray) -> None:
-        """Record the distance to the target at this stride end; raise the recovery level when it stopped shrinking."""
+        """Record the remaining way to the target at this stride end; raise the recovery level when it stopped shrinking."""
         if self.settled or not self.targets:
             return
-        target = self.targets[self.waypoint]
-        distance = target.distance(pose[:2])
-        measure = distance if distance > target.radius else target.radius - 1.0 + target.heading_error(pose[2])
-        self._progress.append((measure, pose[2]))
+        target = self._detour[0] if self._detour else self.targets[self.waypoint]
+        goal_yaw = target.yaw if target.wants_heading else None
+        self._progress.append((float(remaining_way(pose[:2], pose[2], target.xy, target.radius, goal_yaw)[0]), pose[2]))
         params = self.recovery_params
         if len(self._progress) <= params.window:
             return
-        before = min(m for m, _ in self._progress[:-params.window])
-        recent = min(m for m, _ in self._progress[-params.window:])
-        if recent < before - params.progress:
-            if self.recovery:
+        if not no_progress(np.array([m for m, _ in self._progress]), params.window, params.progress)[-1]:
+            if self.recovery and min(m for m, _ in self._progress[-params.window:]) < self._stuck_at - params.progress:
                 self.events.append(PlannerEvent(frame, 'recovered', f'progress again at recovery level '
                                                                     f'{self.recovery}'))
-            self.recovery, self._detour = 0, ()
+                self.recovery, self._detour = 0, ()
             return
         turned = abs(float(np.sum(wrap_angle(np.diff([y for _, y in self._progress[-params.window - 1:]])))))
-        kind = 'circling' if turned >= 2.0 * np.pi else 'stuck'
-        self._recover(frame, pose, target, kind)
+        self._recover(frame, pose, target, 'circling' if turned >= 2.0 * np.pi else 'stuck')
 
     def _recover(self, frame: int, pose: np.ndarray, target: Target, kind: str) -> None:
         """Take the next recovery strategy and report it; progress is then measured afresh."""
         self.recovery += 1
+        self._stuck_at = min(m for m, _ in self._progress)
         self._progress = self._progress[-1:]
         if self.recovery == 1:
             strategy = 'slow walk and turns on the spot'

@@ -89,6 +89,9 @@ class PlannerParams:
     """Sequences kept at each depth."""
     switch_cost: float = 0.05
     """Cost (s) of changing clip: between two near-equal sequences, keep the clip playing."""
+    path_weight: float = 1.5
+    """Cost (s per m) of the way walked, besides its time: between a quick wide turn on the move and turning on the
+    spot first, take the shorter way unless it is much slower."""
     arrive_fraction: float = 0.6
     """A sequence counts as arriving within this fraction of the target's radius and yaw tolerance (the body
     does not end a stride exactly where predicted)."""
@@ -373,7 +376,8 @@ class MotionPlanner:
         motion = self.motion(clips, grad, level.turn[parents])
         end = planar_compose(start, motion)
         cost = (level.cost[parents] + table.duration[clips] * (1.0 + p.cross_slope_cost * grad[:, 1] ** 2)
-                + p.switch_cost * (clips != level.clip[parents]) + self._step_cost(start, end))
+                + p.switch_cost * (clips != level.clip[parents]) + self._step_cost(start, end)
+                + p.path_weight * np.hypot(*(end[:, :2] - start[:, :2]).T))
         target = level.target[parents].copy()
         hit = _arrives(start, end, target, goals, self._resting[clips])
         arrived = hit & goals.final[target]
@@ -396,9 +400,10 @@ class MotionPlanner:
         Estimated time (s) `(m,)` from planar poses `(m, 3)` ending a clip in gait `(m,)` to the end of the route.
 
         For each pair of gaits (turn in the first, travel in the second): the time to change into the first, turn
-        toward the target at its turn rate (impossible for a target inside its turning circle), change into the
-        second and travel the distance left at its speed, and at a final target come to rest (`_finish`: turning to
-        a heading asked there first); the least of them, plus the rest of the route.
+        toward the target at its turn rate (impossible for a target inside its turning circle) along an arc of its
+        turning radius, change into the second and travel the distance left from the arc's end at its speed, and at
+        a final target come to rest (`_finish`: turning to a heading asked there first); the least of them, plus the
+        rest of the route.
         """
         g, t = self.table.gaits, target
         if not len(pose):
@@ -406,20 +411,30 @@ class MotionPlanner:
         delta = goals.xy[t] - pose[:, :2]
         dist = np.hypot(delta[:, 0], delta[:, 1])
         bearing = np.arctan2(delta[:, 1], delta[:, 0])
-        local = planar_relative(pose, np.concatenate([goals.xy[t], np.zeros((len(t), 1))], axis=1))
-        beta = np.abs(wrap_angle(bearing[:, None] - pose[:, 2:3] - g.direction[None, :]))
+        local = planar_relative(pose, np.concatenate([goals.xy[t], np.zeros((len(t), 1))], axis=1))[:, :2]
+        signed = wrap_angle(bearing[:, None] - pose[:, 2:3] - g.direction[None, :])        # (m, K): to turn in gait k
+        beta = np.abs(signed)
         side = np.where(local[:, 1:2] >= 0.0, 1.0, -1.0)
         inside = (np.hypot(local[:, 0:1], local[:, 1:2] - side * g.turn_radius[None, :]) < g.turn_radius[None, :]) \
             & (g.turn_radius[None, :] > goals.radius[t][:, None])
+        # turning by beta in gait k moves the body along an arc of its turning radius: where the arc ends, (m, K, 2)
+        c, s_ = np.cos(g.direction), np.sin(g.direction)
+        ahead = local[:, None, 0] * c[None, :] + local[:, None, 1] * s_[None, :]
+        across = -local[:, None, 0] * s_[None, :] + local[:, None, 1] * c[None, :]
+        arc_x = g.turn_radius[None, :] * np.sin(beta)
+        arc_y = np.sign(signed) * g.turn_radius[None, :] * (1.0 - np.cos(beta))
+        left = np.maximum(np.hypot(ahead - arc_x, across - arc_y) - goals.radius[t][:, None], 0.0)    # (m, K)
+        way = self.params.path_weight * (g.turn_radius[None, :] * beta + left)        # (m, K): cost of the way
         with np.errstate(divide='ignore', invalid='ignore'):
             turn = np.where(beta < FACING, 0.0, beta / g.turn_rate[None, :])
             turn = np.where(inside | ~np.isfinite(turn), np.inf, turn)
-            travel = np.maximum(dist - goals.radius[t], 0.0)[:, None] / g.speed[None, :]
+            travel = left[:, :, None] / g.speed[None, None, :]                          # (m, turning, travelling)
         travel = np.where(np.isfinite(travel), travel, np.inf)
         there = dist <= goals.radius[t]
         travel[there], turn[there] = 0.0, 0.0
+        way[there] = 0.0
         total = (g.switch_time[gait][:, :, None] + turn[:, :, None] + g.switch_time[None, :, :]
-                 + travel[:, None, :])                                  # (m, turning gait, travelling gait)
+                 + travel + way[:, :, None])                            # (m, turning gait, travelling gait)
         finish = self._finish(np.abs(wrap_angle(goals.yaw[t] - np.where(dist > goals.radius[t], bearing, pose[:, 2]))),
                               goals.has_yaw[t], goals.final[t])            # (m, travelling gait)
         h = (total + finish[:, None, :]).reshape(len(pose), -1).min(axis=1)

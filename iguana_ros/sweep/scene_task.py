@@ -66,7 +66,7 @@ def scene_identity(scene: Scene, adaptation: bool | None = None) -> dict:
     adapt = scene.adaptation if adaptation is None else bool(adaptation)
     return {'scene': scene.name, 'kind': scene.terrain.kind,
             'terrain': {k: getattr(scene.terrain, k) for k in KIND_FIELDS.get(scene.terrain.kind, ())},
-            'goal': [scene.goals[-1].x, scene.goals[-1].y] if scene.goals else None,
+            'goal': [scene.destination.x, scene.destination.y] if scene.destination else None,
             'resolution': scene.model.resolution, 'duration': scene.duration,
             'adaptation': adapt, 'mode': MODE_NAMES[adapt]}
 
