@@ -266,7 +266,7 @@ class PlannerStage:
             self.arrived = True
             self.events.append(PlannerEvent(frame, 'arrived', f'goal ({current.xy[0]:.2f}, {current.xy[1]:.2f}) '
                                                               f'reached'))
-        resting = self.clip is None or getattr(self.clip.source, 'exit', ANY_GAIT) in (STAND, ANY_GAIT)
+        resting = self.clip is None or getattr(self.clip.source, 'exit_gait', ANY_GAIT) in (STAND, ANY_GAIT)
         self.settled = stride_end and resting
 
     def choose(self, pose: np.ndarray) -> str:
@@ -327,7 +327,7 @@ class PlannerStage:
             return None
         table = self.planner.table
         slow = [table.gaits.names.index(g) for g in (STAND, 'walk', ANY_GAIT) if g in table.gaits.names]
-        return np.isin(table.exit, slow) | ~np.isin(table.entry, slow)
+        return np.isin(table.exit_gait, slow) | ~np.isin(table.entry_gait, slow)
 
     def status(self) -> PlannerStatus:
         """Return where the planner is (see PlannerStatus), from the last stride end's pose."""

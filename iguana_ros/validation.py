@@ -26,13 +26,15 @@ frames that fit the skeleton, frame stamps at most MAX_FRAME_GAP ahead.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
 from iguana_ros.constants import (BONE_LENGTH_TOLERANCE, DESIRED_LENGTH_FACTOR, DESIRED_STRAIN_RMS, MAX_FRAME_GAP,
                                   MAX_PUSH_IMPULSE, QUATERNION_NORM_TOLERANCE, WORLD_MARGIN)
 from iguana_ros.errors import InputError
-from iguana_ros.scene import MAX_PUSH_FORCE
+from iguana_ros.geometry import yaw_of
+from iguana_ros.scene import MAX_PUSH_FORCE, MAX_WAYPOINTS
 
 FRAME_STALE, FRAME_REPEAT, FRAME_NEW = 'stale', 'repeat', 'new'
 """Outcomes of `check_frame`: older than the last frame handled, the same frame again, a newer frame."""
@@ -95,21 +97,71 @@ def check_frame(what: str, frame: int, last_frame: int) -> str:
 
 # ----------------------------------------------------------------------------------------- per topic payload
 
-def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_extent: float) -> tuple:
-    """
-    goal_pose.
+GOAL_QUATERNION_TOLERANCE = 0.01
+"""Largest |norm - 1| of a goal's orientation (a user's message: RViz2, a script); it is normalised before use."""
 
-    ((x, y) `(2,)`, adoption time s) of a goal at `position` `(3,)`, `orientation` `(4,)` stamped `at` s, on a terrain
-    reaching `half_extent` m from the origin; InputError if non-finite, off the terrain, or stamped before 0.
+
+class GoalRequest(NamedTuple):
+    """A goal from goal_pose: position `(2,)` m, adoption time s, heading rad (None: any)."""
+
+    xy: np.ndarray
+    at: float
+    yaw: float | None
+
+
+class RouteRequest(NamedTuple):
+    """A route from the route topic: waypoints ((x, y, yaw or None), ...) m and rad, the last's yaw only, and the
+    adoption time s."""
+
+    waypoints: tuple
+    at: float
+
+
+def goal_heading(orientation: np.ndarray) -> float | None:
+    """
+    Heading (rad) asked by a goal orientation `(4,)` xyzw: its yaw; None for the all-zero quaternion (no heading).
+
+    InputError unless it is finite and of unit norm within GOAL_QUATERNION_TOLERANCE.
+    """
+    q = validate_array('goal orientation', orientation, (4,))
+    norm = float(np.linalg.norm(q))
+    if norm == 0.0:
+        return None
+    if abs(norm - 1.0) > GOAL_QUATERNION_TOLERANCE:
+        raise InputError(f'goal orientation has norm {norm:.6g}; expected a unit quaternion (all zeros: no heading)')
+    return float(yaw_of(q / norm))
+
+
+def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_extent: float) -> GoalRequest:
+    """
+    goal_pose: the GoalRequest of a goal at `position` `(3,)`, `orientation` `(4,)` stamped `at` s.
+
+    On a terrain reaching `half_extent` m from the origin; InputError if non-finite, off the terrain, stamped before 0,
+    or of an orientation that is neither a unit quaternion nor all zeros (`goal_heading`).
     """
     position = validate_array('goal position', position, (3,))
-    validate_array('goal orientation', orientation, (4,))
+    yaw = goal_heading(orientation)
     xy = position[:2]
     if np.any(np.abs(xy) > half_extent):
         raise InputError(f'goal ({xy[0]:.6g}, {xy[1]:.6g}) is off the terrain (|x|, |y| <= {half_extent:g} m)')
     if not at >= 0.0:
         raise InputError(f'goal stamp is {at:g} s; expected a simulated time >= 0 (0 = at the next stride)')
-    return xy, float(at)
+    return GoalRequest(xy, float(at), yaw)
+
+
+def check_route(positions: np.ndarray, orientations: np.ndarray, at: float, half_extent: float) -> RouteRequest:
+    """
+    route: the RouteRequest of waypoints at `positions (k, 3)` with `orientations (k, 4)` stamped `at` s.
+
+    1..MAX_WAYPOINTS waypoints, each checked as a goal (`check_goal`); only the last one's heading is kept.
+    """
+    positions = validate_array('route positions', positions, (None, 3))
+    if not 1 <= len(positions) <= MAX_WAYPOINTS:
+        raise InputError(f'route has {len(positions)} waypoints, expected 1 to {MAX_WAYPOINTS}')
+    goals = [check_goal(p, q, at, half_extent) for p, q in zip(positions, np.asarray(orientations))]
+    waypoints = tuple((float(g.xy[0]), float(g.xy[1]), g.yaw if k == len(goals) - 1 else None)
+                      for k, g in enumerate(goals))
+    return RouteRequest(waypoints, float(at))
 
 
 def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.ndarray:

@@ -74,13 +74,14 @@ def test_turns_toward_a_goal_on_the_left():
     """
     Goal 1.5 m to the left.
 
-    The planner picks left turns and the body's stride-averaged heading follows (measured ~8 deg per stride, the clip
-    turns 15.7 deg; the pelvis also yaws +-12 deg within a stride).
+    The planner picks left turns (on the spot: the goal is inside the trot's turning circle) and the body's
+    stride-averaged heading follows (the pelvis also yaws +-12 deg within a stride).
     """
-    scene = _coarse('flat_walk', duration=3.0, goals=(GoalSpec(x=0.0, y=1.5),))
+    scene = _coarse('flat_walk', duration=6.0, goals=(GoalSpec(x=0.0, y=1.5),))
     result = run(scene)
     yaw = np.unwrap(yaw_of(result.root_orientations))
-    assert any(name == 'turn_left' for _, name in result.clip_history)
+    assert any(name in ('turn_left', 'pivot_left', 'sharp_left') for _, name in result.clip_history)
+    assert not any(name.endswith('_right') for _, name in result.clip_history)
     stride = 20                                                 # frames per clip
     assert yaw[-stride:].mean() - yaw[:stride].mean() > np.radians(15.0)
-    assert result.root_positions[-1, 1] > result.root_positions[0, 1] + 0.05
+    assert result.root_positions[-1, 1] > result.root_positions[0, 1] + 0.2

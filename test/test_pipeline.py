@@ -29,15 +29,15 @@ def _synthetic_library(n=12):
     """Two tiny clips on the real skeleton: standing still and a lateral trunk wiggle."""
     sk = iguana_skeleton()
 
-    def clip(name, bend):
+    def clip(name, bend, step):
         local = quat_identity((n, sk.n_bones))
         t = np.arange(n) / (n - 1)
         for i in range(1, 6):
             local[:, sk.index(f'spine_{i}')] = quat_from_yaw(bend * np.sin(2 * np.pi * t))
         return SimpleNamespace(name=name, root_positions=np.tile(sk.offsets[0], (n, 1)),
                                local_rotations=local, contacts=np.ones((n, 4), bool),
-                               root_displacement=np.array([0.05, 0.0]), heading_change=0.0)
-    return {'idle': clip('idle', 0.0), 'wiggle': clip('wiggle', 0.15)}
+                               root_displacement=np.array([step, 0.0]), heading_change=0.0)
+    return {'idle': clip('idle', 0.0, 0.0), 'wiggle': clip('wiggle', 0.15, 0.05)}
 
 
 @pytest.fixture(scope='module')
@@ -93,12 +93,12 @@ def test_stride_lookahead_on_a_thread_equals_frames_computed_on_demand():
     three strides with adaptation on.
     """
     scene = parse_scene({'terrain': {'kind': 'hills', 'amplitude': 0.08}, 'model': {'resolution': 'coarse'},
-                         'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 1.0}, 'test')
+                         'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 2.5}, 'test')
     runs = []
     for threaded in (True, False):
         pipe = pipeline.build_pipeline(scene, lookahead=threaded)
         try:
-            frames = [pipe.step() for _ in range(45)]
+            frames = [pipe.step() for _ in range(70)]
         finally:
             pipe.close()
         runs.append((frames, pipe.simulator.sim.positions.copy(), list(pipe.planner.history)))
@@ -121,7 +121,7 @@ def test_a_strides_first_frame_is_computed_by_the_caller_and_calls_never_overlap
     import time
     from iguana_ros.stages import StrideLookahead
     scene = parse_scene({'terrain': {'kind': 'hills', 'amplitude': 0.08}, 'model': {'resolution': 'coarse'},
-                         'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 1.0}, 'test')
+                         'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 2.5}, 'test')
     pipe = pipeline.build_pipeline(scene, lookahead=False)
     try:
         pipe.step()

@@ -43,8 +43,10 @@ def test_blend_frames_default_is_the_declared_parameter_and_build_pipeline_honou
 
 
 def test_goal_radius_zero_means_the_scenes():
-    assert stages.planner_stage(_scene()).params.goal_radius == 0.3
-    assert stages.planner_stage(_scene(), goal_radius=0.5).params.goal_radius == 0.5
+    assert stages.planner_stage(_scene()).goal_radius == 0.3
+    assert stages.planner_stage(_scene(), goal_radius=0.5).goal_radius == 0.5
+    assert stages.planner_stage(_scene()).yaw_tolerance == pytest.approx(np.radians(30.0))
+    assert stages.planner_stage(_scene(), yaw_tolerance=0.2).yaw_tolerance == 0.2
 
 
 def test_a_goal_stamped_by_a_wall_clock_is_adopted_now():

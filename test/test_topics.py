@@ -21,8 +21,9 @@ DESIGN_KEYS = {'goal_pose', 'motion_clip', 'reference_pose', 'spring_rest_length
                'mesh_marker', 'scene_markers', 'push', 'clock'}
 PROBE_KEYS = {'foot_state', 'foot_positions', 'reference_stance'}
 """Per-frame gait probes the run summary reads from the bag."""
-CONFIRM_KEYS = {'accepted_goals'}
-"""The planner's latched echo of the goals it accepted (iguana goal and iguana run wait for it)."""
+CONFIRM_KEYS = {'accepted_goals', 'route', 'planner_status'}
+"""The planner's latched echo of the goals it accepted (iguana goal and iguana run wait for it), the route it follows
+and where it is on it (the commander's feedback)."""
 EVENT_KEYS = {'run_events'}
 """What the node processes report about themselves (start-up milestones, clips) for iguana run's progress."""
 DOCTOR_KEYS = {'doctor_ping', 'doctor_pong'}

@@ -25,7 +25,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         'goal', help='send a walking goal (geometry_msgs/PoseStamped) once and wait until the planner accepts it')
     parser.add_argument('x', type=float, help='goal x in the frame, m')
     parser.add_argument('y', type=float, help='goal y in the frame, m')
-    parser.add_argument('--yaw', type=float, default=0.0, metavar='DEG', help='heading about +z, degrees')
+    parser.add_argument('--yaw', type=float, default=None, metavar='DEG',
+                        help='heading to arrive in, degrees about +z (honoured within the planner\'s yaw tolerance; '
+                             'default: any heading)')
     parser.add_argument('--frame', default=None, help='frame_id (default: the world frame)')
     parser.add_argument('--at', type=float, default=0.0, metavar='S',
                         help='simulated time at which the planner adopts the goal (default 0: at once)')
@@ -39,7 +41,7 @@ def _check_finite(args: argparse.Namespace) -> None:
     from iguana_ros.errors import InputError
     for name in ('x', 'y', 'yaw', 'at'):
         value = getattr(args, name)
-        if not math.isfinite(value):
+        if value is not None and not math.isfinite(value):
             raise InputError(f'goal {name} is {value}; expected a finite number')
     if not (args.timeout > 0 and math.isfinite(args.timeout)):
         raise InputError(f'--timeout is {args.timeout}; expected a positive number of seconds')
@@ -59,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
 
     msg = goal_message(args.x, args.y, args.yaw, args.at, args.frame or WORLD_FRAME)
     delivery = send_goals([msg], min_subscribers=1, timeout=args.timeout)
-    print(f'goal accepted by the planner on {delivery.topic}: x={args.x:g} y={args.y:g} yaw={args.yaw:g} deg '
+    heading = 'any heading' if args.yaw is None else f'yaw={args.yaw:g} deg'
+    print(f'goal accepted by the planner on {delivery.topic}: x={args.x:g} y={args.y:g} {heading} '
           f'frame={msg.header.frame_id} ({delivery.subscribers} subscribers acknowledged)', flush=True)
     return 0

@@ -45,15 +45,15 @@ class ClipSource:
     Where a clip is cut from, and the gaits it starts and ends in (the motion graph's edges).
 
     `cut` says which stride of take `take`: 'middle' (the full stride nearest the middle), 'rest' (a stand of a stride
-    of gait `exit`, in the middle of the take), 'from_rest' (from the frame at `at` s, when the take starts stepping, to
-    the first touchdown a stride of the `exit` gait later), 'to_rest' (the stride of gait `entry` from the touchdown
+    of gait `exit_gait`, in the middle of the take), 'from_rest' (from the frame at `at` s, when the take starts stepping, to
+    the first touchdown a stride of the `exit_gait` gait later), 'to_rest' (the stride of gait `entry_gait` from the touchdown
     nearest `at` s, when it stops), 'across' (the stride in which the take's gait changes, the one holding `at` s).
     """
 
     take: str
     cut: str = 'middle'
-    entry: str = 'trot'
-    exit: str = 'trot'
+    entry_gait: str = 'trot'
+    exit_gait: str = 'trot'
     at: float = 0.0
 
     @property
@@ -65,14 +65,14 @@ class ClipSource:
 CLIP_SOURCES = {
     'forward': ClipSource('trot_straight'), 'turn_left': ClipSource('trot_turn_left'),
     'turn_right': ClipSource('trot_turn_right'), 'idle': ClipSource('stand', 'rest', 'stand', 'stand'),
-    'walk': ClipSource('walk_straight', entry='walk', exit='walk'),
-    'pivot_left': ClipSource('pivot_left', entry='walk', exit='walk'),
-    'pivot_right': ClipSource('pivot_right', entry='walk', exit='walk'),
-    'sharp_left': ClipSource('walk_sharp_left', entry='walk', exit='walk'),
-    'sharp_right': ClipSource('walk_sharp_right', entry='walk', exit='walk'),
-    'fast': ClipSource('trot_fast', entry='fast', exit='fast'),
-    'fast_left': ClipSource('trot_fast_left', entry='fast', exit='fast'),
-    'fast_right': ClipSource('trot_fast_right', entry='fast', exit='fast'),
+    'walk': ClipSource('walk_straight', entry_gait='walk', exit_gait='walk'),
+    'pivot_left': ClipSource('pivot_left', entry_gait='walk', exit_gait='walk'),
+    'pivot_right': ClipSource('pivot_right', entry_gait='walk', exit_gait='walk'),
+    'sharp_left': ClipSource('walk_sharp_left', entry_gait='walk', exit_gait='walk'),
+    'sharp_right': ClipSource('walk_sharp_right', entry_gait='walk', exit_gait='walk'),
+    'fast': ClipSource('trot_fast', entry_gait='fast', exit_gait='fast'),
+    'fast_left': ClipSource('trot_fast_left', entry_gait='fast', exit_gait='fast'),
+    'fast_right': ClipSource('trot_fast_right', entry_gait='fast', exit_gait='fast'),
     'start': ClipSource('stand_walk_stand', 'from_rest', 'stand', 'walk', 2.0 / GAITS['walk'][0]),
     'stop': ClipSource('stand_walk_stand', 'to_rest', 'walk', 'stand', 6.0 / GAITS['walk'][0]),
     'walk_to_trot': ClipSource('gait_changes', 'across', 'walk', 'trot', 2.9),
@@ -166,15 +166,15 @@ def source_frames(result: TakeResult, source: ClipSource) -> tuple:
         gait = take_gait(source.take)
         return middle_stride(result, nominal_frames(gait, rate), GAITS[gait][1])
     if source.cut == 'rest':
-        nominal = nominal_frames(source.exit, rate)
+        nominal = nominal_frames(source.exit_gait, rate)
         start = (len(result.contacts) - nominal) // 2
         return start, start + nominal
     if source.cut == 'from_rest':
-        later = b[b >= at + nominal_frames(source.exit, rate) // 2]
+        later = b[b >= at + nominal_frames(source.exit_gait, rate) // 2]
         return at, _first(later, result, source)
     if source.cut == 'to_rest':
         start = int(b[np.argmin(np.abs(b - at))]) if len(b) else -1
-        return start, start + nominal_frames(source.entry, rate)
+        return start, start + nominal_frames(source.entry_gait, rate)
     holding = [(int(s), int(e)) for s, e in zip(b[:-1], b[1:]) if s <= at < e]
     if not holding:
         raise IguanaError(f'take {result.name}: no stride holds frame {at} (touchdowns {b.tolist()})')
@@ -196,8 +196,8 @@ def cut_library(results: dict, model: BodyModel | None = None) -> dict:
         result = results[source.take]
         start, end = source_frames(result, source)
         clips[name] = cut_clip(name, result.ik.theta, result.contacts, start, end, result.frame_rate,
-                               source=source.take, model=model, cyclic=source.cyclic, entry=source.entry,
-                               exit=source.exit)
+                               source=source.take, model=model, cyclic=source.cyclic, entry_gait=source.entry_gait,
+                               exit_gait=source.exit_gait)
     return clips
 
 

@@ -21,7 +21,7 @@ to (so playing a clip advances N frames). Poses are in a canonical frame: frame 
 facing +x (its yaw is zero; heights kept). Clips are cyclic-ready: frame N equals frame 0 moved by
 (`root_displacement`, `heading_change`), and the last frames are blended so velocity is continuous across the
 seam. A transition clip (start, stop, a change of gait) is not cyclic: its first pose is of the gait it leaves
-(`entry`), its last of the gait it enters (`exit`), and the motion graph lets it follow only clips that end in its
+(`entry_gait`), its last of the gait it enters (`exit_gait`), and the motion graph lets it follow only clips that end in its
 entry gait. Foot order everywhere: fl, fr, hl, hr.
 """
 from __future__ import annotations
@@ -57,7 +57,7 @@ class Clip:
     entries keep stance soles flat, `motion.cleanup.flat_soles`), contacts `(N+1, 4)`, per-stride
     `root_displacement (2,)` (m, start heading frame) and `heading_change` (rad), `residual_heights` {'feet':
     `(N+1, 4)`, 'tail_tip': `(N+1,)`} (m above the capture floor, Section VI-A), `duty_factor`, `stride_length` (m),
-    active DOFs `theta (N+1, n_dof)`; the gait it starts in (`entry`) and ends in (`exit`), and whether it is cyclic
+    active DOFs `theta (N+1, n_dof)`; the gait it starts in (`entry_gait`) and ends in (`exit_gait`), and whether it is cyclic
     (frame N = frame 0 moved by the stride) or a transition.
     """
 
@@ -74,8 +74,8 @@ class Clip:
     theta: np.ndarray
     source: str = ''
     metadata: dict = field(default_factory=dict)
-    entry: str = ANY_GAIT
-    exit: str = ANY_GAIT
+    entry_gait: str = ANY_GAIT
+    exit_gait: str = ANY_GAIT
     cyclic: bool = True
 
     @property
@@ -131,7 +131,7 @@ def canonical(theta: np.ndarray, dofs) -> np.ndarray:
 
 def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_rate: float = FRAME_RATE,
                     source: str = '', model: BodyModel | None = None, metadata: dict | None = None,
-                    entry: str = ANY_GAIT, exit: str = ANY_GAIT, cyclic: bool = True) -> Clip:
+                    entry_gait: str = ANY_GAIT, exit_gait: str = ANY_GAIT, cyclic: bool = True) -> Clip:
     """Return a Clip from canonical poses `theta (N+1, n_dof)` (cyclic unless `cyclic` is False), contacts `(N+1, 4)`."""
     model = model or iguana_body_model()
     d = model.dofs
@@ -156,16 +156,18 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
                 root_displacement=displacement, heading_change=turn,
                 residual_heights=heights, duty_factor=float(contacts[:-1].mean()),
                 stride_length=float(np.hypot(*displacement)), theta=theta, source=source,
-                metadata=dict(metadata or {}), entry=str(entry), exit=str(exit), cyclic=bool(cyclic))
+                metadata=dict(metadata or {}), entry_gait=str(entry_gait), exit_gait=str(exit_gait),
+                cyclic=bool(cyclic))
 
 
 def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end: int,
              frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None,
-             clean: bool = True, cyclic: bool = True, entry: str = ANY_GAIT, exit: str = ANY_GAIT) -> Clip:
+             clean: bool = True, cyclic: bool = True, entry_gait: str = ANY_GAIT,
+             exit_gait: str = ANY_GAIT) -> Clip:
     """
     Return the canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`).
 
-    Cyclic-ready unless `cyclic` is False (a transition from gait `entry` to gait `exit`: cut as it is, cleaned in a
+    Cyclic-ready unless `cyclic` is False (a transition from gait `entry_gait` to gait `exit_gait`: cut as it is, cleaned in a
     window of a stride more of the take on each side). With `clean`, its tail rests on the floor and its stance feet
     are planted on it with swings lifted (`motion.cleanup`).
     """
@@ -181,7 +183,7 @@ def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end
     else:
         segment, clip_contacts = _transition_segment(theta, contacts, start, end, model, clean)
     return clip_from_theta(name, segment, clip_contacts, frame_rate, source, model,
-                           {'start_frame': int(start), 'end_frame': int(end)}, entry, exit, cyclic)
+                           {'start_frame': int(start), 'end_frame': int(end)}, entry_gait, exit_gait, cyclic)
 
 
 def _transition_segment(theta: np.ndarray, contacts: np.ndarray, start: int, end: int, model: BodyModel,
@@ -225,7 +227,7 @@ def save_clip_library(path: str | Path, clips: dict, extra: dict | None = None) 
         arrays[f'clip/{name}/source'] = np.array(clip.source)
         arrays[f'clip/{name}/frames'] = np.array([clip.metadata.get('start_frame', -1),
                                                   clip.metadata.get('end_frame', -1)])
-        arrays[f'clip/{name}/gaits'] = np.array([clip.entry, clip.exit])
+        arrays[f'clip/{name}/gaits'] = np.array([clip.entry_gait, clip.exit_gait])
         arrays[f'clip/{name}/cyclic'] = np.array(clip.cyclic)
     arrays.update(extra or {})
     np.savez_compressed(path, **arrays)
@@ -253,7 +255,8 @@ def load_clip_library(path: str | Path | None = None) -> dict:
             library[name] = clip_from_theta(
                 name, data[f'clip/{name}/theta'], data[f'clip/{name}/contacts'],
                 float(data[f'clip/{name}/frame_rate']), str(data[f'clip/{name}/source']),
-                metadata={'start_frame': start, 'end_frame': end}, entry=str(gaits[0]), exit=str(gaits[1]),
+                metadata={'start_frame': start, 'end_frame': end}, entry_gait=str(gaits[0]),
+                exit_gait=str(gaits[1]),
                 cyclic=bool(data.get(f'clip/{name}/cyclic', True)))
     return library
 

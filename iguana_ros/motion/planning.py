@@ -131,7 +131,7 @@ class ClipTable:
     The clips as the search sees them, arrays over the `names` (n clips).
 
     `duration (n,)` s; achieved stride motion on level ground `level (n, 3)` and its gain per unit gradient
-    `slope_gain (n, 3, 2)`; `entry`, `exit (n,)` gait indices; `successors (n + 1, n)`: which clip may follow which
+    `slope_gain (n, 3, 2)`; `entry_gait`, `exit_gait (n,)` gait indices; `successors (n + 1, n)`: which clip may follow which
     (the last row: from rest, before any clip); `gaits` the per-gait figures of the cost-to-go; `carry` the fraction of
     the previous stride's excess heading change a stride carries over (`motion.tracking.LibraryTracking`).
     """
@@ -140,8 +140,8 @@ class ClipTable:
     duration: np.ndarray
     level: np.ndarray
     slope_gain: np.ndarray
-    entry: np.ndarray
-    exit: np.ndarray
+    entry_gait: np.ndarray
+    exit_gait: np.ndarray
     successors: np.ndarray
     gaits: GaitTable
     carry: float = 0.0
@@ -153,8 +153,8 @@ class ClipTable:
 
 def may_follow(first, second) -> bool:
     """Whether clip `second` may follow clip `first` (None: from rest): their gaits meet, or either is any gait."""
-    exit_gait = STAND if first is None else getattr(first, 'exit', ANY_GAIT)
-    entry_gait = getattr(second, 'entry', ANY_GAIT)
+    exit_gait = STAND if first is None else getattr(first, 'exit_gait', ANY_GAIT)
+    entry_gait = getattr(second, 'entry_gait', ANY_GAIT)
     return ANY_GAIT in (exit_gait, entry_gait) or exit_gait == entry_gait
 
 
@@ -165,8 +165,8 @@ def clip_table(clips: dict, tracking: dict | None = None, carry: float = 0.0) ->
     """
     tracking = tracking or {}
     names = tuple(clips)
-    entries = [getattr(clips[n], 'entry', ANY_GAIT) for n in names]
-    exits = [getattr(clips[n], 'exit', ANY_GAIT) for n in names]
+    entries = [getattr(clips[n], 'entry_gait', ANY_GAIT) for n in names]
+    exits = [getattr(clips[n], 'exit_gait', ANY_GAIT) for n in names]
     gaits = tuple(dict.fromkeys([STAND] + entries + exits))
     duration = np.array([(len(clips[n].root_positions) - 1) / getattr(clips[n], 'frame_rate', FRAME_RATE)
                          for n in names])
@@ -216,7 +216,7 @@ def rest_steps(table: ClipTable) -> np.ndarray:
     `successors` (a clip just played, or rest itself: the idle clip); -1 where none leads there.
     """
     n, stand = len(table.names), table.gaits.names.index(STAND)
-    to_rest = np.where(table.exit == stand, 0.0, np.inf)       # s after a clip ends until the body rests
+    to_rest = np.where(table.exit_gait == stand, 0.0, np.inf)       # s after a clip ends until the body rests
     for _ in range(n):
         via = np.where(table.successors[:n], table.duration[None, :] + to_rest[None, :], np.inf)
         to_rest = np.minimum(to_rest, via.min(axis=1))
@@ -280,8 +280,8 @@ class MotionPlanner:
         """Start with no correction; note which clips bring the body to rest."""
         if self.correction is None:
             self.correction = np.zeros((len(self.table.names), 3))
-        resting = [self.table.gaits.names.index(g) for g in (STAND, ANY_GAIT) if g in self.table.gaits.names]
-        self._resting = np.isin(self.table.exit, resting)
+        self._rest_gaits = [self.table.gaits.names.index(g) for g in (STAND, ANY_GAIT) if g in self.table.gaits.names]
+        self._resting = np.isin(self.table.exit_gait, self._rest_gaits)
 
     # ---------------------------------------------------------------------------------------------- prediction
     def gradient(self, pose: np.ndarray) -> np.ndarray:
@@ -382,7 +382,7 @@ class MotionPlanner:
         hit = _arrives(start, end, target, goals, self._resting[clips])
         arrived = hit & goals.final[target]
         target[hit & ~arrived] += 1                          # a waypoint passed: head for the next target
-        estimate = cost + np.where(arrived, 0.0, self.heuristic(end, table.exit[clips], target, goals))
+        estimate = cost + np.where(arrived, 0.0, self.heuristic(end, table.exit_gait[clips], target, goals))
         return _Level(end, motion[:, 2], clips, target, cost, estimate, parents, arrived), arrived
 
     def _step_cost(self, start: np.ndarray, end: np.ndarray) -> np.ndarray:
@@ -446,12 +446,11 @@ class MotionPlanner:
         by `yaw_error (m,)` rad if a heading is asked (`has_yaw (m,)`), change to the stand gait; 0 at a waypoint.
         """
         g = self.table.gaits
-        stand = g.names.index(STAND)
-        with np.errstate(divide='ignore', invalid='ignore'):
-            turning = np.where(g.turn_rate > 0, 1.0 / g.turn_rate, np.inf)
-        turn = np.where(has_yaw[:, None], yaw_error[:, None] * turning[None, :], 0.0)           # (m, turning gait)
-        via = g.switch_time[None, :, :] + turn[:, None, :] + g.switch_time[None, :, stand][:, None, :]
-        finish = np.minimum(via.min(axis=2), np.where(has_yaw[:, None], np.inf, g.switch_time[None, :, stand]))
+        to_rest = g.switch_time[:, self._rest_gaits].min(axis=1)        # (K,): from each gait to a resting one
+        rate = np.where(g.turn_rate > 0, g.turn_rate, 1e-9)           # a gait that cannot turn takes for ever
+        turn = np.where(has_yaw[:, None], yaw_error[:, None] / rate[None, :], 0.0)               # (m, turning gait)
+        via = g.switch_time[None, :, :] + turn[:, None, :] + to_rest[None, None, :]
+        finish = np.minimum(via.min(axis=2), np.where(has_yaw[:, None], np.inf, to_rest[None, :]))
         return np.where(final[:, None], finish, 0.0)
 
     def _backtrack(self, levels: list, best: tuple, pose: np.ndarray) -> Plan:

@@ -18,14 +18,18 @@ Driving a running iguana_ros system from Python, in the style of nav2_simple_com
     from iguana_ros.nodes.commander import IguanaCommander
 
     with IguanaCommander() as iguana:          # joins the ROS graph of ROS_DOMAIN_ID
-        iguana.go_to(2.0, 0.5, yaw=0.0)        # returns once the planner accepted the goal
+        iguana.go_to(2.0, 0.5, yaw=0.0)        # returns once the planner accepted the goal (yaw=None: any heading)
         if iguana.wait_until_reached(timeout=60.0):
             print('reached at', iguana.state().time, 's simulated')
+        iguana.follow_waypoints([(1.0, 0.0), (1.0, 1.0), (0.0, 1.0)])
+        while not iguana.wait_until_reached(timeout=1.0):
+            print('heading for waypoint', iguana.feedback().waypoint)
         sent = iguana.push('trunk_left', (0.0, -40.0, 0.0), duration=0.1)
         print(max(abs(s.linear_velocity[1]) for s in iguana.states_since(sent)))
 
 The commander is an rclpy node of its own (its own context, so it can live beside other nodes of the same
-process). Goals go out like `iguana goal`'s (`publish_goals`: the planner must list them on `accepted_goals`);
+process). Goals and routes go out like `iguana goal`'s (`publish_goals`: the planner must list them on
+`accepted_goals`); the planner's `planner_status` is the feedback (state, current waypoint, distance, heading error);
 a push is a WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`.
 """
 from __future__ import annotations
@@ -43,8 +47,9 @@ from rclpy.signals import SignalHandlerOptions
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import yaw_of
-from iguana_ros.nodes.goal_sender import goal_message, publish_goals, wait_spinning
+from iguana_ros.nodes.goal_sender import goal_message, publish_goals, route_message, wait_spinning
 from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_msg
+from iguana_ros.ros.messages import planner_status_from_msg
 from iguana_ros.ros.endpoints import resolve
 from iguana_ros.scene import Scene
 
@@ -75,6 +80,25 @@ class IguanaState:
         return float(yaw_of(self.orientation))
 
 
+@dataclass(frozen=True)
+class Feedback:
+    """
+    The planner's latest planner_status: `state` ('idle', 'walking', 'recovering', 'arrived'), the index of the
+    waypoint it heads for and how many the goal or route has, the distance m to it and the heading error rad, the
+    recovery level, how many goals and routes it has accepted, the stride end's frame and simulated time s.
+    """
+
+    state: str
+    waypoint: int
+    waypoints: int
+    distance: float
+    heading_error: float
+    recovery: int
+    goals: int
+    frame: int
+    time: float
+
+
 class IguanaCommander:
     """Send goals and pushes to a running system and read its state (see the module docstring)."""
 
@@ -87,10 +111,15 @@ class IguanaCommander:
         self.goal_radius = float(goal_radius if goal_radius is not None else Scene.__dataclass_fields__[
             'goal_radius'].default)
         self.goal: np.ndarray | None = None
+        self._planner_decides = False
+        self._request = 0
+        self._feedback: Feedback | None = None
         self._state: IguanaState | None = None
         self._history: deque[IguanaState] = deque(maxlen=HISTORY_LENGTH)
         name, cls, qos = resolve('iguana_state')
         self.node.create_subscription(cls, name, self._on_state, qos)
+        name, cls, qos = resolve('planner_status')
+        self.node.create_subscription(cls, name, self._on_status, qos)
         name, cls, qos = resolve('push')
         self._push_pub = self.node.create_publisher(cls, name, qos)
         self._push_duration: float | None = None
@@ -113,21 +142,64 @@ class IguanaCommander:
         self._state = IguanaState(time_from_msg(msg.header.stamp), position, orientation, linear, angular)
         self._history.append(self._state)
 
+    def _on_status(self, msg) -> None:
+        """Keep the latest planner_status (a malformed one is ignored)."""
+        try:
+            self._feedback = Feedback(**planner_status_from_msg(msg))
+        except (IguanaError, TypeError):
+            pass
+
     def _spin_until(self, condition, timeout: float, failure: str) -> None:
         """Spin until `condition()`; IguanaError(`failure`) after `timeout` wall seconds."""
         wait_spinning(condition, self.node, timeout, lambda: None, lambda: failure)
 
-    def go_to(self, x: float, y: float, yaw: float = 0.0, timeout: float = 10.0, frame_id: str = WORLD_FRAME) -> None:
+    def go_to(self, x: float, y: float, yaw: float | None = None, timeout: float = 10.0,
+              frame_id: str = WORLD_FRAME) -> None:
         """
-        Send a goal at (x, y) m heading `yaw` rad.
+        Send a goal at (x, y) m, to arrive heading `yaw` rad (None: any heading).
 
         Returns once the planner accepted it (IguanaError if it rejects it, e.g. off the terrain, or no planner answers
         within `timeout` s).
         """
-        if not all(math.isfinite(v) for v in (x, y, yaw)):
+        if not all(math.isfinite(v) for v in (x, y, 0.0 if yaw is None else yaw)):
             raise IguanaError(f'goal ({x}, {y}, yaw {yaw}) is not finite')
-        publish_goals(self.node, [goal_message(x, y, math.degrees(yaw), frame_id=frame_id)], timeout=timeout)
-        self.goal = np.array([x, y], dtype=float)
+        self._send([goal_message(x, y, None if yaw is None else math.degrees(yaw), frame_id=frame_id)], 'goal_pose',
+                   timeout)
+        self.goal, self._planner_decides = np.array([x, y], dtype=float), yaw is not None
+
+    def follow_waypoints(self, waypoints: list, yaw: float | None = None, timeout: float = 10.0,
+                         frame_id: str = WORLD_FRAME) -> None:
+        """
+        Send a route through `waypoints` ((x, y) m, passed in order), arriving at the last heading `yaw` rad (None:
+        any); returns once the planner accepted it. `feedback().waypoint` is the index of the waypoint it heads for.
+        """
+        points = [(float(x), float(y)) for x, y in waypoints]
+        if not points or not all(math.isfinite(v) for p in points for v in p) or \
+                (yaw is not None and not math.isfinite(yaw)):
+            raise IguanaError(f'route {waypoints!r} (yaw {yaw}) needs one or more finite waypoints')
+        self._send([route_message(points, None if yaw is None else math.degrees(yaw), frame_id=frame_id)], 'route',
+                   timeout)
+        self.goal, self._planner_decides = np.array(points[-1]), True
+
+    def _send(self, messages: list, topic_key: str, timeout: float) -> None:
+        """Publish a goal or route once the planner listens and wait until it accepted it; note its request number."""
+        self._spin_until(lambda: self._feedback is not None, timeout,
+                         f'no planner_status within {timeout:g} s; is planner_node running on this ROS_DOMAIN_ID?')
+        before = self._feedback.goals
+        publish_goals(self.node, messages, timeout=timeout, topic_key=topic_key)
+        self._request = before + 1
+
+    def feedback(self, timeout: float = 5.0) -> Feedback:
+        """Return the planner's latest status (spins briefly for news); IguanaError if there has been none."""
+        seen = self._feedback
+        try:
+            self._spin_until(lambda: self._feedback is not seen, min(timeout, 0.1), '')
+        except IguanaError:
+            pass
+        if self._feedback is None:
+            self._spin_until(lambda: self._feedback is not None, timeout,
+                             f'no planner_status within {timeout:g} s; is planner_node running?')
+        return self._feedback
 
     def distance_to_goal(self) -> float:
         """Horizontal distance m from the root to the last goal sent (nan before a goal and a state)."""
@@ -135,12 +207,24 @@ class IguanaCommander:
             return float('nan')
         return float(np.hypot(*(self._state.position[:2] - self.goal)))
 
+    def arrived(self) -> bool:
+        """Whether the planner reports the last goal or route done (the body at rest there, facing its heading)."""
+        fb = self._feedback
+        return fb is not None and fb.goals >= self._request and fb.state == 'arrived'
+
     def wait_until_reached(self, timeout: float) -> bool:
-        """Spin until the root is within goal_radius of the last goal (True) or `timeout` wall seconds pass."""
+        """
+        Spin until the last goal is reached (True) or `timeout` wall seconds pass (False).
+
+        A goal without a heading: the root within goal_radius of it; a goal with a heading or a route: the planner
+        reports it done (`arrived`).
+        """
         if self.goal is None:
-            raise IguanaError('wait_until_reached: no goal sent yet (call go_to first)')
+            raise IguanaError('wait_until_reached: no goal sent yet (call go_to or follow_waypoints first)')
+        def reached() -> bool:
+            return self.arrived() or (not self._planner_decides and self.distance_to_goal() < self.goal_radius)
         try:
-            self._spin_until(lambda: self.distance_to_goal() < self.goal_radius, timeout, 'not reached')
+            self._spin_until(reached, timeout, 'not reached')
         except IguanaError:
             return False
         return True

@@ -52,9 +52,29 @@ class GoalDelivery(NamedTuple):
     subscribers: int
 
 
-def goal_message(x: float, y: float, yaw_deg: float = 0.0, at: float = 0.0, frame_id: str = WORLD_FRAME):
-    """`PoseStamped` goal at (x, y) heading `yaw_deg`, stamped `at` s of simulated time (0 = at once)."""
-    return pose_stamped_msg([x, y, 0.0], quat_from_yaw(math.radians(yaw_deg)), stamp=at, frame_id=frame_id)
+NO_HEADING = (0.0, 0.0, 0.0, 0.0)
+"""The orientation of a goal that asks for no heading (all zeros: not a rotation)."""
+
+
+def goal_message(x: float, y: float, yaw_deg: float | None = None, at: float = 0.0, frame_id: str = WORLD_FRAME):
+    """`PoseStamped` goal at (x, y) heading `yaw_deg` (None: any), stamped `at` s of simulated time (0 = at once)."""
+    orientation = NO_HEADING if yaw_deg is None else quat_from_yaw(math.radians(yaw_deg))
+    return pose_stamped_msg([x, y, 0.0], orientation, stamp=at, frame_id=frame_id)
+
+
+def route_message(waypoints: list, yaw_deg: float | None = None, at: float = 0.0, frame_id: str = WORLD_FRAME):
+    """
+    `nav_msgs/Path` route through `waypoints` ((x, y) m, in order), arriving heading `yaw_deg` (None: any), stamped
+    `at` s of simulated time; every pose carries the route's header.
+    """
+    from nav_msgs.msg import Path
+
+    last = len(waypoints) - 1
+    poses = [goal_message(float(x), float(y), yaw_deg if k == last else None, at, frame_id)
+             for k, (x, y) in enumerate(waypoints)]
+    route = Path(poses=poses)
+    route.header = poses[0].header if poses else goal_message(0.0, 0.0, at=at, frame_id=frame_id).header
+    return route
 
 
 def same_goal(a, b) -> bool:
@@ -95,9 +115,10 @@ def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_goin
 
 
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
-               keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> GoalDelivery:
+               keep_going: Callable[[], None] = lambda: None, confirm: bool = True,
+               topic_key: str = 'goal_pose') -> GoalDelivery:
     """
-    Publish PoseStamped `goals` once `min_subscribers` listen.
+    Publish PoseStamped `goals` (or, with `topic_key` 'route', Path routes) once `min_subscribers` listen.
 
     (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
     matched); wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
@@ -110,15 +131,17 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('iguana_goal', context=context)
-        return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm)
+        return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm, topic_key)
     finally:
         rclpy.try_shutdown(context=context)
 
 
 def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 10.0,
-                  keep_going: Callable[[], None] = lambda: None, confirm: bool = True) -> GoalDelivery:
+                  keep_going: Callable[[], None] = lambda: None, confirm: bool = True,
+                  topic_key: str = 'goal_pose') -> GoalDelivery:
     """`send_goals` on an existing rclpy `node` (its publisher and subscription are removed afterwards)."""
-    name, cls, qos = resolve('goal_pose')
+    name, cls, qos = resolve(topic_key)
+    expected = list(goals) if topic_key == 'goal_pose' else [pose for route in goals for pose in route.poses]
     pub = node.create_publisher(cls, name, qos)
     accepted_sub = None
     try:
@@ -172,7 +195,7 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
                 raise IguanaError(f'the subscribers on {topic} did not acknowledge the goal within {timeout:g} s')
         if confirm:
             def accepted() -> bool:
-                return accepted_among(goals, list(lists[-1].poses)[before:]) == len(goals)
+                return accepted_among(expected, list(lists[-1].poses)[before:]) == len(expected)
             wait_spinning(accepted, node, timeout, keep_going, lambda: (
                 f'the planner did not accept {"the goal" if len(goals) == 1 else "every goal"} within {timeout:g} s '
                 f'(rejected: see the planner log for "rejected goal_pose", e.g. a goal off the terrain)'))

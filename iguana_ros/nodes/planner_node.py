@@ -15,48 +15,56 @@
 """
 Planner node (Section IV).
 
-goal_pose + iguana_state in, one motion_clip per stride and the clip's stance flags per frame (reference_stance) out;
-the goals it accepted on accepted_goals (latched, for their senders).
+goal_pose, route and iguana_state in; one motion_clip per stride and the clip's stance flags per frame
+(reference_stance) out; the goals and route waypoints it accepted on accepted_goals (latched, for their senders);
+where it is on planner_status (latched: state, waypoint, distance, heading error, recovery) and what it noticed
+(waypoints passed, arrival, no progress and the recovery taken) on run_events.
 """
 from __future__ import annotations
 
 from nav_msgs.msg import Path
 
 from iguana_ros.body.skeleton import iguana_skeleton
-from iguana_ros.constants import WORLD_FRAME
+from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.progress import EVENT_CLIP
-from iguana_ros.ros.messages import clip_to_cdr, goal_from_msg, reference_stance_to_cdr, state_from_cdr
+from iguana_ros.ros.messages import (clip_to_cdr, goal_from_msg, planner_status_msg, reference_stance_to_cdr,
+                                     route_from_msg, state_from_cdr)
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
 
 
 class PlannerNode(IguanaNode):
-    """Chooses the next stride clip toward the goal at each stride end, aligned to the simulated root."""
+    """Chooses the next stride clip toward the goal or along the route at each stride end, aligned to the root."""
 
     KIND = 'planner_node'
 
     def __init__(self, library: dict | None = None, **kwargs) -> None:
         """Build the scene's planner (`stages.planner_stage`) over the clip library (or `library`)."""
         super().__init__(**kwargs)
-        self.stage = planner_stage(self.scene, library, self.param('blend_frames'), self.param('goal_radius'))
+        self.stage = planner_stage(self.scene, library, self.param('blend_frames'), self.param('goal_radius'),
+                                   self.param('yaw_tolerance'))
         self.skeleton = iguana_skeleton()
         self.half_extent = self.scene.terrain.extent / 2.0
         self.bound = world_bound(self.scene.terrain.extent)
         self.state_gate = FrameGate(self, 'iguana_state')   # the clip is latched: a repeated state needs no reply
         self.goals_received = 0
+        self.events_sent = 0
         self.held_state = None
         self.accepted = Path()
         self.accepted.header.frame_id = WORLD_FRAME
         self.clip_pub = self.publisher('motion_clip')
         self.stance_pub = self.publisher('reference_stance')
+        self.status_pub = self.publisher('planner_status')
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
+        self.subscription('route', self.guarded('route', self.on_route))
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
         self.accepted_pub = self.publisher('accepted_goals')
         self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
+        self.publish_status(0)
         self.get_logger().info(f'planner ready: {len(self.stage.graph.clips)} clips, '
-                               f'goal radius {self.stage.params.goal_radius:.2f} m')
+                               f'goal radius {self.stage.goal_radius:.2f} m')
 
     def on_goal(self, msg) -> None:
         """
@@ -64,15 +72,33 @@ class PlannerNode(IguanaNode):
 
         (applied at its stamp in simulated time; stamp 0 = at the next stride) and add it to accepted_goals.
         """
-        xy, stamp = goal_from_msg(msg, self.half_extent)
-        at = self.stage.accept_goal(xy, stamp)
+        goal = goal_from_msg(msg, self.half_extent)
+        at = self.stage.accept_goal(goal.xy, goal.at, goal.yaw)
+        heading = 'any heading' if goal.yaw is None else f'heading {goal.yaw:.2f} rad'
+        self._accepted([msg], goal.at, at, f'goal ({goal.xy[0]:.2f}, {goal.xy[1]:.2f}), {heading}')
+
+    def on_route(self, msg) -> None:
+        """Schedule a route (its waypoints passed in order from its stamp on) and add its waypoints to accepted_goals."""
+        route = route_from_msg(msg, self.half_extent)
+        at = self.stage.accept_route(self.stage.route_targets(list(route.waypoints)), route.at)
+        poses = [self._stamped(pose, msg.header) for pose in msg.poses]
+        self._accepted(poses, route.at, at, f'route of {len(route.waypoints)} waypoints')
+
+    @staticmethod
+    def _stamped(pose, header):
+        """A route waypoint as the goal_pose message its sender compares with accepted_goals (the route's header)."""
+        pose.header = header
+        return pose
+
+    def _accepted(self, poses: list, stamp: float, at: float, what: str) -> None:
+        """List accepted goal poses on accepted_goals, log the adoption time; release a held state once all are in."""
         if at != stamp:
             self.get_logger().info(f'goal stamp {stamp:.0f} s is not simulated time (wall clock?); adopting it now')
         self.goals_received += 1
-        self.accepted.poses.append(msg)
+        self.accepted.poses.extend(poses)
         self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)
-        self.get_logger().info(f'goal ({xy[0]:.2f}, {xy[1]:.2f}) scheduled for t={at:.3f} s')
+        self.get_logger().info(f'{what} scheduled for t={at:.3f} s')
         if self.held_state is not None and self.goals_received >= self.param('wait_for_goals'):
             held, self.held_state = self.held_state, None
             self.on_state(held)
@@ -94,6 +120,22 @@ class PlannerNode(IguanaNode):
             self.get_logger().info(f'frame {frame}: clip {clip.name!r} ({len(clip.root_positions)} frames)')
             self.report(EVENT_CLIP, clip=clip.name, frame=frame)
         self.stance_pub.publish(reference_stance_to_cdr(self.stage.reference_contacts(frame), frame))
+        if clip is not None or len(self.stage.events) > self.events_sent:
+            self.report_events()
+            self.publish_status(frame)
+
+    def report_events(self) -> None:
+        """Send the stage's new events (waypoint, arrived, stuck, circling, recovered) on run_events and the log."""
+        for event in self.stage.events[self.events_sent:]:
+            self.report(event.kind, detail=event.detail, frame=event.frame)
+            log = self.get_logger().warning if event.kind in ('stuck', 'circling') else self.get_logger().info
+            log(f'frame {event.frame}: {event.kind}: {event.detail}')
+        self.events_sent = len(self.stage.events)
+
+    def publish_status(self, frame: int) -> None:
+        """Publish where the planner is on planner_status (latched), stamped with the frame's simulated time."""
+        self.status_pub.publish(planner_status_msg(self.stage.status(), self.goals_received, frame,
+                                                   frame / FRAME_RATE))
 
 
 main = node_main(PlannerNode)

@@ -35,7 +35,7 @@ from iguana_ros.ros.cdr import TriangleListMarkerWriter
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
 from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
-                                     goal_from_msg, lengths_from_cdr, push_from_msg, state_to_cdr)
+                                     goal_from_msg, lengths_from_cdr, push_from_msg, route_from_msg, state_to_cdr)
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.scene import PushSpec
 from iguana_ros.stages import push_forces, simulator_stage
@@ -83,7 +83,7 @@ class SimulatorNode(IguanaNode):
         self.latest_lengths: np.ndarray | None = None
         self.pending_lengths: dict[int, np.ndarray] = {}
         self.live_pushes: list[PushSpec] = []
-        self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals]
+        self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals + scene.route]
         self.started = False
         self.goals_received = 0
         self.timeouts = 0
@@ -112,6 +112,7 @@ class SimulatorNode(IguanaNode):
         self.lengths_sub = self.subscription('spring_rest_lengths', on_lengths, raw=True)
         self.subscription('push', self.guarded('push', self.on_push))
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
+        self.subscription('route', self.guarded('route', self.on_route))
         self.publish_scene_markers()
 
     # ------------------------------------------------------------------------------------------ inputs
@@ -166,10 +167,18 @@ class SimulatorNode(IguanaNode):
 
     def on_goal(self, msg) -> None:
         """Show a new goal in scene_markers (the planner's rules: `goal_from_msg`)."""
-        xy, _at = goal_from_msg(msg, self.half_extent)
+        self._show_goals([goal_from_msg(msg, self.half_extent).xy])
+
+    def on_route(self, msg) -> None:
+        """Show a new route's waypoints in scene_markers (the planner's rules: `route_from_msg`)."""
+        self._show_goals([np.array(w[:2]) for w in route_from_msg(msg, self.half_extent).waypoints])
+
+    def _show_goals(self, places: list) -> None:
+        """Count a goal or route message; add the places `(2,)` not shown yet to the goal spheres."""
         self.goals_received += 1
-        if not any(np.allclose(xy, g) for g in self.goals):
-            self.goals.append(xy)
+        new = [xy for xy in places if not any(np.allclose(xy, g) for g in self.goals)]
+        if new:
+            self.goals.extend(new)
             self.publish_scene_markers()
 
     # ------------------------------------------------------------------------------------------ stepping
@@ -203,7 +212,7 @@ class SimulatorNode(IguanaNode):
         if self.mode == 'lockstep' and not self.lockstep_peers_ready():
             return 'the planner, terrain adaptation and spring-length nodes'
         if self.goals_received < self.param('wait_for_goals'):
-            return f'{self.param("wait_for_goals")} goals on goal_pose ({self.goals_received} so far)'
+            return f'{self.param("wait_for_goals")} goals on goal_pose or route ({self.goals_received} so far)'
         recorder_ok = not self.param('wait_for_recorder') or all(
             any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(resolve(k)[0]))
             for k in RECORDED_FROM_START)

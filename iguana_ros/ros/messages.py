@@ -21,6 +21,9 @@ import struct
 
 import numpy as np
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from std_msgs.msg import Header
+
 from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
@@ -30,11 +33,12 @@ from iguana_ros.ros.cdr import (clock_cdr, header_stamp, joint_state_cdr, joint_
                                 odometry_from_cdr, pose_array_cdr, pose_array_from_cdr, Trajectory)
 from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
-                                        pose_array_to_numpy, pose_stamped_to_numpy, stamp_frame, time_from_msg,
-                                        validate_array)
+                                        pose_array_to_numpy, pose_stamped_to_numpy, poses_from_msgs, stamp_frame,
+                                        time_from_msg, time_to_msg, validate_array)
 from iguana_ros.run_metrics import FEET, Stride
+from iguana_ros.scene import MAX_WAYPOINTS
 from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_push,
-                                   check_root_pose)
+                                   check_root_pose, check_route, GoalRequest, RouteRequest)
 
 
 def check_frame_id(what: str, frame_id: str) -> None:
@@ -263,15 +267,57 @@ def _checked_state(frame_id: str, frame: int, position: np.ndarray, orientation:
     return frame, position, orientation
 
 
-def goal_from_msg(msg, half_extent: float) -> tuple[np.ndarray, float]:
+def goal_from_msg(msg, half_extent: float) -> GoalRequest:
     """
-    ((x, y) `(2,)` m, adoption time s) of a goal_pose message on a terrain reaching `half_extent` m from the origin.
+    GoalRequest (position `(2,)` m, adoption time s, heading rad or None) of a goal_pose message.
 
-    InputError if its frame, numbers or stamp are wrong or the goal is off the terrain (`check_goal`).
+    On a terrain reaching `half_extent` m from the origin; InputError if its frame, numbers, orientation or stamp are
+    wrong or the goal is off the terrain (`check_goal`).
     """
     check_frame_id('goal_pose', msg.header.frame_id)
     position, orientation = pose_stamped_to_numpy(msg)
     return check_goal(position, orientation, time_from_msg(msg.header.stamp), half_extent)
+
+
+def route_from_msg(msg, half_extent: float) -> RouteRequest:
+    """RouteRequest of a route message (nav_msgs/Path): its waypoints and adoption time (`check_route`)."""
+    check_frame_id('route', msg.header.frame_id)
+    if len(msg.poses) > MAX_WAYPOINTS:
+        raise InputError(f'route has {len(msg.poses)} waypoints, expected at most {MAX_WAYPOINTS}')
+    for pose in msg.poses:
+        check_frame_id('a route waypoint', pose.header.frame_id or WORLD_FRAME)
+    positions, orientations = poses_from_msgs([p.pose for p in msg.poses])
+    return check_route(positions, orientations, time_from_msg(msg.header.stamp), half_extent)
+
+
+def planner_status_msg(status, goals: int, frame: int, stamp: float):
+    """
+    planner_status: a DiagnosticArray stamped `stamp` s (simulated) of one PlannerStatus, with the number of goal and
+    route messages accepted and the frame of the stride end.
+    """
+    level = DiagnosticStatus.WARN if status.recovery else DiagnosticStatus.OK
+    values = {'waypoint': status.waypoint, 'waypoints': status.waypoints, 'distance': f'{status.distance:.4f}',
+              'heading_error': f'{status.heading_error:.4f}', 'recovery': status.recovery, 'goals': goals,
+              'frame': frame}
+    entry = DiagnosticStatus(level=level, name='planner_node', message=status.state,
+                             values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+    return DiagnosticArray(header=Header(stamp=time_to_msg(stamp)), status=[entry])
+
+
+def planner_status_from_msg(msg) -> dict:
+    """
+    The planner_status message as a dict: state, waypoint, waypoints, distance, heading_error, recovery, goals,
+    frame, time (s); InputError unless it holds one status with those values as numbers.
+    """
+    if len(msg.status) != 1:
+        raise InputError(f'planner_status holds {len(msg.status)} statuses, expected 1')
+    values = {kv.key: kv.value for kv in msg.status[0].values}
+    try:
+        out = {k: int(values[k]) for k in ('waypoint', 'waypoints', 'recovery', 'goals', 'frame')}
+        out.update({k: float(values[k]) for k in ('distance', 'heading_error')})
+    except (KeyError, ValueError) as exc:
+        raise InputError(f'planner_status lacks a number: {exc}') from None
+    return {'state': msg.status[0].message, **out, 'time': time_from_msg(msg.header.stamp)}
 
 
 def push_from_msg(msg, regions, duration: float, active_forces=()) -> tuple[np.ndarray, str]:

@@ -184,7 +184,7 @@ def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -
 def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, dict]:
     """Return this run's parameter values of every node, by node name (over the standard params file)."""
     common = {'scene': str(scene_file)}
-    goals = {'wait_for_goals': len(scene.goals)}  # planner and simulator both wait for the scene's goals
+    goals = {'wait_for_goals': len(scene.goals) + bool(scene.route)}  # both wait for the scene's goals / route
     sim = {**common, **goals, 'mode': options.mode, 'wait_for_recorder': True, **options.extra_params}
     special = {'planner_node': {**common, **goals}, 'simulator_node': sim}
     return {kind: special.get(kind, common) for kind in NODE_KINDS}
@@ -362,13 +362,18 @@ class SceneRun:
         print(next(line for line in child.output.splitlines() if line.startswith(URL_PREFIX)), flush=True)
 
     def send_goals(self) -> None:
-        """Publish the scene's goals (stamped with their times) once planner and simulator listen."""
-        if not self.scene.goals:
+        """Publish the scene's goals (stamped with their times) or route once planner and simulator listen."""
+        if not self.scene.goals and not self.scene.route:
             return
-        from iguana_ros.nodes.goal_sender import goal_message, send_goals
-        goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in self.scene.goals]
+        from iguana_ros.nodes.goal_sender import goal_message, route_message, send_goals
         # planner, simulator (goal marker) and recorder must all have them before frame 0
-        send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going)
+        if self.scene.goals:
+            goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in self.scene.goals]
+            send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going)
+        if self.scene.route:
+            last = self.scene.route[-1].yaw_deg
+            route = route_message([(w.x, w.y) for w in self.scene.route], last)
+            send_goals([route], min_subscribers=3, timeout=120.0, keep_going=self.keep_going, topic_key='route')
         self.watch_domain(may_close=True, force=True)
 
     def alive_or_raise(self, simulator_may_end: bool = False) -> None:
@@ -477,11 +482,11 @@ class SceneRun:
             self.sim_code = code
         progress = bag_progress(self.bag)
         total = time.monotonic() - self.started
-        gait, times, positions = None, np.zeros(0), np.zeros((0, 3))
+        gait, times, positions, orientations = None, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 4))
         if progress.exists:
             try:
                 recorded = read_topics(self.bag, GAIT_TOPICS)
-                times, positions, _ = root_trajectory(recorded.messages['iguana_state'])
+                times, positions, orientations = root_trajectory(recorded.messages['iguana_state'])
                 try:
                     gait = run_gait(recorded, self.scene)
                 except Exception as exc:  # noqa: BLE001 -- a summary after a long run must still print its lines
@@ -491,7 +496,7 @@ class SceneRun:
         else:
             gait = RunGait(None, notes=['no bag'])
         simulated = float(times[-1]) if len(times) else 0.0
-        reached, when, final = goal_outcome_of(times, positions, self.scene)
+        reached, when, final = goal_outcome_of(times, positions, self.scene, orientations)
         outcome, reason, exit_code = self.outcome(simulated)
         node, tail = self.failed_node() if outcome == 'failed' else ('', '')
         return RunSummary(self.scene.name, self.bag, self.logs, simulated, progress.loop_wall_s, reached, when,
@@ -505,25 +510,31 @@ class SceneRun:
 
 def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
     """(reached, time, final distance) of the last scene goal from the bag's iguana_state."""
-    from iguana_ros.bag.trajectory import read_root_trajectory
-    return goal_outcome_of(*read_root_trajectory(bag), scene)
+    from iguana_ros.bag.trajectory import read_topics, root_trajectory
+    return goal_outcome_of(*root_trajectory(read_topics(bag, ['iguana_state']).messages['iguana_state']), scene)
 
 
-def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene) -> tuple[bool, float, float]:
+def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene,
+                    orientations: np.ndarray | None = None) -> tuple[bool, float, float]:
     """
-    (reached, time, final distance) of the last scene goal from a recorded root trajectory.
+    (reached, time, final distance) of the scene's last goal or route end from a recorded root trajectory.
 
-    times `(n,)` s, positions `(n, 3)` m.
+    times `(n,)` s, positions `(n, 3)` m, orientations `(n, 4)` xyzw (needed for a goal's heading, which then counts
+    within the scene's yaw tolerance, as in the library run's metrics).
     """
+    from iguana_ros.geometry import yaw_of
     from iguana_ros.metrics import goal_arrival
 
-    if not scene.goals or len(times) == 0:
+    goal = scene.destination
+    if goal is None or len(times) == 0:
         return False, float('nan'), float('nan')
-    goal = scene.goals[-1]
     after = times >= goal.at
     if not after.any():  # the run ended before the goal was set
         return False, float('nan'), float(np.hypot(*(positions[-1, :2] - [goal.x, goal.y])))
-    return goal_arrival(times[after], positions[after, :2], np.array([goal.x, goal.y]), scene.goal_radius)
+    heading = None if goal.yaw_deg is None or orientations is None else np.radians(goal.yaw_deg)
+    yaw = None if heading is None else yaw_of(orientations[after])
+    return goal_arrival(times[after], positions[after, :2], np.array([goal.x, goal.y]), scene.goal_radius, yaw,
+                        heading, np.radians(scene.goal_yaw_tolerance_deg))
 
 
 def run_scene(options: RunOptions, display=None) -> RunSummary:

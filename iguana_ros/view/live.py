@@ -108,13 +108,9 @@ class LiveSource:
             except ExternalShutdownException:
                 return
 
-    def send_goal(self, x: float, y: float) -> None:
-        """Publish a goal at (x, y) m, heading from the iguana towards it, for the planner to adopt at once."""
-        frame = self.view.frame()
-        yaw = 0.0
-        if frame.root is not None and math.hypot(x - frame.root[0], y - frame.root[1]) > 1e-6:
-            yaw = math.degrees(math.atan2(y - frame.root[1], x - frame.root[0]))
-        msg = goal_message(x, y, yaw_deg=yaw, at=0.0)
+    def send_goal(self, x: float, y: float, yaw_deg: float | None = None) -> None:
+        """Publish a goal at (x, y) m, to arrive heading `yaw_deg` (None: any), for the planner to adopt at once."""
+        msg = goal_message(x, y, yaw_deg=yaw_deg, at=0.0)
         self.sent.append(msg)
         self.goal_pub.publish(msg)
 

@@ -23,6 +23,7 @@ is back.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import math
 import socket
 import threading
 import time
@@ -143,7 +144,8 @@ class ViewerPage:
         self.server.scene.set_up_direction('+z')
         self.drawn = _Drawn()
         self.handles: dict[str, object] = {}
-        self.status = 'Click on the terrain to send a goal.' if live is not None else ''
+        self.status = ('Click on the terrain to send a goal; shift-click to point the heading to arrive in.'
+                       if live is not None else '')
         self.pending_goal: tuple[float, float] | None = None
         self.server.gui.add_markdown(f'**{title}**')
         self._panel = self.server.gui.add_markdown('')
@@ -156,6 +158,7 @@ class ViewerPage:
         if playback is not None:
             self._timeline()
         self.server.scene.on_click()(self._on_click)
+        self.server.scene.on_click(modifier='shift')(self._on_heading_click)
         self.server.on_client_connect(self._on_connect)
 
     @property
@@ -213,6 +216,23 @@ class ViewerPage:
             self.live.send_goal(float(hit[0]), float(hit[1]))
             self.pending_goal = (float(hit[0]), float(hit[1]))
             self._set_status(f'goal x {hit[0]:.2f} m, y {hit[1]:.2f} m sent on goal_pose; waiting for the planner.')
+
+    def _on_heading_click(self, event) -> None:
+        """Handle a shift-click in live mode: send the last goal again, heading from it toward the clicked point."""
+        with self.view.lock:
+            corners = self.view.terrain_points
+        hit = None if corners is None else terrain_hit(event.ray_origin, event.ray_direction, corners)
+        if self.live is None or self.pending_goal is None or hit is None:
+            self._set_status('Click on the terrain for a goal first, then shift-click where it should face.')
+            return
+        x, y = self.pending_goal
+        if math.hypot(hit[0] - x, hit[1] - y) < 1e-3:
+            self._set_status('Shift-click away from the goal to point its heading.')
+            return
+        yaw = math.degrees(math.atan2(hit[1] - y, hit[0] - x))
+        self.live.send_goal(x, y, yaw)
+        self._set_status(f'goal x {x:.2f} m, y {y:.2f} m heading {yaw:.0f} deg sent on goal_pose; waiting for the '
+                         f'planner.')
 
     def _set_status(self, text: str) -> None:
         """Show `text` under the figures."""

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from iguana_ros.geometry import quat_from_yaw, quat_identity, yaw_of
-from iguana_ros.motion.motion_graph import MotionGraph, PolicyParams
+from iguana_ros.motion.motion_graph import MotionGraph
 
 N_BONES = 3
 
@@ -52,33 +52,12 @@ def test_complete_graph(graph):
     assert {(a, b) for a in graph.names for b in graph.names} == set(graph.edges())
 
 
-@pytest.mark.parametrize('goal, expected', [
-    ((3.0, 0.0), 'forward'), ((0.5, 2.0), 'turn_left'), ((0.5, -2.0), 'turn_right'),
-    ((-2.0, 0.3), 'turn_left'), ((0.05, 0.0), 'idle'),
-])
-def test_policy_turns_toward_goal(graph, goal, expected):
-    assert graph.choose_next(np.zeros(2), 0.0, np.array(goal)) == expected
-
-
-def test_policy_in_rotated_frame_and_bad_goal(graph):
-    # facing +y, a goal at +x is on the right
-    assert graph.choose_next(np.zeros(2), np.pi / 2, np.array([2.0, 0.0])) == 'turn_right'
-    assert graph.choose_next(np.zeros(2), 0.0, None) == 'idle'
-    assert graph.choose_next(np.zeros(2), 0.0, np.array([np.nan, 1.0])) == 'idle'
-
-
-def test_walking_the_policy_reaches_the_goal(graph):
-    xy, heading, goal = np.zeros(2), 0.0, np.array([1.0, 1.5])
-    for _ in range(60):
-        name = graph.choose_next(xy, heading, goal, params=PolicyParams(goal_radius=0.12))
-        if name == 'idle':
-            break
-        clip = graph.clips[name]
-        c, s = np.cos(heading), np.sin(heading)
-        dx, dy = clip.root_displacement
-        xy = xy + np.array([c * dx - s * dy, s * dx + c * dy])
-        heading += clip.heading_change
-    assert name == 'idle' and np.hypot(*(goal - xy)) < 0.12
+def test_gaits_decide_the_edges():
+    walk = SimpleNamespace(**vars(_clip('walk', 0.1, 0.0)), entry_gait='walk', exit_gait='walk')
+    start = SimpleNamespace(**vars(_clip('start', 0.05, 0.0)), entry_gait='stand', exit_gait='walk')
+    idle = SimpleNamespace(**vars(_clip('idle', 0.0, 0.0)), entry_gait='stand', exit_gait='stand')
+    graph = MotionGraph({'walk': walk, 'start': start, 'idle': idle}, blend_frames=3)
+    assert set(graph.edges()) == {('walk', 'walk'), ('start', 'walk'), ('idle', 'start'), ('idle', 'idle')}
 
 
 def test_align_places_clip_at_body_pose(graph):
