@@ -33,8 +33,8 @@ from iguana_ros.geometry import planar_relative, yaw_of
 from iguana_ros.metrics import slip_per_foot
 from iguana_ros.motion.clips import load_clip_library
 from iguana_ros.motion.tracking import fit_tracking, save_tracking, StrideSample
-from iguana_ros.pipeline import build_pipeline
 from iguana_ros.physics.simulator import contact_offsets
+from iguana_ros.pipeline import build_pipeline
 from iguana_ros.run_metrics import foot_groups, foot_probe
 from iguana_ros.scene import ModelSpec, Scene, TerrainSpec
 from iguana_ros.stages import PlannerStage
@@ -67,14 +67,14 @@ class ScriptedPlanner(PlannerStage):
         self.script = list(script)
 
     def choose(self, pose: np.ndarray) -> str:
-        """The next clip of the script, then the way to rest."""
+        """Return the next clip of the script, then the way to rest."""
         if self.script:
             return self.script.pop(0)
         return self._toward_rest(self.clip.name if self.clip is not None else None)
 
 
 def calibration_scenes(fidelity: str = 'balanced', stiffness: str = 'normal') -> list[Scene]:
-    """The scenes of one calibration: level ground, then each slope in each direction."""
+    """Return the scenes of one calibration: level ground, then each slope in each direction."""
     scenes = [Scene(name='calibrate_level', terrain=TerrainSpec(kind='flat'))]
     scenes += [Scene(name=f'calibrate_slope{slope:g}_dir{direction:g}',
                      terrain=TerrainSpec(kind='tilted', slope_deg=slope, direction_deg=direction))

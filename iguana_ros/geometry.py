@@ -239,7 +239,7 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
 
 
 def planar_compose(pose: np.ndarray, delta: np.ndarray) -> np.ndarray:
-    """Planar poses `(..., 3)` (x, y, yaw) reached by moving from `pose (..., 3)` by `delta (..., 3)` in its own frame."""
+    """Return planar poses `(..., 3)` (x, y, yaw) moved from `pose (..., 3)` by `delta (..., 3)` in its own frame."""
     pose, delta = np.asarray(pose, dtype=float), np.asarray(delta, dtype=float)
     c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
     return np.stack([pose[..., 0] + c * delta[..., 0] - s * delta[..., 1],

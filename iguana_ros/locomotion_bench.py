@@ -13,8 +13,7 @@
 # limitations under the License.
 
 """
-Randomized locomotion benchmarks: the steering suite, and many seeded terrains with one goal each, with and without
-terrain adaptation.
+Randomized locomotion benchmarks: the steering suite, and seeded terrains with and without terrain adaptation.
 
 `steering_scenes` draws the steering suite (near and far goals in every direction, ahead/behind pairs, slopes, steps,
 headings, routes; both fidelity and stiffness presets), `steering_tasks` runs each with adaptation and
@@ -181,7 +180,7 @@ STRAIGHT_FOR_PATH = 2.0
 
 
 def steering_identity(scene: Scene) -> dict:
-    """The row fields that say what a steering scene is: category, presets, straight way, heading asked."""
+    """Return the row fields that say what a steering scene is: category, presets, straight way, heading asked."""
     goal = scene.destination
     return {**scene_identity(scene, True), 'category': scene_category(scene), 'fidelity': scene.fidelity,
             'stiffness': scene.model.stiffness, 'heading': goal is not None and goal.yaw_deg is not None,
@@ -216,12 +215,13 @@ def _fraction(numerator: int, denominator: int) -> float | None:
 
 
 def _steering_group(rows: list[dict]) -> dict:
-    """The figures of one group of steering rows (see `summarize_steering`)."""
+    """Return the figures of one group of steering rows (see `summarize_steering`)."""
     finished = [r for r in rows if not r.get('error')]
     reached = [r for r in finished if r.get('reached_goal') is True]
     headed = [r for r in finished if r.get('heading')]
     routes = [r for r in finished if r.get('route_waypoints')]
-    far = [r for r in finished if _is_number(r.get('straight_distance')) and r['straight_distance'] >= STRAIGHT_FOR_PATH]
+    far = [r for r in finished
+           if _is_number(r.get('straight_distance')) and r['straight_distance'] >= STRAIGHT_FOR_PATH]
     return {
         'n': len(rows), 'reached': len(reached), 'reach_rate': _fraction(len(reached), len(rows)),
         'time_to_goal_median': _median(_values(reached, 'time_to_goal')),

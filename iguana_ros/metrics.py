@@ -75,11 +75,13 @@ class LocomotionMetrics:
 @dataclass(frozen=True)
 class SteeringMetrics:
     """
-    How a run steered to its goal: `straight_distance` (m, from the start along the route's waypoints to the edge of
-    the goal's radius), `path_ratio` (the root's path length until it arrived, or of the whole run, over it), the heading error at arrival and at the end (deg; NaN where no
-    heading is asked or the goal was not reached), the stride ends before arrival spent circling (`circling_strides`,
-    two full turns without getting closer) or making no progress (`stuck_strides`, `no_progress`), and for a route its
-    waypoints, how many were passed in order and whether all were.
+    How a run steered to its goal.
+
+    `straight_distance` (m, from the start along the route's waypoints to the edge of the goal's radius), `path_ratio`
+    (the root's path length until it arrived, or of the whole run, over it), the heading error at arrival and at the end
+    (deg; NaN where no heading is asked or the goal was not reached), the stride ends before arrival spent circling
+    (`circling_strides`, two full turns without getting closer) or making no progress (`stuck_strides`,
+    `no_progress`), and for a route its waypoints, how many were passed in order and whether all were.
     """
 
     straight_distance: float
@@ -299,8 +301,10 @@ CIRCLING_TURN = 4.0 * np.pi
 def remaining_way(xy: np.ndarray, yaw: np.ndarray, goal_xy: np.ndarray, radius: float,
                   goal_yaw: float | None = None, bearing_weight: float = BEARING_WEIGHT) -> np.ndarray:
     """
-    How far root poses (`xy (n, 2)`, `yaw (n,)`) are from a goal `(2,)`, m: the distance plus `bearing_weight` per rad
-    of bearing away from it; within `radius`, the heading error left (rad, 0 if no `goal_yaw`) less 1.
+    Return how far root poses (`xy (n, 2)`, `yaw (n,)`) are from a goal `(2,)`, m.
+
+    The distance plus `bearing_weight` per rad of bearing away from it; within `radius`, the heading error left (rad, 0
+    if no `goal_yaw`) less 1.
     """
     xy, yaw = np.atleast_2d(np.asarray(xy, dtype=float)), np.atleast_1d(np.asarray(yaw, dtype=float))
     delta = np.asarray(goal_xy, dtype=float)[None, :2] - xy
@@ -311,8 +315,10 @@ def remaining_way(xy: np.ndarray, yaw: np.ndarray, goal_xy: np.ndarray, radius: 
 
 def no_progress(measure: np.ndarray, window: int, progress: float) -> np.ndarray:
     """
-    Flags `(s,)`: stride end k made no progress, the least of `measure (s,)` over its last `window` strides being no
-    smaller by `progress` than the least before them (the first `window` strides are never flagged).
+    Return flags `(s,)`: whether stride end k made no progress.
+
+    The least of `measure (s,)` over its last `window` strides being no smaller by `progress` than the least before
+    them (the first `window` strides are never flagged).
     """
     measure = np.asarray(measure, dtype=float)
     flags = np.zeros(len(measure), bool)
@@ -323,8 +329,10 @@ def no_progress(measure: np.ndarray, window: int, progress: float) -> np.ndarray
 
 def circling_strides(yaw: np.ndarray, distance: np.ndarray, progress: float = 0.05) -> int:
     """
-    Stride ends `(s,)` (root headings rad, goal distances m) inside a stretch that turned CIRCLING_TURN net without
-    getting `progress` m closer to the goal.
+    Count the stride ends spent circling.
+
+    Of stride ends `(s,)` (root headings rad, goal distances m), those inside a stretch that turned CIRCLING_TURN net
+    without getting `progress` m closer to the goal.
     """
     turned = np.unwrap(np.asarray(yaw, dtype=float))
     flagged = np.zeros(len(turned), bool)
@@ -337,8 +345,10 @@ def circling_strides(yaw: np.ndarray, distance: np.ndarray, progress: float = 0.
 
 def route_progress(root_xy: np.ndarray, waypoints: np.ndarray, radius: float) -> np.ndarray:
     """
-    Index `(n,)` of the waypoint `(k, 2)` each root position `(n, 2)` heads for: waypoints count as passed in order,
-    each once the root comes within `radius` of it after passing the ones before (k: all passed).
+    Return the index `(n,)` of the waypoint `(k, 2)` each root position `(n, 2)` heads for.
+
+    Waypoints count as passed in order, each once the root comes within `radius` of it after passing the ones before
+    (k: all passed).
     """
     index, out = 0, np.empty(len(root_xy), dtype=int)
     for f, xy in enumerate(np.asarray(root_xy, dtype=float)):
@@ -352,9 +362,11 @@ def steering_metrics(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray, wa
                      goal_yaw: float | None, radius: float, yaw_tolerance: float,
                      stride_frames: np.ndarray) -> SteeringMetrics:
     """
-    SteeringMetrics of root positions `(n, 2)` and headings `(n,)` at `times (n,)` walking to `waypoints (k, 2)` (a goal:
-    k = 1) reached within `radius` m and, for `goal_yaw` (rad, None: any), `yaw_tolerance` rad; `stride_frames (s,)`
-    the frames at which strides began.
+    Return the SteeringMetrics of a run.
+
+    Root positions `(n, 2)` and headings `(n,)` at `times (n,)` walking to `waypoints (k, 2)` (a goal: k = 1) reached
+    within `radius` m and, for `goal_yaw` (rad, None: any), `yaw_tolerance` rad; `stride_frames (s,)` the frames at
+    which strides began.
     """
     waypoints = np.atleast_2d(np.asarray(waypoints, dtype=float))
     legs = np.concatenate([root_xy[:1], waypoints]) if len(root_xy) else waypoints

@@ -142,8 +142,8 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     Run `scene` for its duration (or `n_frames`) and return the trajectories.
 
     With `stop_after_goal` (s), the run ends that long after the planner reached the scene's last goal or the end of
-    its route (`PlannerStage.finished`) (the arrays then hold only the frames simulated). `simulator_options`: SoftBodySimulator
-    keywords (fidelity fields, `friction`) that no scene file names; a sweep's knobs.
+    its route (`PlannerStage.finished`; the arrays then hold only the frames simulated). `simulator_options`:
+    SoftBodySimulator keywords (fidelity fields, `friction`) that no scene file names; a sweep's knobs.
     """
     import time as _time
 

@@ -146,7 +146,7 @@ def scene_category(scene: Scene) -> str:
 
 
 def _check_counts(n: int, seed: int, resolution: str) -> None:
-    """InputError unless `n` and `seed` are integers >= 0 and `resolution` a mesh resolution."""
+    """Raise InputError unless `n` and `seed` are integers >= 0 and `resolution` a mesh resolution."""
     if resolution not in RESOLUTIONS:
         raise InputError(f'mesh resolution must be one of {", ".join(RESOLUTIONS)}, got {resolution!r}')
     for name, value in (('number of scenes', n), ('seed', seed)):
@@ -161,7 +161,7 @@ def _way_length(goals: tuple, route: tuple) -> float:
 
 
 def _goal_at(rng: np.random.Generator, low: float, high: float, heading: bool = False) -> GoalSpec:
-    """A goal `low`..`high` m from the start in a uniformly drawn direction (with a uniform heading if asked)."""
+    """Return a goal `low`..`high` m from the start in a uniform direction (with a uniform heading if asked)."""
     distance, direction = rng.uniform(low, high), rng.uniform(0.0, 2.0 * np.pi)
     yaw = round(float(rng.uniform(-180.0, 180.0)), 2) if heading else None
     return GoalSpec(x=round(distance * math.cos(direction), 4), y=round(distance * math.sin(direction), 4),
@@ -178,17 +178,17 @@ def _gentle(rng: np.random.Generator) -> TerrainSpec:
 
 
 def _near(rng):
-    """A goal 0.4-1.2 m away on gentle ground."""
+    """Draw a goal 0.4-1.2 m away on gentle ground."""
     return _gentle(rng), (_goal_at(rng, 0.4, 1.2),), ()
 
 
 def _far(rng):
-    """A goal 2-4.5 m away on hills or noise."""
+    """Draw a goal 2-4.5 m away on hills or noise."""
     return _random_terrain(('hills', 'noise')[int(rng.integers(0, 2))], rng), (_goal_at(rng, 2.0, 4.5),), ()
 
 
 def _ahead(rng):
-    """A goal 3 m ahead (within 15 deg) on hills."""
+    """Draw a goal 3 m ahead (within 15 deg) on hills."""
     terrain = TerrainSpec(kind='hills', amplitude=round(float(rng.uniform(0.03, 0.08)), 4),
                           wavelength=round(float(rng.uniform(0.6, 1.4)), 4), seed=int(rng.integers(0, 1_000_000)),
                           extent=TERRAIN_EXTENT)
@@ -197,31 +197,31 @@ def _ahead(rng):
 
 
 def _slope(rng):
-    """A goal 2-4 m away on a plane tilted 12-20 deg in any direction."""
+    """Draw a goal 2-4 m away on a plane tilted 12-20 deg in any direction."""
     terrain = TerrainSpec(kind='tilted', slope_deg=round(float(rng.uniform(12.0, 20.0)), 3),
                           direction_deg=round(float(rng.uniform(0.0, 360.0)), 2), extent=TERRAIN_EXTENT)
     return terrain, (_goal_at(rng, 2.0, 4.0),), ()
 
 
 def _steps(rng):
-    """A goal 2-4 m away over a field of 3-5 cm steps."""
+    """Draw a goal 2-4 m away over a field of 3-5 cm steps."""
     return _random_terrain('steps', rng), (_goal_at(rng, 2.0, 4.0),), ()
 
 
 def _heading(rng):
-    """A goal 0.4-2.5 m away with a heading, on gentle ground."""
+    """Draw a goal 0.4-2.5 m away with a heading, on gentle ground."""
     return _gentle(rng), (_goal_at(rng, 0.4, 2.5, heading=True),), ()
 
 
 def _route(rng):
-    """A route of 3-5 waypoints, legs of 0.6-1.5 m turning up to 120 deg, the last with a heading half the time."""
+    """Draw a route of 3-5 waypoints, legs of 0.6-1.5 m turning up to 120 deg, half the time with a heading."""
     terrain, points, direction = _gentle(rng), [], rng.uniform(0.0, 2.0 * np.pi)
     x = y = 0.0
     for k in range(int(rng.integers(3, 6))):
         direction += rng.uniform(-np.radians(120.0), np.radians(120.0)) if k else 0.0
         leg = rng.uniform(0.6, 1.5)
-        x, y = float(np.clip(x + leg * math.cos(direction), -4.0, 4.0)), float(np.clip(y + leg * math.sin(direction),
-                                                                                         -4.0, 4.0))
+        x = float(np.clip(x + leg * math.cos(direction), -4.0, 4.0))
+        y = float(np.clip(y + leg * math.sin(direction), -4.0, 4.0))
         points.append(WaypointSpec(x=round(x, 4), y=round(y, 4)))
     if rng.uniform() < 0.5:
         points[-1] = dataclasses.replace(points[-1], yaw_deg=round(float(rng.uniform(-180.0, 180.0)), 2))

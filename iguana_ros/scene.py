@@ -160,7 +160,7 @@ class Scene:
 
     @property
     def destination(self) -> GoalSpec | None:
-        """The last place the scene sends the iguana: its last goal, or its route's last waypoint (None: neither)."""
+        """Return the last place the scene sends the iguana: its last goal or route end (None: neither)."""
         if self.route:
             last = self.route[-1]
             return GoalSpec(x=last.x, y=last.y, yaw_deg=last.yaw_deg)
@@ -173,7 +173,8 @@ _CHOICES = {
     'model.stiffness': STIFFNESS_PRESETS, 'fidelity': FIDELITY_PRESETS,
     'pushes.region': ('trunk_left', 'trunk_right', 'tail', 'head', 'feet', 'legs', 'all'),
 }
-_POSITIVE = {'duration', 'goal_radius', 'goal_yaw_tolerance_deg', 'terrain.wavelength', 'terrain.extent', 'terrain.spacing',
+_POSITIVE = {'duration', 'goal_radius', 'goal_yaw_tolerance_deg', 'terrain.wavelength', 'terrain.extent',
+             'terrain.spacing',
              'terrain.scale', 'terrain.block_size', 'pushes.duration', 'record.mesh_every_n_frames'}
 _NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude', 'terrain.step_min', 'terrain.step_max', 'terrain.seed'}
 

@@ -105,8 +105,10 @@ class RecoveryParams:
 @dataclasses.dataclass(frozen=True)
 class PlannerStatus:
     """
-    Where the planner is: `state` ('idle', 'walking', 'recovering', 'arrived'), the current target's index and the
-    number of targets, its distance (m) and the heading error (rad, 0 if none is asked), the recovery level.
+    Where the planner is.
+
+    `state` ('idle', 'walking', 'recovering', 'arrived'), the current target's index and the number of targets, its
+    distance (m) and the heading error (rad, 0 if none is asked), the recovery level.
     """
 
     state: str
@@ -127,13 +129,14 @@ class PlannerStage:
     reached (a heading goal: at rest, facing it within the tolerance); once there the body comes to rest. Every stride
     end checks progress: if the least remaining way to the target (distance and bearing, `metrics.remaining_way`) has
     not shrunk by `RecoveryParams.progress` over `window` strides, that is 'stuck' (or 'circling' if the body turned a
-    full turn meanwhile), reported as an event, and answered by a recovery: first the slow walk with its turns on the
-    spot only, then detour waypoints to either side; progress again ends it ('recovered').
+    full turn meanwhile), reported as an event, and answered by a recovery: first a detour waypoint to one side, then
+    the slow walk with its turns on the spot only, then detours to either side in turn; progress again ends it
+    ('recovered').
     """
 
     def __init__(self, graph: MotionGraph, planner: MotionPlanner, goal_radius: float = 0.15,
                  yaw_tolerance: float = np.inf, recovery: RecoveryParams = RecoveryParams()) -> None:
-        """Plan over `graph` with the search `planner`; goals are reached within `goal_radius` m, `yaw_tolerance` rad."""
+        """Plan over `graph` with the search `planner`; reach goals within `goal_radius` m and `yaw_tolerance` rad."""
         self.graph, self.planner, self.recovery_params = graph, planner, recovery
         self.goal_radius, self.yaw_tolerance = float(goal_radius), float(yaw_tolerance)
         self.targets: tuple = ()
@@ -155,7 +158,7 @@ class PlannerStage:
 
     # ----------------------------------------------------------------------------------------- goals, routes
     def target(self, x: float, y: float, yaw: float | None = None, final: bool = True) -> Target:
-        """A Target at (x, y) m, heading `yaw` rad (None: any), with this planner's radius and yaw tolerance."""
+        """Return a Target at (x, y) m, heading `yaw` rad (None: any), with this planner's radius and tolerance."""
         return Target((float(x), float(y)), None if yaw is None else float(yaw), self.goal_radius,
                       self.yaw_tolerance, final)
 
@@ -245,8 +248,9 @@ class PlannerStage:
 
     def _follow(self, frame: int, pose: np.ndarray, stride_end: bool) -> None:
         """
-        Pass the current waypoint, or note the goal reached (within the radius and heading tolerance: 'arrived') and,
-        at a stride end that brings the body to rest there, settled.
+        Pass the current waypoint, or note the goal reached.
+
+        Within the radius and heading tolerance: 'arrived'; at a stride end that brings the body to rest there: settled.
         """
         if self.settled or not self.targets:
             return
@@ -279,7 +283,7 @@ class PlannerStage:
         return plan.first if plan.clips else self._toward_rest(current)
 
     def _toward_rest(self, current: str | None) -> str:
-        """The next clip of the quickest way to rest (the idle clip, or the first clip of a library without one)."""
+        """Return the next clip of the quickest way to rest (the idle clip, or the first clip of a library without)."""
         step = self._rest[self.planner.table.index(current)]
         if step >= 0:
             return self.planner.table.names[step]
@@ -287,7 +291,7 @@ class PlannerStage:
 
     # ------------------------------------------------------------------------------------ progress, recovery
     def _check_progress(self, frame: int, pose: np.ndarray) -> None:
-        """Record the remaining way to the target at this stride end; raise the recovery level when it stopped shrinking."""
+        """Record the remaining way to the target at this stride end; recover when it stopped shrinking."""
         if self.settled or not self.targets:
             return
         target = self._detour[0] if self._detour else self.targets[self.waypoint]
@@ -310,11 +314,12 @@ class PlannerStage:
         self.recovery += 1
         self._stuck_at = min(m for m, _ in self._progress)
         self._progress = self._progress[-1:]
-        if self.recovery == 1:
+        if self.recovery == 2:
             strategy = 'slow walk and turns on the spot'
         else:
             side = 1.0 if self.recovery % 2 == 0 else -1.0
-            bearing = np.arctan2(target.xy[1] - pose[1], target.xy[0] - pose[0]) + side * self.recovery_params.detour_angle
+            bearing = (np.arctan2(target.xy[1] - pose[1], target.xy[0] - pose[0])
+                       + side * self.recovery_params.detour_angle)
             d = self.recovery_params.detour_distance
             self._detour = (self.target(pose[0] + d * np.cos(bearing), pose[1] + d * np.sin(bearing), final=False),)
             strategy = f'detour by ({self._detour[0].xy[0]:.2f}, {self._detour[0].xy[1]:.2f})'
@@ -322,8 +327,8 @@ class PlannerStage:
                                                      f'in {self.recovery_params.window} strides; {strategy}'))
 
     def _allowed(self) -> np.ndarray | None:
-        """The clips the search may use: all, or in recovery those of the slow walk and the ways down to it."""
-        if not self.recovery:
+        """Return the clips the search may use: all, or at recovery level 2 the slow walk's and the ways down to it."""
+        if self.recovery != 2:
             return None
         table = self.planner.table
         slow = [table.gaits.names.index(g) for g in (STAND, 'walk', ANY_GAIT) if g in table.gaits.names]
@@ -361,13 +366,14 @@ def planner_stage(scene: Scene, library: dict | None = None, blend_frames: int |
     Return the planner of `scene`.
 
     Its motion graph (`motion_graph`), a search over it on the scene's terrain (or `terrain`) with the library's
-    tracking figures (a LibraryTracking; default: the shipped ones, none for another library), and the scene's goal radius and yaw
+    tracking figures (a LibraryTracking; default: the shipped ones of the scene's fidelity preset, none for another
+    library), and the scene's goal radius and yaw
     tolerance unless `goal_radius` (m) or `yaw_tolerance` (rad) > 0. The scene's goals and route are not scheduled
     here: the library loop schedules them, a node receives them.
     """
     graph = motion_graph(library, blend_frames)
     if tracking is None:
-        tracking = load_tracking() if library is None else LibraryTracking({})
+        tracking = load_tracking(fidelity=scene.fidelity) if library is None else LibraryTracking({})
     planner = MotionPlanner(clip_table(graph.clips, tracking.clips, tracking.carry),
                             scene_terrain(scene) if terrain is None else terrain)
     return PlannerStage(graph, planner, goal_radius or scene.goal_radius,

@@ -110,8 +110,11 @@ class GoalRequest(NamedTuple):
 
 
 class RouteRequest(NamedTuple):
-    """A route from the route topic: waypoints ((x, y, yaw or None), ...) m and rad, the last's yaw only, and the
-    adoption time s."""
+    """
+    A route from the route topic.
+
+    Waypoints ((x, y, yaw or None), ...) m and rad, the last's yaw only, and the adoption time s.
+    """
 
     waypoints: tuple
     at: float

@@ -170,8 +170,8 @@ def test_foxglove_goal_is_one_the_planner_accepts():
     from iguana_ros.scene import load_scene
     goal = json.loads(FOXGLOVE.read_text())['configById']['Publish!goal']
     msg = fill(message_class(goal['datatype'])(), json.loads(goal['value']))
-    xy, at = goal_from_msg(msg, load_scene('hills').terrain.extent / 2.0)
-    assert at == 0.0 and xy.tolist() == [2.0, 0.5]
+    goal = goal_from_msg(msg, load_scene('hills').terrain.extent / 2.0)
+    assert goal.at == 0.0 and goal.xy.tolist() == [2.0, 0.5]
 
 
 def test_layouts_are_installed_under_share(monkeypatch, capsys):

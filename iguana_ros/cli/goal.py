@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('x', type=float, help='goal x in the frame, m')
     parser.add_argument('y', type=float, help='goal y in the frame, m')
     parser.add_argument('--yaw', type=float, default=None, metavar='DEG',
-                        help='heading to arrive in, degrees about +z (honoured within the planner\'s yaw tolerance; '
+                        help="heading to arrive in, degrees about +z (honoured within the planner's yaw tolerance; "
                              'default: any heading)')
     parser.add_argument('--frame', default=None, help='frame_id (default: the world frame)')
     parser.add_argument('--at', type=float, default=0.0, metavar='S',

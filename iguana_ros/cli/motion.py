@@ -40,6 +40,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                      'ground, slopes) and write the tracking figures the planner uses')
     calibrate.add_argument('-o', '--output', help='tracking file to write (default: the shipped clip_tracking.json)')
     calibrate.add_argument('--workers', type=int, default=None, help='processes (default: one per core)')
+    calibrate.add_argument('--fidelity', choices=('all', 'fast', 'balanced', 'accurate'), default='all',
+                           help='the fidelity presets to measure (default all; the others in the file are kept)')
     calibrate.set_defaults(func=run_calibrate)
 
 
@@ -120,13 +122,15 @@ def _print_tracking(library: dict) -> None:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    """Run the calibration tours and write the tracking figures."""
+    """Run the calibration tours of each fidelity preset asked for and write their tracking figures."""
     from iguana_ros.clip_calibration import calibrate, write_calibration
     from iguana_ros.motion.tracking import default_tracking_path
 
-    tracking, samples = calibrate(args.workers)
     path = args.output or default_tracking_path()
-    write_calibration(path, tracking, samples, 'balanced', 'normal')
-    print(f'wrote {path}: {len(tracking.clips)} clips from {len(samples)} strides (heading carry-over '
-          f'{tracking.carry:.2f})')
+    presets = ('fast', 'balanced', 'accurate') if args.fidelity == 'all' else (args.fidelity,)
+    for fidelity in presets:
+        tracking, samples = calibrate(args.workers, fidelity)
+        write_calibration(path, tracking, samples, fidelity, 'normal')
+        print(f'wrote {path} ({fidelity}): {len(tracking.clips)} clips from {len(samples)} strides (heading carry-over '
+              f'{tracking.carry:.2f})', flush=True)
     return 0

@@ -29,9 +29,10 @@ import numpy as np
 from iguana_ros.errors import IguanaError
 from iguana_ros.motion.c3d_io import read_capture, write_c3d
 from iguana_ros.motion.capture import CaptureQuality, synthesize_capture
+from iguana_ros.motion.cleanup import PIVOT_TAIL_TIP_HEIGHT, TAIL_TIP_HEIGHT
 from iguana_ros.motion.clips import cut_clip, save_clip_library
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model
-from iguana_ros.motion.gait import GAITS, GaitParameters, generate_take, SYNTHETIC_TAKES
+from iguana_ros.motion.gait import GaitParameters, GAITS, generate_take, SYNTHETIC_TAKES
 from iguana_ros.motion.ik import IKResult, IKSettings, solve_ik
 from iguana_ros.motion.segmentation import detect_contacts, stride_boundaries
 
@@ -45,9 +46,11 @@ class ClipSource:
     Where a clip is cut from, and the gaits it starts and ends in (the motion graph's edges).
 
     `cut` says which stride of take `take`: 'middle' (the full stride nearest the middle), 'rest' (a stand of a stride
-    of gait `exit_gait`, in the middle of the take), 'from_rest' (from the frame at `at` s, when the take starts stepping, to
-    the first touchdown a stride of the `exit_gait` gait later), 'to_rest' (the stride of gait `entry_gait` from the touchdown
-    nearest `at` s, when it stops), 'across' (the stride in which the take's gait changes, the one holding `at` s).
+    of gait `exit_gait`, in the middle of the take), 'from_rest' (from the frame at `at` s, when the take starts
+    stepping, to the first touchdown a stride of the `exit_gait` gait later), 'to_rest' (the stride of gait
+    `entry_gait` from the touchdown nearest `at` s, when it stops), 'across' (the stride in which the take's gait
+    changes, the one holding `at` s).
+    `tail_tip` is the height (m) of the tail tip over the floor (`motion.cleanup.support_tail`).
     """
 
     take: str
@@ -55,6 +58,7 @@ class ClipSource:
     entry_gait: str = 'trot'
     exit_gait: str = 'trot'
     at: float = 0.0
+    tail_tip: float = TAIL_TIP_HEIGHT
 
     @property
     def cyclic(self) -> bool:
@@ -66,8 +70,8 @@ CLIP_SOURCES = {
     'forward': ClipSource('trot_straight'), 'turn_left': ClipSource('trot_turn_left'),
     'turn_right': ClipSource('trot_turn_right'), 'idle': ClipSource('stand', 'rest', 'stand', 'stand'),
     'walk': ClipSource('walk_straight', entry_gait='walk', exit_gait='walk'),
-    'pivot_left': ClipSource('pivot_left', entry_gait='walk', exit_gait='walk'),
-    'pivot_right': ClipSource('pivot_right', entry_gait='walk', exit_gait='walk'),
+    'pivot_left': ClipSource('pivot_left', entry_gait='walk', exit_gait='walk', tail_tip=PIVOT_TAIL_TIP_HEIGHT),
+    'pivot_right': ClipSource('pivot_right', entry_gait='walk', exit_gait='walk', tail_tip=PIVOT_TAIL_TIP_HEIGHT),
     'sharp_left': ClipSource('walk_sharp_left', entry_gait='walk', exit_gait='walk'),
     'sharp_right': ClipSource('walk_sharp_right', entry_gait='walk', exit_gait='walk'),
     'fast': ClipSource('trot_fast', entry_gait='fast', exit_gait='fast'),
@@ -144,11 +148,12 @@ def middle_stride(result: TakeResult, nominal: int, duty: float | None = None) -
 
     def off_duty(se: tuple) -> int:
         return 0 if duty is None else int(round(abs(result.contacts[se[0]:se[1]].mean() - duty) / 0.05))
-    return min(strides, key=lambda se: (abs((se[1] - se[0]) - nominal), off_duty(se), abs(0.5 * (se[0] + se[1]) - middle)))
+    return min(strides, key=lambda se: (abs((se[1] - se[0]) - nominal), off_duty(se),
+                                        abs(0.5 * (se[0] + se[1]) - middle)))
 
 
 def take_gait(take: str) -> str:
-    """The gait (a name in GAITS) a take starts in: its first gait knot's, else the trot."""
+    """Return the gait (a name in GAITS) a take starts in: its first gait knot's, else the trot."""
     spec = next((s for s in SYNTHETIC_TAKES if s.name == take), None)
     return spec.gait_knots[0][1] if spec is not None and spec.gait_knots else 'trot'
 
@@ -182,7 +187,7 @@ def source_frames(result: TakeResult, source: ClipSource) -> tuple:
 
 
 def _first(frames: np.ndarray, result: TakeResult, source: ClipSource) -> int:
-    """The first of `frames`, or IguanaError naming the take and the cut."""
+    """Return the first of `frames`, or raise IguanaError naming the take and the cut."""
     if not len(frames):
         raise IguanaError(f'take {result.name}: no touchdown after {source.at:g} s for its {source.cut!r} clip')
     return int(frames[0])
@@ -197,7 +202,7 @@ def cut_library(results: dict, model: BodyModel | None = None) -> dict:
         start, end = source_frames(result, source)
         clips[name] = cut_clip(name, result.ik.theta, result.contacts, start, end, result.frame_rate,
                                source=source.take, model=model, cyclic=source.cyclic, entry_gait=source.entry_gait,
-                               exit_gait=source.exit_gait)
+                               exit_gait=source.exit_gait, tail_tip=source.tail_tip)
     return clips
 
 

@@ -58,6 +58,12 @@ ground and is pressed into it (its lower surface ~5 mm below the joint), so it b
 centre of mass lies ~4.7 cm behind each diagonal support line of the trot (docs/RESULTS.md, "Why the hind feet did not
 lift"); a tail that carries ~4 N closes the support triangle so the swing hind foot carries nothing."""
 
+PIVOT_TAIL_TIP_HEIGHT = 0.02
+"""Height (m) of the tail-tip joint over the floor in a turn on the spot: the tail is held just off the ground, so it
+does not catch on a step edge as it sweeps sideways. Measured over 5 + 3 pivots of the medium body (2 Hz, balanced):
+on level ground -38 / +33 deg per stride at -0.01 m and at +0.02 m (-28 / +27 at +0.04 m); on a field of 3-5 cm steps
+-16..+12 deg (the tail caught, some strides turned the wrong way) at -0.01 m, -12..-33 / +30..+36 at +0.02 m."""
+
 TRIM_ROUNDS = 4
 """Frames a stance may lose at each end where the leg cannot reach its planted point."""
 

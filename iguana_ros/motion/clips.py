@@ -21,8 +21,8 @@ to (so playing a clip advances N frames). Poses are in a canonical frame: frame 
 facing +x (its yaw is zero; heights kept). Clips are cyclic-ready: frame N equals frame 0 moved by
 (`root_displacement`, `heading_change`), and the last frames are blended so velocity is continuous across the
 seam. A transition clip (start, stop, a change of gait) is not cyclic: its first pose is of the gait it leaves
-(`entry_gait`), its last of the gait it enters (`exit_gait`), and the motion graph lets it follow only clips that end in its
-entry gait. Foot order everywhere: fl, fr, hl, hr.
+(`entry_gait`), its last of the gait it enters (`exit_gait`), and the motion graph lets it follow only clips that end
+in its entry gait. Foot order everywhere: fl, fr, hl, hr.
 """
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ from iguana_ros.body.skeleton import forward_kinematics
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_yaw, quat_mul
-from iguana_ros.motion.cleanup import clean_footskate, flat_soles, stride_transform, support_tail
+from iguana_ros.motion.cleanup import clean_footskate, flat_soles, stride_transform, support_tail, TAIL_TIP_HEIGHT
 from iguana_ros.motion.dofs import BodyModel, iguana_body_model, local_rotations, root_positions
 
 CLIP_LIBRARY_FILE = 'clips.npz'
@@ -57,8 +57,8 @@ class Clip:
     entries keep stance soles flat, `motion.cleanup.flat_soles`), contacts `(N+1, 4)`, per-stride
     `root_displacement (2,)` (m, start heading frame) and `heading_change` (rad), `residual_heights` {'feet':
     `(N+1, 4)`, 'tail_tip': `(N+1,)`} (m above the capture floor, Section VI-A), `duty_factor`, `stride_length` (m),
-    active DOFs `theta (N+1, n_dof)`; the gait it starts in (`entry_gait`) and ends in (`exit_gait`), and whether it is cyclic
-    (frame N = frame 0 moved by the stride) or a transition.
+    active DOFs `theta (N+1, n_dof)`; the gait it starts in (`entry_gait`) and ends in (`exit_gait`), and whether it is
+    cyclic (frame N = frame 0 moved by the stride) or a transition.
     """
 
     name: str
@@ -132,7 +132,7 @@ def canonical(theta: np.ndarray, dofs) -> np.ndarray:
 def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_rate: float = FRAME_RATE,
                     source: str = '', model: BodyModel | None = None, metadata: dict | None = None,
                     entry_gait: str = ANY_GAIT, exit_gait: str = ANY_GAIT, cyclic: bool = True) -> Clip:
-    """Return a Clip from canonical poses `theta (N+1, n_dof)` (cyclic unless `cyclic` is False), contacts `(N+1, 4)`."""
+    """Return a Clip from canonical poses `theta (N+1, n_dof)` (cyclic unless `cyclic`), contacts `(N+1, 4)`."""
     model = model or iguana_body_model()
     d = model.dofs
     theta = np.asarray(theta, dtype=float)
@@ -163,13 +163,13 @@ def clip_from_theta(name: str, theta: np.ndarray, contacts: np.ndarray, frame_ra
 def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end: int,
              frame_rate: float = FRAME_RATE, source: str = '', model: BodyModel | None = None,
              clean: bool = True, cyclic: bool = True, entry_gait: str = ANY_GAIT,
-             exit_gait: str = ANY_GAIT) -> Clip:
+             exit_gait: str = ANY_GAIT, tail_tip: float = TAIL_TIP_HEIGHT) -> Clip:
     """
     Return the canonical clip of take frames start..end (poses `(F, n_dof)`, contacts `(F, 4)`).
 
-    Cyclic-ready unless `cyclic` is False (a transition from gait `entry_gait` to gait `exit_gait`: cut as it is, cleaned in a
-    window of a stride more of the take on each side). With `clean`, its tail rests on the floor and its stance feet
-    are planted on it with swings lifted (`motion.cleanup`).
+    Cyclic-ready unless `cyclic` is False (a transition from gait `entry_gait` to gait `exit_gait`: cut as it is,
+    cleaned in a window of a stride more of the take on each side). With `clean`, its tail rests on the floor and its
+    stance feet are planted on it with swings lifted (`motion.cleanup`), the tail tip `tail_tip` m over it.
     """
     model = model or iguana_body_model()
     if not 0 <= start < end < len(theta):
@@ -179,22 +179,23 @@ def cut_clip(name: str, theta: np.ndarray, contacts: np.ndarray, start: int, end
         clip_contacts = np.array(contacts[start:end + 1], dtype=bool, copy=True)
         clip_contacts[-1] = clip_contacts[0]
         if clean:
-            segment, clip_contacts = clean_footskate(support_tail(segment, model), clip_contacts, model)
+            segment, clip_contacts = clean_footskate(support_tail(segment, model, tail_tip), clip_contacts, model)
     else:
-        segment, clip_contacts = _transition_segment(theta, contacts, start, end, model, clean)
+        segment, clip_contacts = _transition_segment(theta, contacts, start, end, model, clean, tail_tip)
     return clip_from_theta(name, segment, clip_contacts, frame_rate, source, model,
                            {'start_frame': int(start), 'end_frame': int(end)}, entry_gait, exit_gait, cyclic)
 
 
 def _transition_segment(theta: np.ndarray, contacts: np.ndarray, start: int, end: int, model: BodyModel,
-                        clean: bool) -> tuple:
+                        clean: bool, tail_tip: float) -> tuple:
     """(canonical poses `(N+1, n_dof)`, contacts `(N+1, 4)`) of take frames start..end, cleaned in a wider window."""
     pad = end - start
     first, last = max(start - pad, 0), min(end + pad, len(theta) - 1)
     window = np.array(theta[first:last + 1], dtype=float, copy=True)
     window_contacts = np.array(contacts[first:last + 1], dtype=bool, copy=True)
     if clean:
-        window, window_contacts = clean_footskate(support_tail(window, model), window_contacts, model, cyclic=False)
+        window, window_contacts = clean_footskate(support_tail(window, model, tail_tip), window_contacts, model,
+                                                  cyclic=False)
     crop = slice(start - first, end - first + 1)
     return canonical(window[crop], model.dofs), window_contacts[crop]
 

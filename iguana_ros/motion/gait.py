@@ -30,8 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from iguana_ros.constants import (FAST_DUTY_FACTOR, FAST_STRIDE_FREQUENCY, FAST_TURN_PER_STRIDE, FRAME_RATE, PELVIC_YAW_AMPLITUDE,
-                                  PIVOT_CENTRE, PIVOT_DUTY_FACTOR, PIVOT_TURN_BEND, PIVOT_TURN_PER_STRIDE, SHARP_DUTY_FACTOR,
+from iguana_ros.constants import (FAST_DUTY_FACTOR, FAST_STRIDE_FREQUENCY, FAST_TURN_PER_STRIDE, FRAME_RATE,
+                                  PELVIC_YAW_AMPLITUDE, PIVOT_CENTRE, PIVOT_DUTY_FACTOR, PIVOT_TURN_BEND,
+                                  PIVOT_TURN_PER_STRIDE, SHARP_DUTY_FACTOR,
                                   SHARP_TURN_BEND, SHARP_TURN_PER_STRIDE, TROT_DUTY_FACTOR,
                                   TROT_STRIDE_FREQUENCY, TROT_STRIDE_LENGTH, WALK_DUTY_FACTOR, WALK_STRIDE_FREQUENCY,
                                   WALK_STRIDE_LENGTH)
@@ -77,7 +78,7 @@ class GaitParameters:
 
 GAITS = {
     'walk': (WALK_STRIDE_FREQUENCY, WALK_DUTY_FACTOR, WALK_STRIDE_LENGTH),
-    'pivot': (TROT_STRIDE_FREQUENCY, PIVOT_DUTY_FACTOR, WALK_STRIDE_LENGTH),
+    'pivot': (FAST_STRIDE_FREQUENCY, PIVOT_DUTY_FACTOR, WALK_STRIDE_LENGTH),
     'sharp': (WALK_STRIDE_FREQUENCY, SHARP_DUTY_FACTOR, WALK_STRIDE_LENGTH),
     'trot': (TROT_STRIDE_FREQUENCY, TROT_DUTY_FACTOR, TROT_STRIDE_LENGTH),
     'fast': (FAST_STRIDE_FREQUENCY, FAST_DUTY_FACTOR, TROT_STRIDE_LENGTH),
@@ -207,7 +208,7 @@ class RootPath:
         return xy, np.interp(t, self.time, self.heading)
 
     def time_at_phase(self, phase: np.ndarray) -> np.ndarray:
-        """Times `(...)` s at which the stride phase reaches `phase (...)` (the phase only grows)."""
+        """Return the times `(...)` s at which the stride phase reaches `phase (...)` (the phase only grows)."""
         return np.interp(phase, self.phase, self.time)
 
 
@@ -225,7 +226,7 @@ def gait_schedule(spec: TakeSpec, gait: GaitParameters, time: np.ndarray, sigma:
 
 
 def root_path(spec: TakeSpec, gait: GaitParameters, frame_rate: float, margin: float = 2.0) -> RootPath:
-    """Integrate speed, turn rate and stride phase on a fine grid from `-margin` to `duration + margin` s (origin t=0)."""
+    """Integrate speed, turn rate and stride phase on a fine grid from -margin to duration + margin s."""
     dt = 1.0 / (frame_rate * _FINE)
     time = np.arange(-margin, spec.duration + margin + dt, dt)
     knots = np.asarray(spec.speed_knots, dtype=float)

@@ -67,11 +67,11 @@ class Target:
         return self.final and self.yaw is not None and self.yaw_tolerance < math.pi
 
     def distance(self, xy: np.ndarray) -> float:
-        """Horizontal distance (m) from `xy (2,)` to the target."""
+        """Return how far (m, horizontally) `xy (2,)` is from the target."""
         return float(math.hypot(xy[0] - self.xy[0], xy[1] - self.xy[1]))
 
     def heading_error(self, yaw: float) -> float:
-        """|yaw - the target's heading| (rad, wrapped); 0 when no heading is asked for."""
+        """Return |yaw - the target's heading| (rad, wrapped); 0 when no heading is asked for."""
         return abs(float(wrap_angle(yaw - self.yaw))) if self.wants_heading else 0.0
 
     def reached(self, pose: np.ndarray) -> bool:
@@ -105,13 +105,16 @@ class PlannerParams:
     """Half-width (m) of the body-scale finite differences that give the terrain gradient."""
     correction_rate: float = 0.5
     """Weight of the newest stride's error in a clip's online correction (exponential average)."""
-    correction_limit: tuple = (0.06, 0.06, 0.4)
-    """Largest |online correction| of a clip's stride motion: dx m, dy m, dyaw rad."""
+    correction_limit: tuple = (0.1, 0.1, 0.8)
+    """Largest |online correction| of a clip's stride motion: dx m, dy m, dyaw rad (enough to cancel any clip's motion:
+    a turn on the spot whose tail catches on a step turns little or not at all)."""
 
 
 @dataclass(frozen=True)
 class GaitTable:
     """
+    The gaits as the cost-to-go sees them.
+
     Per gait (index into `names`): speed m/s and direction of travel (rad, from the root's heading) of its straightest
     cyclic clip, turn rate rad/s and turning radius m of its fastest-turning cyclic clip, and `switch_time (K, K)` s,
     the least time from ending a clip in gait a to starting one in gait b.
@@ -131,9 +134,9 @@ class ClipTable:
     The clips as the search sees them, arrays over the `names` (n clips).
 
     `duration (n,)` s; achieved stride motion on level ground `level (n, 3)` and its gain per unit gradient
-    `slope_gain (n, 3, 2)`; `entry_gait`, `exit_gait (n,)` gait indices; `successors (n + 1, n)`: which clip may follow which
-    (the last row: from rest, before any clip); `gaits` the per-gait figures of the cost-to-go; `carry` the fraction of
-    the previous stride's excess heading change a stride carries over (`motion.tracking.LibraryTracking`).
+    `slope_gain (n, 3, 2)`; `entry_gait`, `exit_gait (n,)` gait indices; `successors (n + 1, n)`: which clip may follow
+    which (the last row: from rest, before any clip); `gaits` the per-gait figures of the cost-to-go; `carry` the
+    fraction of the previous stride's excess heading change a stride carries over (`motion.tracking.LibraryTracking`).
     """
 
     names: tuple
@@ -160,8 +163,9 @@ def may_follow(first, second) -> bool:
 
 def clip_table(clips: dict, tracking: dict | None = None, carry: float = 0.0) -> ClipTable:
     """
-    Return the ClipTable of a clip library (name -> Clip) with its tracking figures (name -> ClipTracking; a clip
-    without them moves as captured) and heading carry-over.
+    Return the ClipTable of a clip library (name -> Clip).
+
+    With its tracking figures (name -> ClipTracking; a clip without them moves as captured) and heading carry-over.
     """
     tracking = tracking or {}
     names = tuple(clips)
@@ -184,7 +188,7 @@ def clip_table(clips: dict, tracking: dict | None = None, carry: float = 0.0) ->
 
 def gait_table(gaits: tuple, duration: np.ndarray, level: np.ndarray, entry: np.ndarray, exit_: np.ndarray,
                cyclic: np.ndarray) -> GaitTable:
-    """GaitTable of the gaits from the clips' durations `(n,)`, motions `(n, 3)`, gaits `(n,)` and cyclic flags `(n,)`."""
+    """Return the GaitTable of `gaits` from the clips' durations, motions `(n, 3)`, gaits and cyclic flags `(n,)`."""
     k = len(gaits)
     speed, direction, turn_rate, turn_radius = np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k)
     for g in range(k):
@@ -212,8 +216,10 @@ def gait_table(gaits: tuple, duration: np.ndarray, level: np.ndarray, entry: np.
 
 def rest_steps(table: ClipTable) -> np.ndarray:
     """
-    The first clip `(n + 1,)` of the quickest way to rest (a clip ending in the stand gait) from each row of
-    `successors` (a clip just played, or rest itself: the idle clip); -1 where none leads there.
+    Return the first clip `(n + 1,)` of the quickest way to rest from each row of `successors`.
+
+    Rest is a clip ending in the stand gait; a row is a clip just played, or rest itself (then the idle clip); -1 where
+    none leads there.
     """
     n, stand = len(table.names), table.gaits.names.index(STAND)
     to_rest = np.where(table.exit_gait == stand, 0.0, np.inf)       # s after a clip ends until the body rests
@@ -235,7 +241,7 @@ class Plan:
 
     @property
     def first(self) -> str:
-        """The clip to play now."""
+        """Return the clip to play now."""
         return self.clips[0]
 
 
@@ -298,8 +304,10 @@ class MotionPlanner:
 
     def motion(self, clips: np.ndarray, gradient: np.ndarray, turn: np.ndarray, corrected: bool = True) -> np.ndarray:
         """
-        Predicted stride motions `(m, 3)` of clip indices `(m,)` started at body-frame gradients `(m, 2)` after strides
-        that turned by `turn (m,)` rad (the carry-over), with the online correction unless `corrected` is False.
+        Return the predicted stride motions `(m, 3)` of clip indices `(m,)`.
+
+        Started at body-frame gradients `(m, 2)` after strides that turned by `turn (m,)` rad (the carry-over), with the
+        online correction unless `corrected` is False.
         """
         steady = self.table.level[clips] + np.einsum('mij,mj->mi', self.table.slope_gain[clips], gradient)
         if corrected:
@@ -324,7 +332,7 @@ class MotionPlanner:
     # ------------------------------------------------------------------------------------------------ search
     def plan(self, pose: np.ndarray, current: str | None, targets: list, allowed: np.ndarray | None = None) -> Plan:
         """
-        The best clip sequence from planar `pose (3,)` playing `current` (None: at rest) through `targets`.
+        Return the best clip sequence from planar `pose (3,)` playing `current` (None: at rest) through `targets`.
 
         The targets are the route's remaining ones in order (the last is final); `allowed (n,)` (optional) masks the
         clips the search may use. At each depth the `beam_width` open sequences of least estimate are kept, and the
@@ -368,7 +376,7 @@ class MotionPlanner:
                         final=np.array([t.final for t in targets]), rest=rest)
 
     def _expand(self, level: _Level, goals: _Targets, allowed: np.ndarray) -> tuple:
-        """The children `_Level` of every open sequence of `level` (one per clip that may follow), and which arrive."""
+        """Return the children of every open sequence of `level` (one per clip that may follow), and which arrive."""
         table, p = self.table, self.params
         parents, clips = np.nonzero(table.successors[level.clip] & allowed[None, :] & ~level.done[:, None])
         start = level.pose[parents]
@@ -442,8 +450,10 @@ class MotionPlanner:
 
     def _finish(self, yaw_error: np.ndarray, has_yaw: np.ndarray, final: np.ndarray) -> np.ndarray:
         """
-        Time (s) `(m, K)` from travelling in each gait to resting at a final target: change gait to one that turns, turn
-        by `yaw_error (m,)` rad if a heading is asked (`has_yaw (m,)`), change to the stand gait; 0 at a waypoint.
+        Return the time (s) `(m, K)` from travelling in each gait to resting at a final target (0 at a waypoint).
+
+        Change gait to one that turns, turn by `yaw_error (m,)` rad if a heading is asked (`has_yaw (m,)`), change to a
+        resting gait.
         """
         g = self.table.gaits
         to_rest = g.switch_time[:, self._rest_gaits].min(axis=1)        # (K,): from each gait to a resting one
@@ -454,7 +464,7 @@ class MotionPlanner:
         return np.where(final[:, None], finish, 0.0)
 
     def _backtrack(self, levels: list, best: tuple, pose: np.ndarray) -> Plan:
-        """The Plan of the best sequence found (`best`: cost, (depth, index, arrives)); idle-free fallback: none."""
+        """Return the Plan of the best sequence found (`best`: cost, (depth, index, arrives)); an empty one if none."""
         if best[1] is None:
             return Plan((), np.asarray(pose, float)[None, :3], math.inf, False)
         depth, index, arrives = best[1]
@@ -488,13 +498,13 @@ def _arrives(start: np.ndarray, end: np.ndarray, target: np.ndarray, goals: _Tar
 
 
 def _smallest(values: np.ndarray, k: int) -> np.ndarray:
-    """Indices of the `k` smallest finite `values`, in increasing order (ties by index: deterministic)."""
+    """Return the indices of the `k` smallest finite `values`, in increasing order (ties by index)."""
     finite = np.flatnonzero(np.isfinite(values))
     order = finite[np.lexsort((finite, values[finite]))]
     return order[:k]
 
 
 def _take(level: _Level, keep: np.ndarray) -> _Level:
-    """The sequences `keep` of `level`."""
+    """Return the sequences `keep` of `level`."""
     return _Level(level.pose[keep], level.turn[keep], level.clip[keep], level.target[keep], level.cost[keep],
                   level.estimate[keep], level.parent[keep], level.done[keep])

@@ -20,7 +20,8 @@ tracks it moves less or otherwise, and more so on a slope (a turn on a side slop
 per clip, the stride motion the body achieves as a linear function of the terrain gradient in the body frame (level
 ground plus a gain per unit of uphill-ahead and uphill-to-the-left slope) from measured strides; the planner predicts
 with it (`iguana_ros.motion.planning`). The figures are measured by `iguana motion calibrate`
-(`iguana_ros.clip_calibration`) and shipped with the library as `iguana_ros/data/clip_tracking.json`.
+(`iguana_ros.clip_calibration`) for each fidelity preset (the `fast` preset's larger steps damp the body: its turns
+turn a fraction of the balanced preset's) and shipped with the library as `iguana_ros/data/clip_tracking.json`.
 
 A cyclic clip is fitted on its steady strides (played after itself): the first stride after another clip carries some
 of that clip's turning over (the body does not turn its heading rate at once). That carry-over is one coefficient for
@@ -168,21 +169,40 @@ def default_tracking_path() -> Path:
 
 
 def save_tracking(path: str | Path, tracking: LibraryTracking, conditions: dict) -> Path:
-    """Write a LibraryTracking and the measuring `conditions` (scene settings, tour) as JSON; returns the path."""
+    """
+    Write a LibraryTracking measured at the fidelity preset `conditions['fidelity']` into a tracking file.
+
+    (with the conditions it was measured in: scene settings, tour); the figures of the other presets already in the file
+    are kept. Returns the path.
+    """
     path = Path(path)
-    data = {'conditions': conditions, 'carry': tracking.carry,
-            'clips': {name: asdict(t) for name, t in tracking.clips.items()}}
-    path.write_text(json.dumps(data, indent=1, sort_keys=True) + '\n')
+    presets = _read(path).get('presets', {}) if path.is_file() else {}
+    presets[conditions['fidelity']] = {'conditions': conditions, 'carry': tracking.carry,
+                                       'clips': {name: asdict(t) for name, t in tracking.clips.items()}}
+    path.write_text(json.dumps({'presets': presets}, indent=1, sort_keys=True) + '\n')
     return path
 
 
-def load_tracking(path: str | Path | None = None) -> LibraryTracking:
-    """Return the LibraryTracking of a tracking file (default: the shipped one; none if it does not exist)."""
+def tracking_presets(path: str | Path | None = None) -> list[str]:
+    """Return the fidelity presets a tracking file holds figures for (default: the shipped file)."""
+    path = Path(path) if path is not None else default_tracking_path()
+    return sorted(_read(path).get('presets', {})) if path.is_file() else []
+
+
+def load_tracking(path: str | Path | None = None, fidelity: str = 'balanced') -> LibraryTracking:
+    """
+    Return the LibraryTracking of a tracking file (default: the shipped one) for fidelity preset `fidelity`.
+
+    The balanced preset's figures where the file has none for it; none at all if the file does not exist.
+    """
     path = Path(path) if path is not None else default_tracking_path()
     if not path.is_file():
         return LibraryTracking({})
+    presets = _read(path).get('presets', {})
+    data = presets.get(fidelity, presets.get('balanced'))
+    if data is None:
+        return LibraryTracking({})
     try:
-        data = json.loads(path.read_text())
         carry = float(data['carry'])
         if not 0.0 <= carry <= 1.0:
             raise ValueError(f'carry {carry} is not within [0, 1]')
@@ -190,6 +210,17 @@ def load_tracking(path: str | Path | None = None) -> LibraryTracking:
                                carry)
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f'clip tracking file {path} is damaged: {exc}') from None
+
+
+def _read(path: Path) -> dict:
+    """Return the JSON object of a tracking file; InputError if it is not one."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f'clip tracking file {path} is unreadable: {exc}') from None
+    if not isinstance(data, dict) or not isinstance(data.get('presets', {}), dict):
+        raise InputError(f'clip tracking file {path} is damaged: expected an object of presets')
+    return data
 
 
 def _tracking_from_dict(name: str, entry: dict) -> ClipTracking:

@@ -49,8 +49,8 @@ from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.nodes.goal_sender import goal_message, publish_goals, route_message, wait_spinning
 from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_msg
-from iguana_ros.ros.messages import planner_status_from_msg
 from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.messages import planner_status_from_msg
 from iguana_ros.scene import Scene
 
 SIMULATOR_NODE = 'simulator_node'
@@ -83,9 +83,11 @@ class IguanaState:
 @dataclass(frozen=True)
 class Feedback:
     """
-    The planner's latest planner_status: `state` ('idle', 'walking', 'recovering', 'arrived'), the index of the
-    waypoint it heads for and how many the goal or route has, the distance m to it and the heading error rad, the
-    recovery level, how many goals and routes it has accepted, the stride end's frame and simulated time s.
+    The planner's latest planner_status.
+
+    `state` ('idle', 'walking', 'recovering', 'arrived'), the index of the waypoint it heads for and how many the goal
+    or route has, the distance m to it and the heading error rad, the recovery level, how many goals and routes it
+    has accepted, the stride end's frame and simulated time s.
     """
 
     state: str
@@ -170,8 +172,10 @@ class IguanaCommander:
     def follow_waypoints(self, waypoints: list, yaw: float | None = None, timeout: float = 10.0,
                          frame_id: str = WORLD_FRAME) -> None:
         """
-        Send a route through `waypoints` ((x, y) m, passed in order), arriving at the last heading `yaw` rad (None:
-        any); returns once the planner accepted it. `feedback().waypoint` is the index of the waypoint it heads for.
+        Send a route through `waypoints` ((x, y) m, passed in order), arriving at the last heading `yaw` rad.
+
+        (None: any heading); returns once the planner accepted it. `feedback().waypoint` is the index of the waypoint it
+        heads for.
         """
         points = [(float(x), float(y)) for x, y in waypoints]
         if not points or not all(math.isfinite(v) for p in points for v in p) or \
@@ -221,6 +225,7 @@ class IguanaCommander:
         """
         if self.goal is None:
             raise IguanaError('wait_until_reached: no goal sent yet (call go_to or follow_waypoints first)')
+
         def reached() -> bool:
             return self.arrived() or (not self._planner_decides and self.distance_to_goal() < self.goal_radius)
         try:

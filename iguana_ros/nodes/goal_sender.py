@@ -64,8 +64,9 @@ def goal_message(x: float, y: float, yaw_deg: float | None = None, at: float = 0
 
 def route_message(waypoints: list, yaw_deg: float | None = None, at: float = 0.0, frame_id: str = WORLD_FRAME):
     """
-    `nav_msgs/Path` route through `waypoints` ((x, y) m, in order), arriving heading `yaw_deg` (None: any), stamped
-    `at` s of simulated time; every pose carries the route's header.
+    Return a `nav_msgs/Path` route through `waypoints` ((x, y) m, in order).
+
+    Arriving heading `yaw_deg` (None: any), stamped `at` s of simulated time; every pose carries the route's header.
     """
     from nav_msgs.msg import Path
 

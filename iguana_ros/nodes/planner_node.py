@@ -78,7 +78,7 @@ class PlannerNode(IguanaNode):
         self._accepted([msg], goal.at, at, f'goal ({goal.xy[0]:.2f}, {goal.xy[1]:.2f}), {heading}')
 
     def on_route(self, msg) -> None:
-        """Schedule a route (its waypoints passed in order from its stamp on) and add its waypoints to accepted_goals."""
+        """Schedule a route (its waypoints passed in order from its stamp on); add its waypoints to accepted_goals."""
         route = route_from_msg(msg, self.half_extent)
         at = self.stage.accept_route(self.stage.route_targets(list(route.waypoints)), route.at)
         poses = [self._stamped(pose, msg.header) for pose in msg.poses]
@@ -86,7 +86,7 @@ class PlannerNode(IguanaNode):
 
     @staticmethod
     def _stamped(pose, header):
-        """A route waypoint as the goal_pose message its sender compares with accepted_goals (the route's header)."""
+        """Return a route waypoint as its sender compares it with accepted_goals (with the route's header)."""
         pose.header = header
         return pose
 

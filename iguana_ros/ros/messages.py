@@ -19,9 +19,8 @@ import array
 import math
 import struct
 
-import numpy as np
-
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+import numpy as np
 from std_msgs.msg import Header
 
 from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
@@ -269,7 +268,7 @@ def _checked_state(frame_id: str, frame: int, position: np.ndarray, orientation:
 
 def goal_from_msg(msg, half_extent: float) -> GoalRequest:
     """
-    GoalRequest (position `(2,)` m, adoption time s, heading rad or None) of a goal_pose message.
+    Return the GoalRequest (position `(2,)` m, adoption time s, heading rad or None) of a goal_pose message.
 
     On a terrain reaching `half_extent` m from the origin; InputError if its frame, numbers, orientation or stamp are
     wrong or the goal is off the terrain (`check_goal`).
@@ -280,7 +279,7 @@ def goal_from_msg(msg, half_extent: float) -> GoalRequest:
 
 
 def route_from_msg(msg, half_extent: float) -> RouteRequest:
-    """RouteRequest of a route message (nav_msgs/Path): its waypoints and adoption time (`check_route`)."""
+    """Return the RouteRequest of a route message (nav_msgs/Path): waypoints and adoption time (`check_route`)."""
     check_frame_id('route', msg.header.frame_id)
     if len(msg.poses) > MAX_WAYPOINTS:
         raise InputError(f'route has {len(msg.poses)} waypoints, expected at most {MAX_WAYPOINTS}')
@@ -292,8 +291,9 @@ def route_from_msg(msg, half_extent: float) -> RouteRequest:
 
 def planner_status_msg(status, goals: int, frame: int, stamp: float):
     """
-    planner_status: a DiagnosticArray stamped `stamp` s (simulated) of one PlannerStatus, with the number of goal and
-    route messages accepted and the frame of the stride end.
+    Return the planner_status message: a DiagnosticArray stamped `stamp` s (simulated) of one PlannerStatus.
+
+    With the number of goal and route messages accepted and the frame of the stride end.
     """
     level = DiagnosticStatus.WARN if status.recovery else DiagnosticStatus.OK
     values = {'waypoint': status.waypoint, 'waypoints': status.waypoints, 'distance': f'{status.distance:.4f}',
@@ -306,8 +306,10 @@ def planner_status_msg(status, goals: int, frame: int, stamp: float):
 
 def planner_status_from_msg(msg) -> dict:
     """
-    The planner_status message as a dict: state, waypoint, waypoints, distance, heading_error, recovery, goals,
-    frame, time (s); InputError unless it holds one status with those values as numbers.
+    Return a planner_status message as a dict.
+
+    state, waypoint, waypoints, distance, heading_error, recovery, goals, frame, time (s); InputError unless it holds
+    one status with those values as numbers.
     """
     if len(msg.status) != 1:
         raise InputError(f'planner_status holds {len(msg.status)} statuses, expected 1')

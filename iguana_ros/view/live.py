@@ -22,7 +22,6 @@ topic is logged, never drawn.
 """
 from __future__ import annotations
 
-import math
 import sys
 import threading
 import time

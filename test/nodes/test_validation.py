@@ -42,8 +42,13 @@ def model():
 
 
 def test_goal_off_the_terrain_or_stamped_before_zero_is_rejected_by_the_one_goal_decoder():
-    xy, at = m.goal_from_msg(goal_message(1.0, -2.0, at=3.0), half_extent=5.0)
-    assert xy.tolist() == [1.0, -2.0] and at == 3.0
+    goal = m.goal_from_msg(goal_message(1.0, -2.0, at=3.0), half_extent=5.0)
+    assert goal.xy.tolist() == [1.0, -2.0] and goal.at == 3.0 and goal.yaw is None      # all-zero: any heading
+    assert m.goal_from_msg(goal_message(1.0, -2.0, yaw_deg=90.0), half_extent=5.0).yaw == pytest.approx(np.pi / 2)
+    squashed = goal_message(1.0, 1.0, yaw_deg=0.0)
+    squashed.pose.orientation.w = 0.5
+    with pytest.raises(InputError, match='goal orientation has norm 0.5; expected a unit quaternion'):
+        m.goal_from_msg(squashed, half_extent=5.0)
     with pytest.raises(InputError, match=r'goal \(1e\+09, 0\) is off the terrain \(\|x\|, \|y\| <= 5 m\)'):
         m.goal_from_msg(goal_message(1e9, 0.0), half_extent=5.0)
     early = goal_message(1.0, 1.0)
@@ -134,3 +139,16 @@ def test_frames_far_ahead_are_rejected_stale_and_repeated_ones_classified():
     assert v.check_frame('x', MAX_FRAME_GAP, -1) == v.FRAME_NEW
     with pytest.raises(InputError, match=f'expected at most {MAX_FRAME_GAP} ahead'):
         v.check_frame('iguana_state', 5 + MAX_FRAME_GAP + 1, 5)
+
+
+def test_a_route_is_checked_waypoint_by_waypoint_and_keeps_only_the_last_heading():
+    from iguana_ros.nodes.goal_sender import route_message
+    route = m.route_from_msg(route_message([(1.0, 0.0), (1.0, 1.0)], yaw_deg=90.0, at=2.0), half_extent=5.0)
+    assert route.at == 2.0 and route.waypoints[0] == (1.0, 0.0, None)
+    assert route.waypoints[1][:2] == (1.0, 1.0) and route.waypoints[1][2] == pytest.approx(np.pi / 2)
+    with pytest.raises(InputError, match=r'goal \(9, 1\) is off the terrain'):
+        m.route_from_msg(route_message([(1.0, 0.0), (9.0, 1.0)]), half_extent=5.0)
+    with pytest.raises(InputError, match='route has 0 waypoints, expected 1 to'):
+        m.route_from_msg(route_message([]), half_extent=5.0)
+    with pytest.raises(InputError, match="frame_id 'map'"):
+        m.route_from_msg(route_message([(1.0, 0.0)], frame_id='map'), half_extent=5.0)
