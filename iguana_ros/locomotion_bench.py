@@ -236,6 +236,8 @@ def _steering_group(rows: list[dict]) -> dict:
         'stuck_strides': sum(r.get('stuck_strides') or 0 for r in finished),
         'fell': sum(r.get('fell') is True for r in finished), 'errors': len(rows) - len(finished),
         'realtime_factor_median': _median(_values(finished, 'realtime_factor')),
+        'plan_ms_median': _median(_values(finished, 'plan_ms_median')),
+        'plan_ms_max': max(_values(finished, 'plan_ms_max'), default=None),
     }
 
 

@@ -78,7 +78,9 @@ class SteeringMetrics:
     How a run steered to its goal.
 
     `straight_distance` (m, from the start along the route's waypoints to the edge of the goal's radius), `path_ratio`
-    (the root's path length until it arrived, or of the whole run, over it), the heading error at arrival and at the end
+    (the length of the root's stride-averaged path until it arrived, or of the whole run, over it: `stride_path_length`)
+    and `path_ratio_frames` (the same of the root's frame-by-frame path, sway included), the heading error at arrival
+    and at the end
     (deg; NaN where no heading is asked or the goal was not reached), the stride ends before arrival spent circling
     (`circling_strides`, two full turns without getting closer) or making no progress (`stuck_strides`,
     `no_progress`), and for a route its waypoints, how many were passed in order and whether all were.
@@ -86,6 +88,7 @@ class SteeringMetrics:
 
     straight_distance: float
     path_ratio: float
+    path_ratio_frames: float
     heading_error_at_arrival_deg: float
     final_heading_error_deg: float
     circling_strides: int
@@ -138,6 +141,27 @@ def _plain(v):
 def path_length(root_xy: np.ndarray) -> float:
     """Horizontal path length of the root `(n_frames, 2)`, m."""
     return float(np.sum(np.linalg.norm(np.diff(root_xy, axis=0), axis=1)))
+
+
+STRIDE_FRAMES = 20
+"""Frames of the moving average that takes a stride's sway out of a root path (a trot stride at 30 Hz)."""
+
+
+def stride_path_length(root_xy: np.ndarray, window: int = STRIDE_FRAMES) -> float:
+    """
+    Return the length (m) of the root's path `(n_frames, 2)` averaged over `window` frames (a stride).
+
+    The pelvis sways sideways and, turning on the spot, circles its pivot within every stride; the average keeps the
+    way the body went (the ends are held at the first and last positions, so the average starts and ends there).
+    """
+    root_xy = np.asarray(root_xy, dtype=float)
+    if len(root_xy) < 2:
+        return 0.0
+    half = window // 2
+    padded = np.concatenate([np.repeat(root_xy[:1], half, axis=0), root_xy, np.repeat(root_xy[-1:], half, axis=0)])
+    kernel = np.ones(2 * half + 1) / (2 * half + 1)
+    smooth = np.stack([np.convolve(padded[:, k], kernel, mode='valid') for k in range(2)], axis=1)
+    return path_length(np.concatenate([root_xy[:1], smooth, root_xy[-1:]]))
 
 
 def heading_errors(yaw: np.ndarray, goal_yaw) -> np.ndarray:
@@ -384,7 +408,8 @@ def steering_metrics(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray, wa
     passed = int(route_progress(root_xy, waypoints, radius)[-1]) if len(times) and len(waypoints) > 1 else 0
     return SteeringMetrics(
         straight_distance=straight,
-        path_ratio=path_length(root_xy[:arrival + 1]) / straight if straight > 0 else float('nan'),
+        path_ratio=stride_path_length(root_xy[:arrival + 1]) / straight if straight > 0 else float('nan'),
+        path_ratio_frames=path_length(root_xy[:arrival + 1]) / straight if straight > 0 else float('nan'),
         heading_error_at_arrival_deg=float(errors[arrival]) if reached else float('nan'),
         final_heading_error_deg=float(errors[-1]) if len(times) else float('nan'),
         circling_strides=circling_strides(yaw[strides], np.hypot(*(root_xy[strides] - goal_of).T)),

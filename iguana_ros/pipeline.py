@@ -52,6 +52,7 @@ class RunResult:
     goals: list = field(default_factory=list)         # (time, x, y)
     wall_seconds: float = 0.0
     events: list = field(default_factory=list)        # stages.PlannerEvent: waypoints, arrival, stuck, recovery
+    plan_seconds: list = field(default_factory=list)  # wall time of each search of the motion graph, s
 
     def save(self, path: str | Path) -> Path:
         """Write the trajectories to an `.npz` file; returns its path."""
@@ -171,7 +172,8 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     rows = {k: v[:done] for k, v in rows.items()}
     goals = [(g.at, g.x, g.y) for g in scene.goals]
     return RunResult(times=(np.arange(done) + 1) / FRAME_RATE, clip_history=list(pipe.planner.history),
-                     goals=goals, wall_seconds=wall, events=list(pipe.planner.events), **rows)
+                     goals=goals, wall_seconds=wall, events=list(pipe.planner.events),
+                     plan_seconds=list(pipe.planner.plan_seconds), **rows)
 
 
 def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 import dataclasses
+import time
 from typing import Callable
 
 import numpy as np
@@ -148,6 +149,7 @@ class PlannerStage:
         self.frame = -1
         self.history: list[tuple[int, str]] = []
         self.events: list[PlannerEvent] = []
+        self.plan_seconds: list[float] = []
         self._scheduled: list[tuple[float, int, tuple]] = []
         self._stride_start: np.ndarray | None = None
         self._progress: list[tuple[float, float]] = []
@@ -279,7 +281,9 @@ class PlannerStage:
         if self.settled or not self.targets:
             return self._toward_rest(current)
         targets = self._detour + self.targets[self.waypoint:]
+        start = time.perf_counter()
         plan = self.planner.plan(pose, current, list(targets), self._allowed())
+        self.plan_seconds.append(time.perf_counter() - start)
         return plan.first if plan.clips else self._toward_rest(current)
 
     def _toward_rest(self, current: str | None) -> str:

@@ -13,10 +13,13 @@
 # limitations under the License.
 
 """
-`iguana bench locomotion`: the randomized locomotion benchmark (iguana_ros.locomotion_bench) on all cores.
+`iguana bench locomotion`: the randomized locomotion benchmarks (iguana_ros.locomotion_bench) on all cores.
 
-A progress line per finished run goes to stderr; then a table per mode and terrain kind with the
-with/without-adaptation ratios, or with --json one object {config, summary, rows, wall_s} on stdout.
+`--suite steering` (default): the steering suite, a table per category, fidelity and stiffness preset (reach rate,
+time, path over the straight way, headings within tolerance, routes completed, circling and stuck strides, the
+search's time per stride end) and the behind/ahead time ratio. `--suite terrains`: a goal 3 m away on random terrains
+with and without adaptation, a table per mode and terrain kind with the with/without-adaptation ratios. A progress line
+per finished run goes to stderr; with --json one object {config, summary, rows, wall_s} on stdout.
 """
 from __future__ import annotations
 
@@ -28,6 +31,8 @@ import time
 from iguana_ros.cli.argtypes import count, positive
 
 KINDS = ('hills', 'tilted', 'steps', 'noise')
+CATEGORIES = ('near', 'far', 'ahead', 'behind', 'slope', 'steps', 'heading', 'route')
+"""The steering suite's categories (iguana_ros.random_scenes.STEERING_CATEGORIES, without its repeat)."""
 """The benchmark's terrain kinds (iguana_ros.locomotion_bench.BENCH_KINDS, kept here so --help imports little)."""
 MODES = {'both': (True, False), 'adapt': (True,), 'no-adapt': (False,)}
 
@@ -41,11 +46,26 @@ def _kinds(text: str) -> tuple:
     return kinds
 
 
+def _categories(text: str) -> tuple:
+    """`argparse` type: a comma-separated list of steering categories."""
+    categories = tuple(c.strip() for c in text.split(',') if c.strip())
+    bad = [c for c in categories if c not in CATEGORIES]
+    if bad or not categories:
+        raise argparse.ArgumentTypeError(f'expected a comma-separated list of {", ".join(CATEGORIES)}, got {text!r}')
+    return categories
+
+
 def register(sub) -> None:
     """Add `locomotion` to the `bench` sub-commands."""
-    loco = sub.add_parser('locomotion', help='walk to a goal 3 m away on random terrains, with and without '
-                                             'terrain adaptation; reach rate, time, slip per mode and terrain')
-    loco.add_argument('--terrains', type=count(1), default=30, help='number of random terrains (default 30)')
+    loco = sub.add_parser('locomotion', help='steering: goals near and far, behind, on slopes and steps, with headings '
+                                             'and routes (default); or terrains: a goal 3 m away with and without '
+                                             'terrain adaptation')
+    loco.add_argument('--suite', choices=('steering', 'terrains'), default='steering', help='which suite (default '
+                                                                                            'steering)')
+    loco.add_argument('--scenes', type=count(1), default=90, help='steering: number of scenes (default 90)')
+    loco.add_argument('--categories', type=_categories, default=None,
+                      help=f'steering: categories to cycle (default {",".join(CATEGORIES)},near)')
+    loco.add_argument('--terrains', type=count(1), default=30, help='terrains: number of random terrains (default 30)')
     loco.add_argument('--seed', type=count(0), default=0, help='seed of the terrains and goals (default 0)')
     loco.add_argument('--duration', type=positive('duration'), default=40.0,
                       help='simulated seconds per run at most; a run ends 2 s after reaching its goal (default 40)')
@@ -60,6 +80,8 @@ def register(sub) -> None:
 
 def run_locomotion(args: argparse.Namespace) -> int:
     """`iguana bench locomotion`."""
+    if args.suite == 'steering':
+        return run_steering_suite(args)
     from iguana_ros.locomotion_bench import random_scenes, run_benchmark, summarize
 
     scenes = random_scenes(args.terrains, args.seed, args.duration, args.mesh, args.kinds)
@@ -84,6 +106,69 @@ def run_locomotion(args: argparse.Namespace) -> int:
         print(format_summary(summary))
         print(f'{len(rows)} runs in {wall:.1f} s wall')
     return 0
+
+
+def run_steering_suite(args: argparse.Namespace) -> int:
+    """`iguana bench locomotion --suite steering`: run the scenes, print the table (or JSON)."""
+    from iguana_ros.locomotion_bench import run_steering, steering_scenes, STEERING_CATEGORIES, summarize_steering
+
+    categories = args.categories or STEERING_CATEGORIES
+    scenes = steering_scenes(args.scenes, args.seed, args.mesh, categories)
+    output = _open_output(args.output)
+    print(f'{len(scenes)} steering scenes (seed {args.seed}), {args.mesh} mesh', file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    rows = run_steering(scenes, args.workers,
+                        progress=lambda row, done, total: print(f'[{done}/{total}] {_steering_line(row)}',
+                                                                file=sys.stderr, flush=True))
+    wall = time.perf_counter() - start
+    summary = summarize_steering(rows)
+    if output is not None:
+        with output:
+            json.dump(rows, output, indent=1)
+    if args.json:
+        config = {'suite': 'steering', 'scenes': args.scenes, 'seed': args.seed, 'mesh': args.mesh,
+                  'workers': args.workers, 'categories': list(categories)}
+        print(json.dumps({'config': config, 'summary': summary, 'rows': rows, 'wall_s': wall}, indent=1))
+    else:
+        print(format_steering(summary))
+        print(f'{len(rows)} runs in {wall:.1f} s wall')
+    return 0
+
+
+def _steering_line(row: dict) -> str:
+    """One finished steering run: outcome, time, path ratio, heading, circling and stuck strides."""
+    head = f"{row['scene']} ({row.get('fidelity')}, {row.get('stiffness')}):"
+    if row.get('error'):
+        return f"{head} ERROR {row['error']} ({row['wall_s']:.1f} s wall)"
+    if row.get('reached_goal'):
+        outcome = f"reached at {_num(row.get('time_to_goal'), '.1f')} s, path x{_num(row.get('path_ratio'), '.2f')}"
+        if row.get('heading'):
+            outcome += f", heading off {_num(row.get('final_heading_error_deg'), '.0f')} deg at rest"
+    else:
+        outcome = f"not reached ({_num(row.get('final_goal_distance'), '.2f')} m left)"
+    return (f"{head} {outcome}; circling {row.get('circling_strides')}, stuck {row.get('stuck_strides')} strides; "
+            f"{row['wall_s']:.1f} s wall")
+
+
+def format_steering(summary: dict) -> str:
+    """Return the readable table of `summarize_steering`'s result: one line per group, then the suite's counts."""
+    lines = [f"{'group':20s} {'runs':>4s} {'reached':>12s} {'time s':>7s} {'path':>5s} {'heading':>9s} "
+             f"{'routes':>7s} {'circling':>8s} {'stuck':>5s} {'plan ms':>7s} {'errors':>6s}",
+             f"{'':20s} {'':4s} {'':12s} {'(med)':>7s} {'(med)':>5s} {'in tol.':>9s} {'done':>7s} {'strides':>8s} "
+             f"{'':5s} {'(med)':>7s}"]
+    for group, g in summary['groups'].items():
+        reached = f"{g['reached']}/{g['n']} {100 * g['reach_rate']:3.0f}%" if g['n'] else '-'
+        heading = f"{g['heading_within_tolerance']}/{g['heading_goals']}" if g['heading_goals'] else '-'
+        routes = f"{g['routes_completed']}/{g['routes']}" if g['routes'] else '-'
+        lines.append(f"{group:20s} {g['n']:4d} {reached:>12s} {_num(g['time_to_goal_median'], '.1f', 7)} "
+                     f"{_num(g['path_ratio_median'], '.2f', 5)} {heading:>9s} {routes:>7s} "
+                     f"{g['circling_strides']:8d} {g['stuck_strides']:5d} {_num(g['plan_ms_median'], '.2f', 7)} "
+                     f"{g['errors']:6d}")
+    lines += ['', f"behind / ahead time (median of {summary['pairs']} pairs): "
+                  f"{_num(summary['behind_over_ahead'], '.2f')}; near goals {summary['near_goals']}, "
+                  f"12-20 deg slopes {summary['slope_scenes']}, fast preset {summary['fast_scenes']}",
+              'path: the stride-averaged root path until arrival over the straight way to the goal radius']
+    return '\n'.join(lines)
 
 
 def _open_output(path: str | None):

@@ -32,7 +32,7 @@ MODE_NAMES = {True: 'adapt', False: 'no_adapt'}
 """Row name of a run with (True) and without (False) terrain adaptation."""
 IDENTITY_ALIASES = {'model.resolution': 'resolution', 'terrain.kind': 'kind'}
 """Overrides that `scene_identity` already shows under another name."""
-TIMING_COLUMNS = ('wall_s', 'realtime_factor')
+TIMING_COLUMNS = ('wall_s', 'realtime_factor', 'plan_ms_median', 'plan_ms_max')
 """Row fields that measure the machine, not the run: they differ between runs of the same task."""
 
 
@@ -89,5 +89,8 @@ def run_scene(scene: Scene, options: RunOptions, identity: dict) -> dict:
     metrics = metrics_of_run(result, scene).as_dict()
     simulated = float(result.times[-1]) if len(result.times) else 0.0
     loop = float(result.wall_seconds)
+    plans = sorted(result.plan_seconds)
     return {**identity, 'wall_s': time.perf_counter() - start, 'simulated_s': simulated,
-            'realtime_factor': simulated / loop if loop > 0 else None, **metrics}
+            'realtime_factor': simulated / loop if loop > 0 else None,
+            'plan_ms_median': 1e3 * plans[len(plans) // 2] if plans else None,
+            'plan_ms_max': 1e3 * plans[-1] if plans else None, **metrics}
