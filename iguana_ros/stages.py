@@ -298,7 +298,7 @@ class PlannerStage:
         """Record the remaining way to the target at this stride end; recover when it stopped shrinking."""
         if self.settled or not self.targets:
             return
-        target = self._detour[0] if self._detour else self.targets[self.waypoint]
+        target = self.targets[self.waypoint]          # a detour is a means: progress is toward the target
         goal_yaw = target.yaw if target.wants_heading else None
         self._progress.append((float(remaining_way(pose[:2], pose[2], target.xy, target.radius, goal_yaw)[0]), pose[2]))
         params = self.recovery_params

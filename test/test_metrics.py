@@ -196,3 +196,53 @@ def test_as_dict_flattens_the_gait_figures_into_json_values():
     assert json.loads(json.dumps(d, allow_nan=False)) == d  # plain lists, floats, None only
     plain = m.LocomotionMetrics(**{**asdict(run), 'gait': None}).as_dict()
     assert set(d) - set(plain) == {f.name for f in fields(m.GaitMetrics)}
+
+
+def test_stride_averaged_path_takes_out_the_sway_not_the_way():
+    t = np.arange(301) / 30.0
+    straight = np.stack([0.25 * t, 0.02 * np.sin(2 * np.pi * 1.5 * t)], axis=1)     # 2 cm sway at the trot's 1.5 Hz
+    assert m.path_length(straight) > 1.1 * 0.25 * t[-1]
+    assert m.stride_path_length(straight) == pytest.approx(0.25 * t[-1], rel=0.01)
+    corner = np.concatenate([np.stack([np.linspace(0, 1, 60), np.zeros(60)], 1),
+                             np.stack([np.ones(60), np.linspace(0, 1, 60)], 1)])
+    assert 1.85 < m.stride_path_length(corner) <= m.path_length(corner) == pytest.approx(2.0, rel=0.01)
+
+
+def test_heading_counts_for_arrival_when_asked():
+    t = np.arange(5) / 30.0
+    xy = np.zeros((5, 2))
+    yaw = np.radians([90.0, 60.0, 40.0, 20.0, 0.0])
+    assert m.goal_arrival(t, xy, np.zeros(2), 0.1)[1] == 0.0
+    assert m.goal_arrival(t, xy, np.zeros(2), 0.1, yaw, 0.0, np.radians(30.0))[1] == pytest.approx(3 / 30.0)
+    assert m.goal_arrival(t, xy, np.zeros(2), 0.1, yaw, 0.0, np.inf)[1] == 0.0       # inf tolerance: any heading
+    assert m.heading_errors(np.array([3.0]), -3.0)[0] == pytest.approx(2 * np.pi - 6.0)
+
+
+def test_circling_is_two_turns_without_getting_closer():
+    turns = np.linspace(0.0, 5 * np.pi, 40)
+    assert m.circling_strides(turns, np.full(40, 1.0)) > 30
+    assert m.circling_strides(turns, np.linspace(3.0, 0.5, 40)) == 0                  # spiralling in: progress
+    assert m.circling_strides(np.linspace(0.0, np.pi, 40), np.full(40, 1.0)) == 0
+
+
+def test_no_progress_flags_stride_ends_after_a_window_without_shrinking():
+    measure = np.concatenate([np.linspace(3.0, 1.0, 10), np.full(10, 1.0)])
+    flags = m.no_progress(measure, window=4, progress=0.05)
+    assert not flags[:12].any() and flags[14:].all()
+    xy = np.array([[2.0, 0.0], [1.0, 0.0]])
+    away = m.remaining_way(xy, np.array([np.pi, 0.0]), np.zeros(2), 0.2)
+    assert away[0] == pytest.approx(2.0) and away[1] == pytest.approx(1.0 + m.BEARING_WEIGHT * np.pi)
+    inside = m.remaining_way(np.zeros((1, 2)), np.array([0.5]), np.zeros(2), 0.2, goal_yaw=0.0)
+    assert inside[0] == pytest.approx(0.5 - 1.0)
+
+
+def test_route_progress_and_steering_figures_of_a_route():
+    t = np.arange(0, 121) / 30.0
+    xy = np.concatenate([np.stack([np.linspace(0, 1, 61), np.zeros(61)], 1),
+                         np.stack([np.ones(60), np.linspace(0, 1, 61)[1:]], 1)])
+    route = np.array([[1.0, 0.0], [1.0, 1.0]])
+    assert m.route_progress(xy, route, 0.1)[-1] == 2
+    assert m.route_progress(xy[::-1], route, 0.1)[-1] == 1       # backwards: the second is met before the first
+    s = m.steering_metrics(t, xy, np.zeros(121), route, None, 0.1, np.inf, np.arange(0, 121, 20))
+    assert s.route_completed and s.waypoints == 2 and s.waypoints_in_order == 2 and s.circling_strides == 0
+    assert s.straight_distance == pytest.approx(1.9) and s.path_ratio_frames == pytest.approx(1.9 / 1.9, rel=0.05)

@@ -50,6 +50,11 @@ def test_defaults_and_what_is_built():
     ({'duration': 'long'}, "'duration'", 'number'),
     ({'goals': [{'x': 1, 'y': 'a'}]}, "'goals[0].y'", 'number'),
     ({'goals': [{'x': 100.0}]}, "'goals[0]'", 'off the terrain'),
+    ({'route': [{'x': 1.0}, {'x': 100.0}]}, "'route[1]'", 'waypoint (100, 0) is off the terrain'),
+    ({'route': [{'x': 1.0}], 'goals': [{'x': 1.0}]}, "'route'", 'either goals or a route'),
+    ({'goal_yaw_tolerance_deg': 0}, "'goal_yaw_tolerance_deg'", 'positive'),
+    ({'goal_yaw_tolerance_deg': float('nan')}, "'goal_yaw_tolerance_deg'", 'finite'),
+    ({'goals': [{'x': 1.0, 'yaw_deg': 400}]}, "'goals[0].yaw_deg'", 'within [-360, 360]'),
     ({'pushes': [{'force': [1, 2]}]}, "'pushes[0].force'", '3 numbers'),
     ({'pushes': [{'region': 'wing'}]}, "'pushes[0].region'", 'trunk_left'),
     ({'adaptation': 'yes'}, "'adaptation'", 'true or false'),
@@ -232,3 +237,13 @@ def test_heightfield_refuses_huge_grids_and_files_itself(tmp_path):
         np.lib.format.write_array_header_1_0(f, {'descr': '<f8', 'fortran_order': False, 'shape': (10 ** 5, 10 ** 5)})
     with pytest.raises(InputError, match='at most'):
         HeightField.from_file(big)
+
+
+def test_goal_headings_routes_and_an_infinite_yaw_tolerance():
+    scene = parse_scene({'goals': [{'x': 1.0, 'yaw_deg': 90}, {'x': 2.0, 'yaw_deg': None}, {'x': 3.0}],
+                         'goal_yaw_tolerance_deg': float('inf')}, 'test')
+    assert [g.yaw_deg for g in scene.goals] == [90.0, None, None] and scene.goal_yaw_tolerance_deg == float('inf')
+    assert scene.destination == scene.goals[-1]
+    route = parse_scene({'route': [{'x': 1.0, 'y': 0.5}, {'x': 2.0, 'y': -1.0, 'yaw_deg': -45}]}, 'test')
+    assert route.destination.x == 2.0 and route.destination.yaw_deg == -45.0 and route.route[0].yaw_deg is None
+    assert parse_scene({}, 'test').destination is None

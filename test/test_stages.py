@@ -177,3 +177,50 @@ def test_root_pose_is_fitted_once_per_state_of_the_body():
     stage.sim.reset()
     np.testing.assert_array_equal(stage.root_pose()[1], fit(stage.sim.positions)[1])
     assert len(calls) == 3
+
+
+def _drive(stage, moves: bool, strides: int, start=(0.0, 0.0, 0.0)):
+    """Play `stage`'s clips kinematically (each stride moves the pose as the search predicts, or not at all)."""
+    from iguana_ros.geometry import quat_from_yaw
+    pose, frame = np.array(start, float), 0
+    for _ in range(strides):
+        clip = stage.update(frame, np.array([pose[0], pose[1], 0.1]), quat_from_yaw(pose[2]))
+        assert clip is not None
+        if moves:
+            pose = stage.planner.predict(clip.name, pose)
+        frame += len(clip.root_positions) - 1
+        if stage.finished:
+            break
+    return pose
+
+
+def test_the_planner_stage_follows_a_route_reports_waypoints_and_comes_to_rest():
+    stage = stages.planner_stage(_scene(terrain={'kind': 'flat'}), goal_radius=0.2)
+    stage.schedule_route(stage.route_targets([(1.0, 0.0, None), (1.0, 1.0, None), (0.0, 1.0, np.pi)]))
+    pose = _drive(stage, moves=True, strides=150)
+    kinds = [e.kind for e in stage.events]
+    assert kinds[:2] == ['waypoint', 'waypoint'] and 'arrived' in kinds and stage.finished, stage.events
+    assert stage.status().state == 'arrived' and stage.status().waypoint == 2
+    assert np.hypot(pose[0], pose[1] - 1.0) <= 0.2 and abs(np.angle(np.exp(1j * (pose[2] - np.pi)))) <= np.pi / 6
+    assert stage.history[-1][1] == 'idle' and all(0 < s < 0.1 for s in stage.plan_seconds)
+
+
+def test_a_body_that_does_not_move_is_reported_stuck_and_recovered_by_detours():
+    stage = stages.planner_stage(_scene(terrain={'kind': 'flat'}), goal_radius=0.2)
+    stage.set_goal(np.array([2.0, 0.0]))
+    _drive(stage, moves=False, strides=40)
+    stuck = [e for e in stage.events if e.kind in ('stuck', 'circling')]
+    assert len(stuck) >= 2 and 'detour' in stuck[0].detail and 'slow walk' in stuck[1].detail, stage.events
+    assert stage.recovery >= 2 and stage.status().state == 'recovering'
+    assert not any(name.startswith('fast') for _, name in stage.history[-8:])   # level 2: the slow walk
+
+
+def test_a_new_goal_replaces_a_route_and_a_scheduled_one_waits_for_its_time():
+    stage = stages.planner_stage(_scene(terrain={'kind': 'flat'}))
+    stage.schedule_route(stage.route_targets([(1.0, 0.0, None), (2.0, 0.0, 0.5)]))
+    stage.schedule_goal(np.array([-1.0, 0.0]), at=2.0, yaw=1.0)
+    stage.activate_due_goals(0.0)
+    assert len(stage.targets) == 2 and not stage.targets[0].final and stage.targets[1].yaw == 0.5
+    assert stage.targets[0].yaw is None                         # only the last waypoint keeps its heading
+    stage.activate_due_goals(2.0)
+    assert len(stage.targets) == 1 and stage.targets[0].xy == (-1.0, 0.0) and stage.targets[0].yaw == 1.0

@@ -89,6 +89,9 @@ class PlannerParams:
     """Sequences kept at each depth."""
     switch_cost: float = 0.05
     """Cost (s) of changing clip: between two near-equal sequences, keep the clip playing."""
+    reverse_cost: float = 0.5
+    """Cost (s) of turning the other way from the clip before (both turning by over 0.1 rad a stride): a goal about
+    behind is as near turning left as right, and a body that turns less than predicted must not swing between them."""
     path_weight: float = 1.5
     """Cost (s per m) of the way walked, besides its time: between a quick wide turn on the move and turning on the
     spot first, take the shorter way unless it is much slower."""
@@ -287,6 +290,8 @@ class MotionPlanner:
         if self.correction is None:
             self.correction = np.zeros((len(self.table.names), 3))
         self._rest_gaits = [self.table.gaits.names.index(g) for g in (STAND, ANY_GAIT) if g in self.table.gaits.names]
+        yaw = self.table.level[:, 2]
+        self._turning = np.append(np.where(np.abs(yaw) > 0.1, np.sign(yaw), 0.0), 0.0)   # per successors row
         self._resting = np.isin(self.table.exit_gait, self._rest_gaits)
 
     # ---------------------------------------------------------------------------------------------- prediction
@@ -385,7 +390,8 @@ class MotionPlanner:
         end = planar_compose(start, motion)
         cost = (level.cost[parents] + table.duration[clips] * (1.0 + p.cross_slope_cost * grad[:, 1] ** 2)
                 + p.switch_cost * (clips != level.clip[parents]) + self._step_cost(start, end)
-                + p.path_weight * np.hypot(*(end[:, :2] - start[:, :2]).T))
+                + p.path_weight * np.hypot(*(end[:, :2] - start[:, :2]).T)
+                + p.reverse_cost * (self._turning[level.clip[parents]] * self._turning[clips] < 0))
         target = level.target[parents].copy()
         hit = _arrives(start, end, target, goals, self._resting[clips])
         arrived = hit & goals.final[target]

@@ -31,7 +31,7 @@ from ros_harness import IGUANA, NodeProcess, wait_for
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
 SCENE = {'name': 'commanded', 'description': 'no goals of its own: the commander sends them',
-         'terrain': {'kind': 'flat'}, 'duration': 60.0}
+         'terrain': {'kind': 'flat'}, 'duration': 120.0}
 
 
 @pytest.fixture(scope='module')
@@ -84,6 +84,24 @@ def test_push_with_a_duration_moves_the_body_sideways(running):
     assert pushed < -0.1 and pushed < 3 * -max(abs(v) for v in calm), (pushed, calm)   # toward -y, beyond sway
 
 
+def test_follow_waypoints_passes_them_in_order_with_feedback(running):
+    run, iguana = running
+    start = iguana.state().position[:2]
+    points = [start + [0.7, 0.0], start + [0.7, 0.7]]
+    iguana.follow_waypoints(points, yaw=np.pi / 2, timeout=30.0)
+    heading_for = []
+    for _ in range(120):
+        if iguana.wait_until_reached(timeout=1.0):
+            break
+        heading_for.append(iguana.feedback().waypoint)
+    done = iguana.feedback()
+    assert done.state == 'arrived' and done.waypoints == 2 and done.waypoint == 1, (done, run.output[-2000:])
+    assert heading_for == sorted(heading_for) and heading_for[0] == 0, heading_for    # in order, the first first
+    end = iguana.state()
+    assert np.hypot(*(end.position[:2] - points[-1])) < iguana.goal_radius + 0.05
+    assert abs(np.angle(np.exp(1j * (end.yaw - np.pi / 2)))) < np.radians(35.0), end.yaw
+
+
 def test_refusals_are_one_clear_error(running):
     _, iguana = running
     with pytest.raises(IguanaError, match='push_duration'):
@@ -92,3 +110,7 @@ def test_refusals_are_one_clear_error(running):
         iguana.go_to(500.0, 0.0, timeout=5.0)   # off the terrain: the planner rejects it
     with pytest.raises(IguanaError, match='not finite'):
         iguana.go_to(float('nan'), 0.0)
+    with pytest.raises(IguanaError, match='did not accept'):
+        iguana.follow_waypoints([(0.5, 0.0), (500.0, 0.0)], timeout=5.0)   # a waypoint off the terrain
+    with pytest.raises(IguanaError, match='finite waypoints'):
+        iguana.follow_waypoints([])

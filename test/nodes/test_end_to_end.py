@@ -59,15 +59,17 @@ def library_run(scene_file):
 
 
 WALK_FRAMES = 60
-"""The shared run: 2 s over the same hills, three strides (the planner turns toward the goal each time)."""
+"""The shared run: 2 s over the same hills, a route of two waypoints ending with a heading (sent on `route`)."""
 
 
 @pytest.fixture(scope='module')
 def walk_file(tmp_path_factory):
-    """Return the e2e hills and goal, 2 s: long enough for the gait figures (>= 2 strides) of the summary."""
+    """Return the e2e hills and a route, 2 s: long enough for the gait figures (>= 2 strides) of the summary."""
     raw = yaml.safe_load(scene_file_text())
+    del raw['goals']
     path = tmp_path_factory.mktemp('scene') / 'walk.yaml'
-    path.write_text(yaml.safe_dump({**raw, 'name': 'walk', 'duration': WALK_FRAMES / FRAME_RATE}))
+    route = [{'x': 0.3, 'y': 0.5}, {'x': 0.3, 'y': 1.0, 'yaw_deg': 90.0}]
+    path.write_text(yaml.safe_dump({**raw, 'name': 'walk', 'route': route, 'duration': WALK_FRAMES / FRAME_RATE}))
     return path
 
 
