@@ -19,7 +19,7 @@ from iguana_ros.scene import (available_scenes, load_scene, MAX_DURATION, MAX_EX
                               MAX_PUSH_FORCE, MAX_PUSHES, MAX_RELIEF, MAX_SCENE_BYTES, parse_scene, Scene, SceneError)
 from iguana_ros.terrain.heightfield import MAX_GRID_NODES
 
-REQUIRED = {'flat_walk', 'hills', 'hills_no_adaptation', 'push_normal', 'push_softer', 'goal_sequence'}
+REQUIRED = {'flat_walk', 'hills', 'hills_no_adaptation', 'push_normal', 'push_softer', 'goal_sequence', 'route_square'}
 
 
 def test_shipped_scenes_load():

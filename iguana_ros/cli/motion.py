@@ -107,18 +107,25 @@ def _print_tracking(library: dict) -> None:
     """Print what the body achieves with each clip against the clip's own stride motion (shipped library only)."""
     import numpy as np
 
-    from iguana_ros.motion.tracking import load_tracking
+    from iguana_ros.motion.tracking import load_tracking, tracking_presets
 
     tracking = load_tracking().clips if library else {}
     if not tracking:
         return
-    print(f'\n{"tracking":12s} {"nominal dx dy m, turn deg":>26s} {"achieved on level ground":>26s} {"slip m":>7s} '
-          f'{"strides":>7s}  achieved uphill / downhill / across a slope (dx m, turn deg)')
-    for name, t in tracking.items():
+    presets = tracking_presets()
+    turns = {p: load_tracking(fidelity=p).clips for p in presets}
+    print(f'\n{"tracking":12s} {"nominal dx dy m, turn deg":>26s} {"balanced, level ground":>26s} {"slip m":>7s} '
+          f'{"strides":>7s}  uphill / downhill / across (dx m, turn deg)  turn deg {" / ".join(presets)}')
+    for name in library:
+        t = tracking.get(name)
+        if t is None:
+            continue
         by = ' / '.join(f'{t.by_terrain[k]["motion"][0]:.3f} {np.degrees(t.by_terrain[k]["motion"][2]):+.0f}'
                         if k in t.by_terrain else '-' for k in ('uphill', 'downhill', 'cross'))
+        per = ' / '.join(f'{np.degrees(turns[p][name].level[2]):+.0f}' if name in turns[p] else '-' for p in presets)
         print(f'{name:12s} {t.nominal[0]:8.3f} {t.nominal[1]:7.3f} {np.degrees(t.nominal[2]):+8.1f}  '
-              f'{t.level[0]:8.3f} {t.level[1]:7.3f} {np.degrees(t.level[2]):+8.1f}  {t.slip:7.3f} {t.samples:7d}  {by}')
+              f'{t.level[0]:8.3f} {t.level[1]:7.3f} {np.degrees(t.level[2]):+8.1f}  {t.slip:7.3f} {t.samples:7d}  '
+              f'{by:42s}  {per}')
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
