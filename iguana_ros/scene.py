@@ -221,7 +221,7 @@ _WITHIN = {'start.yaw_deg': (MAX_ANGLE_DEG, 'deg'), 'goals.yaw_deg': (MAX_ANGLE_
            'route.yaw_deg': (MAX_ANGLE_DEG, 'deg'),
            'terrain.direction_deg': (MAX_ANGLE_DEG, 'deg')}
 _MAX_ITEMS = {'goals': MAX_GOALS, 'pushes': MAX_PUSHES, 'route': MAX_WAYPOINTS}
-_MAY_BE_INFINITE = {'goal_yaw_tolerance_deg'}
+MAY_BE_INFINITE = {'goal_yaw_tolerance_deg'}
 """Number fields that accept .inf: a yaw tolerance of inf ignores a goal's heading."""
 
 
@@ -258,7 +258,7 @@ def _number_problem(value, key: str, expected: type) -> str:
     """Return what is wrong with `value` as number field `key` ('goals.at'; ranges in _POSITIVE ... _WITHIN), or ''."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return f'expected a number, got {_show(value)}'
-    if isinstance(value, float) and math.isinf(value) and value > 0 and key in _MAY_BE_INFINITE:
+    if isinstance(value, float) and math.isinf(value) and value > 0 and key in MAY_BE_INFINITE:
         return ''
     if isinstance(value, float) and not math.isfinite(value):
         return f'expected a finite number, got {value!r}'
@@ -277,6 +277,11 @@ def _number_problem(value, key: str, expected: type) -> str:
     if abs(value) > 1e308:
         return f'expected a number of magnitude below 1e308, got {_show(value)}'
     return ''
+
+
+def accepts_infinity(path: str) -> bool:
+    """Whether number field `path` (e.g. 'goal_yaw_tolerance_deg') accepts +inf (MAY_BE_INFINITE)."""
+    return _generic(path) in MAY_BE_INFINITE
 
 
 def _generic(path: str) -> str:

@@ -43,8 +43,8 @@ import tracemalloc
 import yaml
 
 from iguana_ros.config import config_path
-from iguana_ros.scene import (load_scene, MAX_DURATION, MAX_EXTENT, MAX_GOALS, MAX_NESTING, MAX_PUSHES, MAX_SCENE_BYTES,
-                              MAX_TEXT, MAX_YAML_NODES, Scene, SceneError)
+from iguana_ros.scene import (accepts_infinity, load_scene, MAX_DURATION, MAX_EXTENT, MAX_GOALS, MAX_NESTING,
+                              MAX_PUSHES, MAX_SCENE_BYTES, MAX_TEXT, MAX_YAML_NODES, Scene, SceneError)
 
 LOAD_SECONDS_LIMIT = 2.0
 """Longest a single `load_scene` of a mutated file may take, s."""
@@ -208,7 +208,8 @@ def _non_finite(rng: random.Random, name: str, text: str, raw: dict) -> Mutation
     value = rng.choice([math.nan, math.inf, -math.inf])
     new = _copy(raw)
     _set(new, keys, value)
-    return Mutation('non_finite', name, _dump(new), path, True, f'{path} = {value}')
+    allowed = value == math.inf and accepts_infinity(path)       # a yaw tolerance of .inf ignores headings
+    return Mutation('non_finite', name, _dump(new), path, not allowed, f'{path} = {value}')
 
 
 def _unknown_field(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
