@@ -152,8 +152,8 @@ def test_cli_end_to_end_two_terrains(tmp_path):
     """A real run: 2 terrains x 2 modes on 2 workers; JSON on stdout, one progress line per run on stderr."""
     iguana = Path(sys.executable).with_name('iguana')
     out = tmp_path / 'rows.json'
-    proc = subprocess.run([str(iguana), 'bench', 'locomotion', '--terrains', '2', '--duration', '1.5', '--mesh',
-                           'coarse', '--workers', '2', '--json', '-o', str(out)],
+    proc = subprocess.run([str(iguana), 'bench', 'locomotion', '--suite', 'terrains', '--terrains', '2', '--duration',
+                           '1.5', '--mesh', 'coarse', '--workers', '2', '--json', '-o', str(out)],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout)
@@ -173,3 +173,26 @@ def test_cli_end_to_end_two_terrains(tmp_path):
     assert summary['modes']['adapt']['all']['n'] == 2 and summary['modes']['no_adapt']['all']['errors'] == 0
     assert set(summary['ratios']) == {'all', 'hills', 'tilted'}
     assert sum(line.startswith('[') for line in proc.stderr.splitlines()) == 4
+
+
+@pytest.mark.slow
+@pytest.mark.long
+def test_cli_steering_suite_end_to_end(tmp_path):
+    """A real run of the steering suite: two near goals on the coarse body; the table, then JSON rows with figures."""
+    iguana = Path(sys.executable).with_name('iguana')
+    common = [str(iguana), 'bench', 'locomotion', '--scenes', '2', '--categories', 'near', '--mesh', 'coarse',
+              '--workers', '2', '--seed', '4']
+    proc = subprocess.run([*common, '--json'], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    rows = result['rows']
+    assert [r['scene'] for r in rows] == ['steer_near_000', 'steer_near_001'] and result['config']['suite'] == 'steering'
+    for r in rows:
+        assert 'error' not in r, r
+        assert r['category'] == 'near' and r['straight_distance'] <= 1.2 and r['plan_ms_median'] > 0
+        assert r['reached_goal'] is True and r['circling_strides'] == 0, r
+    near = result['summary']['groups']['near']
+    assert near['n'] == 2 and near['reached'] == 2 and result['summary']['near_goals'] == 2
+    assert sum(line.startswith('[') for line in proc.stderr.splitlines()) == 2
+    table = subprocess.run(common, capture_output=True, text=True, timeout=300)
+    assert table.returncode == 0 and 'behind / ahead time' in table.stdout and 'near ' in table.stdout
