@@ -186,7 +186,8 @@ def test_cli_steering_suite_end_to_end(tmp_path):
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout)
     rows = result['rows']
-    assert [r['scene'] for r in rows] == ['steer_near_000', 'steer_near_001'] and result['config']['suite'] == 'steering'
+    assert [r['scene'] for r in rows] == ['steer_near_000', 'steer_near_001']
+    assert result['config']['suite'] == 'steering'
     for r in rows:
         assert 'error' not in r, r
         assert r['category'] == 'near' and r['straight_distance'] <= 1.2 and r['plan_ms_median'] > 0

@@ -86,26 +86,11 @@ def run_locomotion(args: argparse.Namespace) -> int:
 
     scenes = random_scenes(args.terrains, args.seed, args.duration, args.mesh, args.kinds)
     modes = MODES[args.modes]
-    output = _open_output(args.output)          # before the runs: a bad path fails now, not after an hour
-    print(f'{len(scenes)} terrains x {len(modes)} modes, {args.mesh} mesh, up to {args.duration:g} s each',
-          file=sys.stderr, flush=True)
-    start = time.perf_counter()
-    rows = run_benchmark(scenes, modes, args.workers,
-                         progress=lambda row, done, total: print(f'[{done}/{total}] {_progress_line(row)}',
-                                                                 file=sys.stderr, flush=True))
-    wall = time.perf_counter() - start
-    summary = summarize(rows)
-    if output is not None:
-        with output:
-            json.dump(rows, output, indent=1)
-    if args.json:
-        config = {'terrains': args.terrains, 'seed': args.seed, 'duration': args.duration, 'mesh': args.mesh,
-                  'workers': args.workers, 'modes': args.modes, 'kinds': list(args.kinds)}
-        print(json.dumps({'config': config, 'summary': summary, 'rows': rows, 'wall_s': wall}, indent=1))
-    else:
-        print(format_summary(summary))
-        print(f'{len(rows)} runs in {wall:.1f} s wall')
-    return 0
+    config = {'terrains': args.terrains, 'seed': args.seed, 'duration': args.duration, 'mesh': args.mesh,
+              'workers': args.workers, 'modes': args.modes, 'kinds': list(args.kinds)}
+    header = f'{len(scenes)} terrains x {len(modes)} modes, {args.mesh} mesh, up to {args.duration:g} s each'
+    return _run_and_report(args, config, header, lambda progress: run_benchmark(scenes, modes, args.workers, progress),
+                           _progress_line, summarize, format_summary)
 
 
 def run_steering_suite(args: argparse.Namespace) -> int:
@@ -114,23 +99,33 @@ def run_steering_suite(args: argparse.Namespace) -> int:
 
     categories = args.categories or STEERING_CATEGORIES
     scenes = steering_scenes(args.scenes, args.seed, args.mesh, categories)
-    output = _open_output(args.output)
-    print(f'{len(scenes)} steering scenes (seed {args.seed}), {args.mesh} mesh', file=sys.stderr, flush=True)
+    config = {'suite': 'steering', 'scenes': args.scenes, 'seed': args.seed, 'mesh': args.mesh,
+              'workers': args.workers, 'categories': list(categories)}
+    header = f'{len(scenes)} steering scenes (seed {args.seed}), {args.mesh} mesh'
+    return _run_and_report(args, config, header, lambda progress: run_steering(scenes, args.workers, progress),
+                           _steering_line, summarize_steering, format_steering)
+
+
+def _run_and_report(args: argparse.Namespace, config: dict, header: str, run, line, summarize, table) -> int:
+    """
+    Run a suite and report it.
+
+    `run(progress)` gives the rows, a progress line (`line(row)`) per finished run goes to stderr; then the rows to
+    -o, and `summarize(rows)` as JSON {config, summary, rows, wall_s} (--json) or as `table(summary)`.
+    """
+    output = _open_output(args.output)          # before the runs: a bad path fails now, not after an hour
+    print(header, file=sys.stderr, flush=True)
     start = time.perf_counter()
-    rows = run_steering(scenes, args.workers,
-                        progress=lambda row, done, total: print(f'[{done}/{total}] {_steering_line(row)}',
-                                                                file=sys.stderr, flush=True))
+    rows = run(lambda row, done, total: print(f'[{done}/{total}] {line(row)}', file=sys.stderr, flush=True))
     wall = time.perf_counter() - start
-    summary = summarize_steering(rows)
+    summary = summarize(rows)
     if output is not None:
         with output:
             json.dump(rows, output, indent=1)
     if args.json:
-        config = {'suite': 'steering', 'scenes': args.scenes, 'seed': args.seed, 'mesh': args.mesh,
-                  'workers': args.workers, 'categories': list(categories)}
         print(json.dumps({'config': config, 'summary': summary, 'rows': rows, 'wall_s': wall}, indent=1))
     else:
-        print(format_steering(summary))
+        print(table(summary))
         print(f'{len(rows)} runs in {wall:.1f} s wall')
     return 0
 

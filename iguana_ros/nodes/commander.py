@@ -52,6 +52,7 @@ from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_ms
 from iguana_ros.ros.endpoints import resolve
 from iguana_ros.ros.messages import planner_status_from_msg
 from iguana_ros.scene import Scene
+from iguana_ros.stages import PlannerStatus
 
 SIMULATOR_NODE = 'simulator_node'
 """Name of the simulator node whose push_duration a push with a duration sets."""
@@ -81,21 +82,13 @@ class IguanaState:
 
 
 @dataclass(frozen=True)
-class Feedback:
+class Feedback(PlannerStatus):
     """
     The planner's latest planner_status.
 
-    `state` ('idle', 'walking', 'recovering', 'arrived'), the index of the waypoint it heads for and how many the goal
-    or route has, the distance m to it and the heading error rad, the recovery level, how many goals and routes it
-    has accepted, the stride end's frame and simulated time s.
+    A PlannerStatus with how many goals and routes the planner has accepted, the stride end's frame and simulated time.
     """
 
-    state: str
-    waypoint: int
-    waypoints: int
-    distance: float
-    heading_error: float
-    recovery: int
     goals: int
     frame: int
     time: float
