@@ -93,6 +93,7 @@ class Pipeline:
 
     def load_kernels(self) -> None:
         """Load every stage's compiled kernels (no state changes), so the first frame runs at the speed of the rest."""
+        self.planner.load_kernels()
         self.lookahead.load_kernels()
         self.simulator.load_kernels()
 

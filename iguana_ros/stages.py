@@ -338,6 +338,10 @@ class PlannerStage:
         slow = [table.gaits.names.index(g) for g in (STAND, 'walk', ANY_GAIT) if g in table.gaits.names]
         return np.isin(table.exit_gait, slow) | ~np.isin(table.entry_gait, slow)
 
+    def load_kernels(self) -> None:
+        """Load the search's compiled terrain lookups (`MotionPlanner.load_kernels`), so the first stride end does not."""
+        self.planner.load_kernels()
+
     def status(self) -> PlannerStatus:
         """Return where the planner is (see PlannerStatus), from the last stride end's pose."""
         if not self.targets:

@@ -334,6 +334,10 @@ class MotionPlanner:
         self.correction[j[0]] = np.clip((1.0 - rate) * self.correction[j[0]] + rate * (achieved - model), -limit, limit)
         self.last_turn = float(achieved[2])
 
+    def load_kernels(self) -> None:
+        """Search once from rest toward a goal 1 m ahead, changing nothing: the terrain's compiled height lookups load."""
+        self.plan(np.zeros(3), None, [Target((1.0, 0.0))])
+
     # ------------------------------------------------------------------------------------------------ search
     def plan(self, pose: np.ndarray, current: str | None, targets: list, allowed: np.ndarray | None = None) -> Plan:
         """

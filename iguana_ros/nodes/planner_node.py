@@ -44,6 +44,7 @@ class PlannerNode(IguanaNode):
         super().__init__(**kwargs)
         self.stage = planner_stage(self.scene, library, self.param('blend_frames'), self.param('goal_radius'),
                                    self.param('yaw_tolerance'))
+        self.stage.load_kernels()                    # before the first state arrives, not at its stride end
         self.skeleton = iguana_skeleton()
         self.half_extent = self.scene.terrain.extent / 2.0
         self.bound = world_bound(self.scene.terrain.extent)
