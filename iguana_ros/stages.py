@@ -152,6 +152,7 @@ class PlannerStage:
         self.plan_seconds: list[float] = []
         self._scheduled: list[tuple[float, int, tuple]] = []
         self._stride_start: np.ndarray | None = None
+        self._early: tuple | None = None
         self._progress: list[tuple[float, float]] = []
         self.recovery = 0
         self._stuck_at = np.inf
@@ -232,21 +233,35 @@ class PlannerStage:
         return np.asarray(self.clip.contacts[int(np.clip(index, 0, len(self.clip.contacts) - 1))], bool)
 
     def update(self, frame: int, root_position: np.ndarray, root_orientation: np.ndarray) -> AlignedClip | None:
-        """Every frame: follow the route; at a stride end, choose and align the next clip from the body's root pose."""
+        """
+        Every frame: follow the route; at a stride end, align the next clip to the body's root pose.
+
+        The next clip is chosen a frame before the stride end, from the pose then (so a node's search is not on the
+        lockstep's critical path, where the simulator waits for the new stride's first frame), and chosen again at the
+        stride end only if the goal, route, rest or recovery changed meanwhile.
+        """
         self.frame = frame
         self.activate_due_goals(frame / FRAME_RATE)
         pose = np.array([root_position[0], root_position[1], float(yaw_of(root_orientation))])
-        self._follow(frame, pose, self.stride_ends_at(frame))
-        if not self.stride_ends_at(frame):
+        end = self.stride_ends_at(frame)
+        self._follow(frame, pose, end)
+        if not end:
+            if self.stride_ends_at(frame + 1):
+                self._early = (self._situation(), self.choose(pose))
             return None
         if self.clip is not None and self._stride_start is not None:
             self.planner.observe(self.clip.name, self._stride_start, pose)
         self._check_progress(frame, pose)
-        name = self.choose(pose)
+        early, self._early = self._early, None
+        name = early[1] if early is not None and early[0] == self._situation() else self.choose(pose)
         self.clip = self.graph.align(name, root_position[:2], pose[2], previous=self.clip)
         self.clip_start, self._stride_start = frame, pose
         self.history.append((frame, name))
         return self.clip
+
+    def _situation(self) -> tuple:
+        """What a clip choice depends on besides the pose: targets, waypoint, rest, recovery and detour."""
+        return self.targets, self.waypoint, self.settled, self.recovery, self._detour
 
     def _follow(self, frame: int, pose: np.ndarray, stride_end: bool) -> None:
         """

@@ -147,6 +147,7 @@ class ViewerPage:
         self.status = ('Click on the terrain to send a goal; shift-click to point the heading to arrive in.'
                        if live is not None else '')
         self.pending_goal: tuple[float, float] | None = None
+        self.last_goal: tuple[float, float] | None = None
         self.server.gui.add_markdown(f'**{title}**')
         self._panel = self.server.gui.add_markdown('')
         self._status = self.server.gui.add_markdown(self.status)
@@ -214,7 +215,7 @@ class ViewerPage:
             self._set_status(f'Bag mode: goals are sent in live mode (clicked x {hit[0]:.2f} m, y {hit[1]:.2f} m).')
         else:
             self.live.send_goal(float(hit[0]), float(hit[1]))
-            self.pending_goal = (float(hit[0]), float(hit[1]))
+            self.pending_goal = self.last_goal = (float(hit[0]), float(hit[1]))
             self._set_status(f'goal x {hit[0]:.2f} m, y {hit[1]:.2f} m sent on goal_pose; waiting for the planner.')
 
     def _on_heading_click(self, event) -> None:
@@ -222,15 +223,16 @@ class ViewerPage:
         with self.view.lock:
             corners = self.view.terrain_points
         hit = None if corners is None else terrain_hit(event.ray_origin, event.ray_direction, corners)
-        if self.live is None or self.pending_goal is None or hit is None:
+        if self.live is None or self.last_goal is None or hit is None:
             self._set_status('Click on the terrain for a goal first, then shift-click where it should face.')
             return
-        x, y = self.pending_goal
+        x, y = self.last_goal
         if math.hypot(hit[0] - x, hit[1] - y) < 1e-3:
             self._set_status('Shift-click away from the goal to point its heading.')
             return
         yaw = math.degrees(math.atan2(hit[1] - y, hit[0] - x))
         self.live.send_goal(x, y, yaw)
+        self.pending_goal = (x, y)
         self._set_status(f'goal x {x:.2f} m, y {y:.2f} m heading {yaw:.0f} deg sent on goal_pose; waiting for the '
                          f'planner.')
 

@@ -72,6 +72,7 @@ class LiveRun:
     bag: Path
     tmp: Path
     goal: tuple | None = None
+    heading: float | None = None
     sent: list = field(default_factory=list)
 
 
@@ -142,6 +143,12 @@ def test_a_click_on_the_terrain_sends_a_goal_the_planner_accepts(browser, live_r
                                             page_text(browser)), 60.0)
     assert accepted, page_text(browser)
     live_run.goal = (float(accepted.group(1)), float(accepted.group(2)))
+    click_canvas(browser, 0.65, 0.85, modifier='shift')                # the heading: toward a point on its right
+    headed = wait_until(lambda: re.search(r'goal x (-?[\d.]+) m, y (-?[\d.]+) m heading (-?\d+) deg sent',
+                                          page_text(browser)), 30.0)
+    assert headed and (float(headed.group(1)), float(headed.group(2))) == live_run.goal, page_text(browser)
+    assert wait_until(lambda: 'accepted by the planner' in page_text(browser), 60.0), page_text(browser)
+    live_run.heading = float(headed.group(3))
 
 
 def test_the_push_button_sends_a_push(browser, live_run):
@@ -209,9 +216,13 @@ def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag):
     if recorded_bag.goal is None:
         pytest.skip('the click test did not run')
     recorded = read_topics(recorded_bag.bag, ['accepted_goals', 'push', 'goal_pose'])
-    poses = [(p.pose.position.x, p.pose.position.y) for p in recorded.messages['accepted_goals'][-1].poses]
-    assert len(poses) == 2 and poses[0] == (2.0, 0.0)                       # the scene's, then the click's
-    assert np.allclose(poses[1], recorded_bag.goal, atol=0.006)
+    accepted = recorded.messages['accepted_goals'][-1].poses
+    poses = [(p.pose.position.x, p.pose.position.y) for p in accepted]
+    assert len(poses) == 3 and poses[0] == (2.0, 0.0)            # the scene's, the click's, the shift-click's heading
+    assert np.allclose(poses[1], recorded_bag.goal, atol=0.006) and np.allclose(poses[2], recorded_bag.goal, atol=0.006)
+    assert [p.pose.orientation.w for p in accepted[1:2]] == [0.0]           # the click: any heading
+    q = accepted[2].pose.orientation
+    assert math.degrees(2 * math.atan2(q.z, q.w)) == pytest.approx(recorded_bag.heading, abs=0.6)
     if recorded_bag.sent:
         (push,) = recorded.messages['push']
         force = push.wrench.force

@@ -143,14 +143,20 @@ def red_pixels(pixels: np.ndarray, margin: int = 60, tint: int = 25) -> int:
     return int(np.sum((r >= np.maximum(g, b) + margin) & (np.abs(g - b) <= tint)))
 
 
-def click_canvas(driver, fx: float, fy: float) -> None:
-    """Click the 3D view at fractions (`fx`, `fy`) of its width and height from its top-left corner."""
+def click_canvas(driver, fx: float, fy: float, modifier: str | None = None) -> None:
+    """Click the 3D view at fractions (`fx`, `fy`) of its width and height from its top-left corner (holding 'shift')."""
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
     canvas = driver.find_element(By.TAG_NAME, 'canvas')
     width, height = canvas.size['width'], canvas.size['height']
-    ActionChains(driver).move_to_element_with_offset(
-        canvas, int((fx - 0.5) * width), int((fy - 0.5) * height)).click().perform()
+    actions = ActionChains(driver).move_to_element_with_offset(canvas, int((fx - 0.5) * width),
+                                                               int((fy - 0.5) * height))
+    if modifier == 'shift':
+        actions = actions.key_down(Keys.SHIFT).click().key_up(Keys.SHIFT)
+    else:
+        actions = actions.click()
+    actions.perform()
 
 
 def click_button(driver, label: str) -> None:
