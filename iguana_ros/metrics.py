@@ -20,6 +20,7 @@ arrays in, plain numbers out.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -337,18 +338,38 @@ def remaining_way(xy: np.ndarray, yaw: np.ndarray, goal_xy: np.ndarray, radius: 
     return np.where(distance <= radius, heading_errors(yaw, goal_yaw) - 1.0, distance + bearing_weight * bearing)
 
 
-def no_progress(measure: np.ndarray, window: int, progress: float) -> np.ndarray:
+class ProgressWindow:
     """
-    Return flags `(s,)`: whether stride end k made no progress.
+    The no-progress rule, stride end by stride end.
 
-    The least of `measure (s,)` over its last `window` strides being no smaller by `progress` than the least before
-    them (the first `window` strides are never flagged).
+    A stride end made no progress when the least remaining way over its last `window` stride ends is no smaller by
+    `progress` than the least before them (none before: progress). Constant memory: the stride ends before the window
+    are kept as their least value.
     """
-    measure = np.asarray(measure, dtype=float)
-    flags = np.zeros(len(measure), bool)
-    for k in range(window, len(measure)):
-        flags[k] = measure[k - window + 1:k + 1].min() >= measure[:k - window + 1].min() - progress
-    return flags
+
+    def __init__(self, window: int, progress: float) -> None:
+        """Start with no stride end seen."""
+        self.window, self.progress = int(window), float(progress)
+        self.recent: deque = deque(maxlen=self.window)
+        self.before = np.inf
+
+    def add(self, measure: float) -> bool:
+        """Take the next stride end's remaining way; return whether it made no progress."""
+        if len(self.recent) == self.window:
+            self.before = min(self.before, self.recent[0])
+        self.recent.append(float(measure))
+        return bool(np.isfinite(self.before) and min(self.recent) >= self.before - self.progress)
+
+    @property
+    def least(self) -> float:
+        """Return the least remaining way seen."""
+        return min(self.before, min(self.recent, default=np.inf))
+
+
+def no_progress(measure: np.ndarray, window: int, progress: float) -> np.ndarray:
+    """Return flags `(s,)`: whether each stride end of `measure (s,)` made no progress (`ProgressWindow`)."""
+    rule = ProgressWindow(window, progress)
+    return np.array([rule.add(m) for m in np.asarray(measure, dtype=float)], dtype=bool)
 
 
 def circling_strides(yaw: np.ndarray, distance: np.ndarray, progress: float = 0.05) -> int:

@@ -23,6 +23,7 @@ the same factories, so a lockstep node run and `pipeline.run(scene)` compute the
 """
 from __future__ import annotations
 
+from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 import dataclasses
 import time
@@ -36,7 +37,7 @@ from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.geometry import wrap_angle, yaw_of
-from iguana_ros.metrics import no_progress, remaining_way
+from iguana_ros.metrics import ProgressWindow, remaining_way
 from iguana_ros.motion.clips import ANY_GAIT
 from iguana_ros.motion.motion_graph import AlignedClip, IDLE_CLIP, MotionGraph
 from iguana_ros.motion.planning import clip_table, MotionPlanner, rest_steps, STAND, Target
@@ -153,7 +154,8 @@ class PlannerStage:
         self._scheduled: list[tuple[float, int, tuple]] = []
         self._stride_start: np.ndarray | None = None
         self._early: tuple | None = None
-        self._progress: list[tuple[float, float]] = []
+        self._progress = ProgressWindow(recovery.window, recovery.progress)
+        self._headings: deque = deque(maxlen=recovery.window + 1)
         self.recovery = 0
         self._stuck_at = np.inf
         self._detour: tuple = ()
@@ -168,7 +170,8 @@ class PlannerStage:
     def set_route(self, targets: tuple) -> None:
         """Follow `targets` (Target, the last final) from the next stride on; () = stop."""
         self.targets, self.waypoint, self.arrived, self.settled = tuple(targets), 0, False, False
-        self._progress, self.recovery, self._detour = [], 0, ()
+        self.recovery, self._detour = 0, ()
+        self._restart_progress()
 
     def set_goal(self, goal_xy: np.ndarray | None, yaw: float | None = None) -> None:
         """Walk to `goal_xy (2,)` (world x, y), facing `yaw` rad if given, from the next stride on; None = stop."""
@@ -277,7 +280,8 @@ class PlannerStage:
         if not current.final:
             if current.distance(pose[:2]) <= current.radius:
                 self.waypoint += 1
-                self._progress, self._detour = [], ()
+                self._detour = ()
+                self._restart_progress()
                 self.events.append(PlannerEvent(frame, 'waypoint', f'waypoint {self.waypoint} of '
                                                                    f'{len(self.targets)} passed'))
             return
@@ -315,24 +319,29 @@ class PlannerStage:
             return
         target = self.targets[self.waypoint]          # a detour is a means: progress is toward the target
         goal_yaw = target.yaw if target.wants_heading else None
-        self._progress.append((float(remaining_way(pose[:2], pose[2], target.xy, target.radius, goal_yaw)[0]), pose[2]))
-        params = self.recovery_params
-        if len(self._progress) <= params.window:
-            return
-        if not no_progress(np.array([m for m, _ in self._progress]), params.window, params.progress)[-1]:
-            if self.recovery and min(m for m, _ in self._progress[-params.window:]) < self._stuck_at - params.progress:
+        remaining = float(remaining_way(pose[:2], pose[2], target.xy, target.radius, goal_yaw)[0])
+        self._headings.append(pose[2])
+        if not self._progress.add(remaining):
+            if self.recovery and min(self._progress.recent) < self._stuck_at - self.recovery_params.progress:
                 self.events.append(PlannerEvent(frame, 'recovered', f'progress again at recovery level '
                                                                     f'{self.recovery}'))
                 self.recovery, self._detour = 0, ()
             return
-        turned = abs(float(np.sum(wrap_angle(np.diff([y for _, y in self._progress[-params.window - 1:]])))))
+        turned = abs(float(np.sum(wrap_angle(np.diff(list(self._headings))))))
         self._recover(frame, pose, target, 'circling' if turned >= 2.0 * np.pi else 'stuck')
+
+    def _restart_progress(self, *seen: float) -> None:
+        """Measure progress afresh (a new target), from the remaining ways `seen` (the last stride end's, if any)."""
+        self._progress = ProgressWindow(self.recovery_params.window, self.recovery_params.progress)
+        for measure in seen:
+            self._progress.add(measure)
+        self._headings = deque(list(self._headings)[-1:] if seen else [], maxlen=self.recovery_params.window + 1)
 
     def _recover(self, frame: int, pose: np.ndarray, target: Target, kind: str) -> None:
         """Take the next recovery strategy and report it; progress is then measured afresh."""
         self.recovery += 1
-        self._stuck_at = min(m for m, _ in self._progress)
-        self._progress = self._progress[-1:]
+        self._stuck_at = self._progress.least
+        self._restart_progress(self._progress.recent[-1])
         if self.recovery == 2:
             strategy = 'slow walk and turns on the spot'
         else:

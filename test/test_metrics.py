@@ -246,3 +246,11 @@ def test_route_progress_and_steering_figures_of_a_route():
     s = m.steering_metrics(t, xy, np.zeros(121), route, None, 0.1, np.inf, np.arange(0, 121, 20))
     assert s.route_completed and s.waypoints == 2 and s.waypoints_in_order == 2 and s.circling_strides == 0
     assert s.straight_distance == pytest.approx(1.9) and s.path_ratio_frames == pytest.approx(1.9 / 1.9, rel=0.05)
+
+
+def test_the_progress_window_is_the_rule_over_the_whole_series():
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        measure = np.cumsum(rng.normal(-0.02, 0.1, 60))
+        brute = [k >= 8 and measure[k - 7:k + 1].min() >= measure[:k - 7].min() - 0.08 for k in range(60)]
+        assert m.no_progress(measure, 8, 0.08).tolist() == brute

@@ -233,6 +233,42 @@ def rest_steps(table: ClipTable) -> np.ndarray:
     return np.where(np.isfinite(via.min(axis=1)), via.argmin(axis=1), -1)
 
 
+@dataclass(frozen=True)
+class _CostToGo:
+    """
+    The gait figures the cost to go reads, for the gaits that turn (T) and those that travel (V).
+
+    `direction`, `cos`, `sin`, `radius`, `seconds_per_rad` `(T,)`; `seconds_per_m (V,)`; least switch times
+    `switch_into (K, T)` from every gait, `switch_between (T, V)`, `travel_to_turn (V, T)`, `turn_to_rest (T,)`,
+    `travel_to_rest (V,)`.
+    """
+
+    direction: np.ndarray
+    cos: np.ndarray
+    sin: np.ndarray
+    radius: np.ndarray
+    seconds_per_rad: np.ndarray
+    seconds_per_m: np.ndarray
+    switch_into: np.ndarray
+    switch_between: np.ndarray
+    travel_to_turn: np.ndarray
+    turn_to_rest: np.ndarray
+    travel_to_rest: np.ndarray
+
+    @classmethod
+    def of(cls, g: GaitTable, rest: list) -> _CostToGo:
+        """Return the figures of GaitTable `g` with resting gaits `rest` (indices)."""
+        turning = np.flatnonzero((g.turn_rate > 0) | (g.speed > 0))   # a gait that cannot turn goes straight on
+        travelling = np.flatnonzero(g.speed > 0)
+        to_rest = g.switch_time[:, rest].min(axis=1) if rest else np.full(len(g.names), np.inf)
+        rate = g.turn_rate[turning]
+        per_rad = np.divide(1.0, rate, out=np.full(len(rate), np.inf), where=rate > 0)
+        return cls(g.direction[turning], np.cos(g.direction[turning]), np.sin(g.direction[turning]),
+                   g.turn_radius[turning], per_rad, 1.0 / g.speed[travelling],
+                   g.switch_time[:, turning], g.switch_time[np.ix_(turning, travelling)],
+                   g.switch_time[np.ix_(travelling, turning)], to_rest[turning], to_rest[travelling])
+
+
 @dataclass
 class Plan:
     """The best sequence found: its clips, the predicted planar poses `(k + 1, 3)`, its cost (s), whether it arrives."""
@@ -292,6 +328,7 @@ class MotionPlanner:
         self._rest_gaits = [self.table.gaits.names.index(g) for g in (STAND, ANY_GAIT) if g in self.table.gaits.names]
         yaw = self.table.level[:, 2]
         self._turning = np.append(np.where(np.abs(yaw) > 0.1, np.sign(yaw), 0.0), 0.0)   # per successors row
+        self._cost_to_go = _CostToGo.of(self.table.gaits, self._rest_gaits)
         self._resting = np.isin(self.table.exit_gait, self._rest_gaits)
 
     # ---------------------------------------------------------------------------------------------- prediction
@@ -423,54 +460,49 @@ class MotionPlanner:
         a final target come to rest (`_finish`: turning to a heading asked there first); the least of them, plus the
         rest of the route.
         """
-        g, t = self.table.gaits, target
+        t, c = target, self._cost_to_go
         if not len(pose):
             return np.zeros(0)
-        delta = goals.xy[t] - pose[:, :2]
+        goal = goals.xy[t]
+        delta = goal - pose[:, :2]
         dist = np.hypot(delta[:, 0], delta[:, 1])
         bearing = np.arctan2(delta[:, 1], delta[:, 0])
-        local = planar_relative(pose, np.concatenate([goals.xy[t], np.zeros((len(t), 1))], axis=1))[:, :2]
-        signed = wrap_angle(bearing[:, None] - pose[:, 2:3] - g.direction[None, :])        # (m, K): to turn in gait k
+        cy, sy = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        lx, ly = cy * delta[:, 0] + sy * delta[:, 1], -sy * delta[:, 0] + cy * delta[:, 1]     # goal in the body frame
+        radius = goals.radius[t][:, None]
+        signed = wrap_angle(bearing[:, None] - pose[:, 2:3] - c.direction)         # (m, T): to turn in turning gait
         beta = np.abs(signed)
-        side = np.where(local[:, 1:2] >= 0.0, 1.0, -1.0)
-        inside = (np.hypot(local[:, 0:1], local[:, 1:2] - side * g.turn_radius[None, :]) < g.turn_radius[None, :]) \
-            & (g.turn_radius[None, :] > goals.radius[t][:, None])
-        # turning by beta in gait k moves the body along an arc of its turning radius: where the arc ends, (m, K, 2)
-        c, s_ = np.cos(g.direction), np.sin(g.direction)
-        ahead = local[:, None, 0] * c[None, :] + local[:, None, 1] * s_[None, :]
-        across = -local[:, None, 0] * s_[None, :] + local[:, None, 1] * c[None, :]
-        arc_x = g.turn_radius[None, :] * np.sin(beta)
-        arc_y = np.sign(signed) * g.turn_radius[None, :] * (1.0 - np.cos(beta))
-        left = np.maximum(np.hypot(ahead - arc_x, across - arc_y) - goals.radius[t][:, None], 0.0)    # (m, K)
-        way = self.params.path_weight * (g.turn_radius[None, :] * beta + left)        # (m, K): cost of the way
-        with np.errstate(divide='ignore', invalid='ignore'):
-            turn = np.where(beta < FACING, 0.0, beta / g.turn_rate[None, :])
-            turn = np.where(inside | ~np.isfinite(turn), np.inf, turn)
-            travel = left[:, :, None] / g.speed[None, None, :]                          # (m, turning, travelling)
-        travel = np.where(np.isfinite(travel), travel, np.inf)
+        side = np.where(ly >= 0.0, 1.0, -1.0)[:, None]
+        inside = (np.hypot(lx[:, None], ly[:, None] - side * c.radius) < c.radius) & (c.radius > radius)
+        # turning by beta in a gait moves the body along an arc of its turning radius; from the arc's end, the rest
+        ahead = lx[:, None] * c.cos + ly[:, None] * c.sin
+        across = ly[:, None] * c.cos - lx[:, None] * c.sin
+        left = np.maximum(np.hypot(ahead - c.radius * np.sin(beta),
+                                   across - np.sign(signed) * c.radius * (1.0 - np.cos(beta))) - radius, 0.0)
+        with np.errstate(invalid='ignore'):                          # 0 rad at inf s per rad: facing, no turn
+            turn = np.where(inside, np.inf, np.where(beta < FACING, 0.0, beta * c.seconds_per_rad))
+        way = self.params.path_weight * (c.radius * beta + left)                      # (m, T): cost of the way
         there = dist <= goals.radius[t]
-        travel[there], turn[there] = 0.0, 0.0
-        way[there] = 0.0
-        total = (g.switch_time[gait][:, :, None] + turn[:, :, None] + g.switch_time[None, :, :]
-                 + travel + way[:, :, None])                            # (m, turning gait, travelling gait)
-        finish = self._finish(np.abs(wrap_angle(goals.yaw[t] - np.where(dist > goals.radius[t], bearing, pose[:, 2]))),
+        turn[there], left[there], way[there] = 0.0, 0.0, 0.0
+        total = (c.switch_into[gait][:, :, None] + (turn + way)[:, :, None] + c.switch_between[None]
+                 + left[:, :, None] * c.seconds_per_m[None, None, :])          # (m, turning gait, travelling gait)
+        finish = self._finish(np.abs(wrap_angle(goals.yaw[t] - np.where(there, pose[:, 2], bearing))),
                               goals.has_yaw[t], goals.final[t])            # (m, travelling gait)
         h = (total + finish[:, None, :]).reshape(len(pose), -1).min(axis=1)
         return np.where(np.isfinite(h), h, 1e6) + goals.rest[t]
 
     def _finish(self, yaw_error: np.ndarray, has_yaw: np.ndarray, final: np.ndarray) -> np.ndarray:
         """
-        Return the time (s) `(m, K)` from travelling in each gait to resting at a final target (0 at a waypoint).
+        Return the time (s) `(m, V)` from travelling in each travelling gait to resting at a final target.
 
-        Change gait to one that turns, turn by `yaw_error (m,)` rad if a heading is asked (`has_yaw (m,)`), change to a
-        resting gait.
+        (0 at a waypoint): change gait to one that turns, turn by `yaw_error (m,)` rad if a heading is asked (`has_yaw
+        (m,)`), change to a resting gait.
         """
-        g = self.table.gaits
-        to_rest = g.switch_time[:, self._rest_gaits].min(axis=1)        # (K,): from each gait to a resting one
-        rate = np.where(g.turn_rate > 0, g.turn_rate, 1e-9)           # a gait that cannot turn takes for ever
-        turn = np.where(has_yaw[:, None], yaw_error[:, None] / rate[None, :], 0.0)               # (m, turning gait)
-        via = g.switch_time[None, :, :] + turn[:, None, :] + to_rest[None, None, :]
-        finish = np.minimum(via.min(axis=2), np.where(has_yaw[:, None], np.inf, to_rest[None, :]))
+        c = self._cost_to_go
+        with np.errstate(invalid='ignore'):
+            turn = np.where(yaw_error[:, None] > 0.0, yaw_error[:, None] * c.seconds_per_rad, 0.0)    # (m, T)
+        via = (c.travel_to_turn[None] + turn[:, None, :] + c.turn_to_rest[None, None, :]).min(axis=2)   # (m, V)
+        finish = np.where(has_yaw[:, None], via, c.travel_to_rest[None, :])
         return np.where(final[:, None], finish, 0.0)
 
     def _backtrack(self, levels: list, best: tuple, pose: np.ndarray) -> Plan:
