@@ -263,7 +263,7 @@ class PlannerStage:
         return self.clip
 
     def _situation(self) -> tuple:
-        """What a clip choice depends on besides the pose: targets, waypoint, rest, recovery and detour."""
+        """Return what a clip choice depends on besides the pose: targets, waypoint, rest, recovery and detour."""
         return self.targets, self.waypoint, self.settled, self.recovery, self._detour
 
     def _follow(self, frame: int, pose: np.ndarray, stride_end: bool) -> None:
@@ -363,7 +363,7 @@ class PlannerStage:
         return np.isin(table.exit_gait, slow) | ~np.isin(table.entry_gait, slow)
 
     def load_kernels(self) -> None:
-        """Load the search's compiled terrain lookups (`MotionPlanner.load_kernels`), so the first stride end does not."""
+        """Load the search's compiled terrain lookups (`MotionPlanner.load_kernels`) now, not at the first stride end."""
         self.planner.load_kernels()
 
     def status(self) -> PlannerStatus:

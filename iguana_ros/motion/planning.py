@@ -372,7 +372,7 @@ class MotionPlanner:
         self.last_turn = float(achieved[2])
 
     def load_kernels(self) -> None:
-        """Search once from rest toward a goal 1 m ahead, changing nothing: the terrain's compiled height lookups load."""
+        """Search once from rest toward a goal 1 m ahead, changing nothing: the terrain's compiled lookups load."""
         self.plan(np.zeros(3), None, [Target((1.0, 0.0))])
 
     # ------------------------------------------------------------------------------------------------ search

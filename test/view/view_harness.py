@@ -144,7 +144,7 @@ def red_pixels(pixels: np.ndarray, margin: int = 60, tint: int = 25) -> int:
 
 
 def click_canvas(driver, fx: float, fy: float, modifier: str | None = None) -> None:
-    """Click the 3D view at fractions (`fx`, `fy`) of its width and height from its top-left corner (holding 'shift')."""
+    """Click the 3D view at fractions (`fx`, `fy`) of its width and height from its top-left corner (or shift-click)."""
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
