@@ -363,7 +363,7 @@ class PlannerStage:
         return np.isin(table.exit_gait, slow) | ~np.isin(table.entry_gait, slow)
 
     def load_kernels(self) -> None:
-        """Load the search's compiled terrain lookups (`MotionPlanner.load_kernels`) now, not at the first stride end."""
+        """Load the search's compiled terrain lookups now, not at the first stride end (`MotionPlanner`)."""
         self.planner.load_kernels()
 
     def status(self) -> PlannerStatus:
