@@ -79,12 +79,13 @@ class SteeringMetrics:
     How a run steered to its goal.
 
     `straight_distance` (m, from the start along the route's waypoints to the edge of the goal's radius), `path_ratio`
-    (the length of the root's stride-averaged path until it arrived, or of the whole run, over it: `stride_path_length`)
-    and `path_ratio_frames` (the same of the root's frame-by-frame path, sway included), the heading error at arrival
-    and at the end
-    (deg; NaN where no heading is asked or the goal was not reached), the stride ends before arrival spent circling
-    (`circling_strides`, two full turns without getting closer) or making no progress (`stuck_strides`,
-    `no_progress`), and for a route its waypoints, how many were passed in order and whether all were.
+    (the length of the root's stride-averaged path until it first came within the goal's radius after passing the
+    waypoints, or of the whole run, over it: `stride_path_length`; turning to a heading there is not way) and
+    `path_ratio_frames` (the same of the root's frame-by-frame path, sway included), the heading error at arrival (within
+    radius and tolerance) and at the end (deg; NaN where no heading is asked or the goal was not reached), the stride
+    ends before arrival spent circling (`circling_strides`, two full turns without getting closer) or making no
+    progress (`stuck_strides`, `no_progress`), and for a route its waypoints, how many were passed in order and whether
+    all were.
     """
 
     straight_distance: float
@@ -403,6 +404,26 @@ def route_progress(root_xy: np.ndarray, waypoints: np.ndarray, radius: float) ->
     return out
 
 
+def route_arrival(times: np.ndarray, root_xy: np.ndarray, waypoints: np.ndarray, radius: float,
+                  yaw: np.ndarray | None = None, goal_yaw: float | None = None,
+                  yaw_tolerance: float = np.inf) -> tuple[bool, float, float]:
+    """
+    (reached, first time, final distance) of the end of a route `waypoints (k, 2)` (a goal: k = 1), as `goal_arrival`.
+
+    A frame counts only once the root has passed the waypoints before the last in order (`route_progress`).
+    """
+    waypoints = np.atleast_2d(np.asarray(waypoints, dtype=float))
+    if len(waypoints) == 1:
+        return goal_arrival(times, root_xy, waypoints[0], radius, yaw, goal_yaw, yaw_tolerance)
+    ready = route_progress(root_xy, waypoints[:-1], radius) == len(waypoints) - 1
+    final = float(np.hypot(*(root_xy[-1] - waypoints[-1]))) if len(times) else float('nan')
+    if not ready.any():
+        return False, float('nan'), final
+    reached, first, _ = goal_arrival(times[ready], root_xy[ready], waypoints[-1], radius,
+                                     None if yaw is None else yaw[ready], goal_yaw, yaw_tolerance)
+    return reached, first, final
+
+
 def steering_metrics(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray, waypoints: np.ndarray,
                      goal_yaw: float | None, radius: float, yaw_tolerance: float,
                      stride_frames: np.ndarray) -> SteeringMetrics:
@@ -417,8 +438,10 @@ def steering_metrics(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray, wa
     legs = np.concatenate([root_xy[:1], waypoints]) if len(root_xy) else waypoints
     straight = max(float(np.sum(np.linalg.norm(np.diff(legs, axis=0), axis=1))) - radius, 0.0)
     heading = goal_yaw if yaw_tolerance < np.pi else None
-    reached, t_goal, _ = goal_arrival(times, root_xy, waypoints[-1], radius, yaw, heading, yaw_tolerance)
+    reached, t_goal, _ = route_arrival(times, root_xy, waypoints, radius, yaw, heading, yaw_tolerance)
     arrival = int(np.searchsorted(times, t_goal)) if reached else len(times)
+    there, t_there, _ = route_arrival(times, root_xy, waypoints, radius)          # the way: until at the goal
+    way_end = int(np.searchsorted(times, t_there)) if there else len(times)
     errors = np.degrees(heading_errors(yaw, goal_yaw)) if heading is not None else np.full(len(times), np.nan)
     current = np.minimum(route_progress(root_xy, waypoints[:-1], radius), len(waypoints) - 1) \
         if len(waypoints) > 1 else np.zeros(len(times), int)
@@ -429,8 +452,8 @@ def steering_metrics(times: np.ndarray, root_xy: np.ndarray, yaw: np.ndarray, wa
     passed = int(route_progress(root_xy, waypoints, radius)[-1]) if len(times) and len(waypoints) > 1 else 0
     return SteeringMetrics(
         straight_distance=straight,
-        path_ratio=stride_path_length(root_xy[:arrival + 1]) / straight if straight > 0 else float('nan'),
-        path_ratio_frames=path_length(root_xy[:arrival + 1]) / straight if straight > 0 else float('nan'),
+        path_ratio=stride_path_length(root_xy[:way_end + 1]) / straight if straight > 0 else float('nan'),
+        path_ratio_frames=path_length(root_xy[:way_end + 1]) / straight if straight > 0 else float('nan'),
         heading_error_at_arrival_deg=float(errors[arrival]) if reached else float('nan'),
         final_heading_error_deg=float(errors[-1]) if len(times) else float('nan'),
         circling_strides=circling_strides(yaw[strides], np.hypot(*(root_xy[strides] - goal_of).T)),
@@ -506,9 +529,9 @@ def locomotion_metrics(times: np.ndarray, root_positions: np.ndarray, root_yaw: 
         reached, t_goal, final, dist = False, float('nan'), float('nan'), np.zeros(len(times))
     else:
         heading = goal_yaw if yaw_tolerance < np.pi else None
-        reached, t_goal, final = goal_arrival(times, xy, goal_xy, goal_radius, root_yaw, heading, yaw_tolerance)
-        dist = np.linalg.norm(xy - np.asarray(goal_xy)[None, :2], axis=1)
         route = np.asarray(goal_xy, dtype=float)[None, :2] if waypoints is None or not len(waypoints) else waypoints
+        reached, t_goal, final = route_arrival(times, xy, route, goal_radius, root_yaw, heading, yaw_tolerance)
+        dist = np.linalg.norm(xy - np.asarray(goal_xy)[None, :2], axis=1)
         steering = steering_metrics(times, xy, root_yaw, route, goal_yaw, goal_radius, yaw_tolerance,
                                     np.zeros(0, int) if stride_frames is None else np.asarray(stride_frames))
     return LocomotionMetrics(

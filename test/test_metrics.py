@@ -254,3 +254,12 @@ def test_the_progress_window_is_the_rule_over_the_whole_series():
         measure = np.cumsum(rng.normal(-0.02, 0.1, 60))
         brute = [k >= 8 and measure[k - 7:k + 1].min() >= measure[:k - 7].min() - 0.08 for k in range(60)]
         assert m.no_progress(measure, 8, 0.08).tolist() == brute
+
+
+def test_a_route_ends_only_after_its_waypoints_in_order():
+    t = np.arange(4) / 30.0
+    xy = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+    route = np.array([[0.0, 1.0], [0.0, 0.0]])               # the end is where the walk starts: not reached then
+    reached, when, final = m.route_arrival(t, xy, route, 0.1)
+    assert reached and when == pytest.approx(3 / 30.0) and final == 0.0
+    assert m.route_arrival(t[:2], xy[:2], route, 0.1)[0] is False

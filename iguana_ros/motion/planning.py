@@ -20,12 +20,14 @@ measured planar pose (x, y, yaw of the root) and the clip it plays, a beam searc
 follow, `depth` strides deep, keeping the `beam_width` sequences of least cost-so-far plus estimated cost-to-go. A
 stride moves the pose by what the soft body *achieves* with that clip (`motion.tracking`: level ground plus a gain per
 unit of terrain gradient in the body frame), corrected online by the error of the strides it has played
-(`MotionPlanner.observe`). The cost is time: clip durations, a small cost per change of clip, and terrain costs (slope
-across the heading, height steps along a stride). The cost-to-go (`heuristic`) is the quickest of turning in one gait
-and travelling in another, with the time to change gait between them, and of turning to a requested heading at the
-goal; a gait cannot turn toward a goal inside its turning circle. A sequence ends once it reaches its last target
-(position within the planning radius and, if asked, heading within the planning tolerance); a route's earlier
-waypoints are passed on the way. Re-planned at every stride end, the first clip of the best sequence is played.
+(`MotionPlanner.observe`). The cost (`PlannerParams`) is time (clip durations, longer on a slope across the heading),
+the way walked, a small cost per change of clip and a larger one for turning the other way, and height steps along a
+stride. The cost-to-go (`heuristic`) is the quickest of turning in one gait and travelling in another, with the times
+to change gait, the way along the turning arc and on, and the time to come to rest, turning to a requested heading
+first; a gait cannot turn toward a goal inside its turning circle. A sequence ends once a stride brings the body to
+rest at its last target (position within the planning radius and, if asked, heading within the planning tolerance); a
+route's earlier waypoints are passed on the way. Re-planned at every stride end, the first clip of the best sequence
+is played.
 
 ROS-free; poses are planar `(x, y, yaw)` in the world frame, yaw being the root's heading (rad).
 """

@@ -517,13 +517,13 @@ def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
 def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene,
                     orientations: np.ndarray | None = None) -> tuple[bool, float, float]:
     """
-    (reached, time, final distance) of the scene's last goal or route end from a recorded root trajectory.
+    (reached, time, final distance) of the scene's last goal or route end (its waypoints passed in order first).
 
     times `(n,)` s, positions `(n, 3)` m, orientations `(n, 4)` xyzw (needed for a goal's heading, which then counts
     within the scene's yaw tolerance, as in the library run's metrics).
     """
     from iguana_ros.geometry import yaw_of
-    from iguana_ros.metrics import goal_arrival
+    from iguana_ros.metrics import route_arrival
 
     goal = scene.destination
     if goal is None or len(times) == 0:
@@ -533,8 +533,9 @@ def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene,
         return False, float('nan'), float(np.hypot(*(positions[-1, :2] - [goal.x, goal.y])))
     heading = None if goal.yaw_deg is None or orientations is None else np.radians(goal.yaw_deg)
     yaw = None if heading is None else yaw_of(orientations[after])
-    return goal_arrival(times[after], positions[after, :2], np.array([goal.x, goal.y]), scene.goal_radius, yaw,
-                        heading, np.radians(scene.goal_yaw_tolerance_deg))
+    route = np.array([[w.x, w.y] for w in scene.route] if scene.route else [[goal.x, goal.y]])
+    return route_arrival(times[after], positions[after, :2], route, scene.goal_radius, yaw, heading,
+                         np.radians(scene.goal_yaw_tolerance_deg))
 
 
 def run_scene(options: RunOptions, display=None) -> RunSummary:
