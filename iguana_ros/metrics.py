@@ -82,10 +82,10 @@ class SteeringMetrics:
     (the length of the root's stride-averaged path until it first came within the goal's radius after passing the
     waypoints, or of the whole run, over it: `stride_path_length`; turning to a heading there is not way) and
     `path_ratio_frames` (the same of the root's frame-by-frame path, sway included), the heading error at arrival
-    (within radius and tolerance) and at the end (deg; NaN where no heading is asked or the goal was not reached), the stride
-    ends before arrival spent circling (`circling_strides`, two full turns without getting closer) or making no
-    progress (`stuck_strides`, `no_progress`), and for a route its waypoints, how many were passed in order and whether
-    all were.
+    (within radius and tolerance) and at the end (deg; NaN where no heading is asked or the goal was not reached), the
+    stride ends before arrival spent circling (`circling_strides`, two full turns without getting closer) or making no
+    progress (`stuck_strides`, `no_progress`), and for a route its waypoints, how many were passed in order and
+    whether all were.
     """
 
     straight_distance: float
