@@ -147,6 +147,7 @@ class ViewerPage:
         self.status = ('Click on the terrain to send a goal; shift-click to point the heading to arrive in.'
                        if live is not None else '')
         self.pending_goal: tuple[float, float] | None = None
+        self.pending_heading = ''
         self.last_goal: tuple[float, float] | None = None
         self.server.gui.add_markdown(f'**{title}**')
         self._panel = self.server.gui.add_markdown('')
@@ -216,6 +217,7 @@ class ViewerPage:
         else:
             self.live.send_goal(float(hit[0]), float(hit[1]))
             self.pending_goal = self.last_goal = (float(hit[0]), float(hit[1]))
+            self.pending_heading = ''
             self._set_status(f'goal x {hit[0]:.2f} m, y {hit[1]:.2f} m sent on goal_pose; waiting for the planner.')
 
     def _on_heading_click(self, event) -> None:
@@ -232,7 +234,7 @@ class ViewerPage:
             return
         yaw = math.degrees(math.atan2(hit[1] - y, hit[0] - x))
         self.live.send_goal(x, y, yaw)
-        self.pending_goal = (x, y)
+        self.pending_goal, self.pending_heading = (x, y), f' heading {yaw:.0f} deg'
         self._set_status(f'goal x {x:.2f} m, y {y:.2f} m heading {yaw:.0f} deg sent on goal_pose; waiting for the '
                          f'planner.')
 
@@ -403,7 +405,7 @@ class ViewerPage:
         """Once the planner lists the last goal sent among its accepted goals, say so (live mode)."""
         if self.pending_goal is not None and self.live.goal_accepted():
             x, y = self.pending_goal
-            self._set_status(f'goal x {x:.2f} m, y {y:.2f} m accepted by the planner.')
+            self._set_status(f'goal x {x:.2f} m, y {y:.2f} m{self.pending_heading} accepted by the planner.')
             self.pending_goal = None
 
     def close(self) -> None:

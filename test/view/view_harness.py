@@ -153,7 +153,7 @@ def click_canvas(driver, fx: float, fy: float, modifier: str | None = None) -> N
     actions = ActionChains(driver).move_to_element_with_offset(canvas, int((fx - 0.5) * width),
                                                                int((fy - 0.5) * height))
     if modifier == 'shift':
-        actions = actions.key_down(Keys.SHIFT).click().key_up(Keys.SHIFT)
+        actions = actions.key_down(Keys.SHIFT).pause(0.3).click().pause(0.3).key_up(Keys.SHIFT)
     else:
         actions = actions.click()
     actions.perform()
