@@ -82,6 +82,12 @@ MAX_NODE_SPEED = 100.0
 MAX_PENETRATION = 0.1
 """Depth (m) below the terrain at which a node is declared diverged (resting nodes sink ~0.1–1 mm)."""
 
+FALL_TILT = 1.0471975511965976
+"""Root tilt (roll or pitch, from the world's up axis) beyond which the iguana counts as fallen, rad (60°)."""
+
+FALL_HOLD = 1.0
+"""Seconds the root must stay tilted beyond FALL_TILT before a run ends as fallen (a push may tip it briefly)."""
+
 # --- Synthetic lizard gait (iguana_ros.motion.gait); sources in docs/METHODS.md "Motion data" ---
 SNOUT_VENT_LENGTH = BODY_LENGTH * (1.0 - TAIL_FRACTION)
 """Snout-vent length of the adult iguana model, m (0.29 m)."""
@@ -152,28 +158,40 @@ MARKER_NOISE_STD = 0.001
 """Standard deviation of synthetic marker noise per axis, m (assumed optical-capture quality)."""
 
 # --- what the nodes accept from a topic (iguana_ros.validation) ---------------------------------------------------
-DESIRED_LENGTH_FACTOR = 10.0
-"""Each desired spring length (spring_rest_lengths) must lie within this factor of the spring's rest length (above
-rest / 10, below rest x 10), else the simulator rejects the frame and the spring-length node does not publish it.
-Measured (desired / rest over every spring and frame of pipeline.run): the six shipped scenes 0.47 .. 1.42 on the
-medium mesh, 0.49 .. 1.54 on the coarse one; the 32 randomized terrains of `iguana bench locomotion --terrains 32
---seed 0` (medium) 0.48 .. 1.42 without adaptation and 0.17 .. 2.09 with it (bench_noise_019 and bench_noise_031,
-10 cm bumps at 0.5 m, where the feet's IK folds and stretches the legs): 52,995 frames, at most 6.0x from rest;
-10 leaves 1.7x margin below and 4.8x above. It rejects absurd frames (1e6 m, zeros), not every frame that would
-diverge: see DESIRED_STRAIN_RMS."""
+DESIRED_SHRINK_FACTOR = 10.0
+"""Each desired spring length (spring_rest_lengths) must be above its rest length / this factor, else the simulator
+rejects the frame and the spring-length node does not publish it. Measured (desired / rest over every spring and
+frame of pipeline.run): the six shipped scenes 0.47 .. 1.42 on the medium mesh, 0.49 .. 1.54 on the coarse one; the
+32 randomized terrains of `iguana bench locomotion --suite terrains --terrains 32 --seed 0` (medium) 0.48 .. 1.42
+without adaptation and 0.17 .. 2.09 with it (10 cm bumps at 0.5 m, where the feet's IK folds and stretches the legs).
+Shortening is benign: every validated pattern of `iguana bench faults limits` at 1/10 is simulated stably."""
+
+DESIRED_STRETCH_FACTOR = 4.0
+"""Each desired spring length must be below its rest length x this factor. Lengthening is what diverges: on the
+coarse mesh with the `fast` preset, 22-25 springs at 7-8x rest from the first frame (RMS log strain 0.3) diverge in
+1-2 of 20 tries (a node above MAX_NODE_SPEED), 18 at 10x in 2 of 5 (the probe's 42 springs at 9.99x on medium: 10 of
+20 before the first frame ramped from rest), none at 6x; 4 leaves 1.5x below that and 1.9x above the 2.09 measured.
+`iguana bench faults limits` draws validated messages at random (every mesh and preset): none diverges."""
 
 DESIRED_STRAIN_RMS = 0.3
 """Largest RMS over all springs of |ln(desired / rest)| accepted in one frame (the commanded shape's overall
 strain): measured at most 0.042 in the shipped scenes (medium; 0.067 coarse) and 0.102 on the randomized terrains
-with adaptation (same runs as DESIRED_LENGTH_FACTOR), ~3x margin. Every length x2 at once (0.69) diverges within
+with adaptation (same runs as DESIRED_SHRINK_FACTOR), ~3x margin. Every length x2 at once (0.69) diverges within
 one frame on the coarse mesh, x1.5 (0.41) does not; random factors within 1/5.5 .. 5.5 (RMS ~1) diverge too."""
 
-MAX_PUSH_IMPULSE = 100.0
-"""Largest push impulse accepted on the push topic (force x the push_duration parameter), N s: the stability
-sweep's 'push 1000 N' for 0.1 s (iguana_ros/bench/stability.py: stable on both meshes, peak node speed 37-39
-m/s, bound 100 m/s). Measured on the coarse mesh, flat ground, until 1 s after the push: 1000 N x 0.2 s peaks at
-50 m/s, 100 N x 1 s at 10 m/s, 10 kN x 0.01 s at 27 m/s, all stable; 10 kN x 0.1 s (1000 N s) diverges (speed).
-The force itself is bounded by iguana_ros.scene.MAX_PUSH_FORCE (1 kN), alone or summed over the pushes acting."""
+MAX_PUSH_BODY_DELTA_V = 5.0
+"""Largest velocity change a push (or the pushes acting at once) may give the whole body, m/s: impulse / BODY_MASS,
+the impulse being the force times the whole frames it acts (iguana_ros.physics.pushes.push_active_time). 5 m/s
+throws the 4 kg iguana at most ~2.5 m and lands it at most as fast as a 1.3 m fall; the paper's push (40 N x 0.1 s)
+is 1 m/s. The probe's 1 kN x 0.1 s (25 m/s) threw it 20 m. What the body then does (walks on, falls, leaves the
+terrain) is the run's outcome (iguana_ros.physics.body_watch), never a divergence: see MAX_PUSH_REGION_DELTA_V."""
+
+MAX_PUSH_REGION_DELTA_V = 50.0
+"""Largest velocity change a push may give the nodes it acts on, m/s: impulse / the mass of its region (the force
+is spread by mass, iguana_ros.physics.pushes.region_force). Measured standing on flat ground, 1 s after pushes of
+1, 3 and 15 frames in 4 directions on each region: nothing diverges at 50 m/s on coarse/medium (fast, balanced);
+the first divergences (speed bound, tail pushed into the ground) come at 200 m/s. The feet (17 g of 4 kg) thus take
+at most 0.85 N s; `iguana bench faults limits` draws pushes within both limits on every mesh and preset."""
 
 MAX_FRAME_GAP = 300
 """A frame-stamped input (iguana_state, motion_clip, reference_pose, spring_rest_lengths) stamped more than this

@@ -25,10 +25,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from iguana_ros.constants import FALL_TILT
 from iguana_ros.geometry import rigid_fit
-
-FALL_TILT = np.radians(60.0)
-"""Root tilt (roll or pitch) beyond which the iguana counts as fallen, rad."""
 
 STUCK_WINDOW = 3.0
 """A goal-seeking iguana that moves less than STUCK_PROGRESS in this many seconds is stuck, s."""

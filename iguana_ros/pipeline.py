@@ -28,6 +28,7 @@ import numpy as np
 
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE
+from iguana_ros.physics.body_watch import BodyLoss
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import Scene
 from iguana_ros.stages import (adaptation_stage, AdaptationStage, planner_stage, PlannerStage, scene_model,
@@ -53,6 +54,12 @@ class RunResult:
     wall_seconds: float = 0.0
     events: list = field(default_factory=list)        # stages.PlannerEvent: waypoints, arrival, stuck, recovery
     plan_seconds: list = field(default_factory=list)  # wall time of each search of the motion graph, s
+    lost: BodyLoss | None = None      # how the body was lost (left the terrain, fell): the run ended there
+
+    @property
+    def outcome(self) -> str:
+        """'completed', or the cause of the body's loss that ended the run ('left_terrain', 'fell')."""
+        return 'completed' if self.lost is None else self.lost.cause
 
     def save(self, path: str | Path) -> Path:
         """Write the trajectories to an `.npz` file; returns its path."""
@@ -164,7 +171,7 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
                 progress(f + 1, total)
             if stop_after_goal is not None and stop_frame == total and pipe.planner.finished:
                 stop_frame = min(total, f + 1 + int(round(stop_after_goal * FRAME_RATE)))
-            if f + 1 >= stop_frame:
+            if f + 1 >= stop_frame or pipe.simulator.lost is not None:
                 break
     finally:
         pipe.close()
@@ -174,7 +181,7 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     goals = [(g.at, g.x, g.y) for g in scene.goals]
     return RunResult(times=(np.arange(done) + 1) / FRAME_RATE, clip_history=list(pipe.planner.history),
                      goals=goals, wall_seconds=wall, events=list(pipe.planner.events),
-                     plan_seconds=list(pipe.planner.plan_seconds), **rows)
+                     plan_seconds=list(pipe.planner.plan_seconds), lost=pipe.simulator.lost, **rows)
 
 
 def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:

@@ -46,6 +46,9 @@ EVENT_LOADED = 'loaded'
 EVENT_CLIP = 'clip'
 """Event the planner sends when it starts a clip."""
 
+EVENT_BODY_LOST = 'body_lost'
+"""Event the simulator sends when the body left the terrain or fell (detail 'cause: what happened'); the run ends."""
+
 RATE_WINDOW_S = 5.0
 """Wall seconds over which the live realtime factor is measured."""
 

@@ -27,7 +27,7 @@ from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 import dataclasses
 import time
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -36,6 +36,7 @@ from iguana_ros.body.root_tracking import RootTracker
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
+from iguana_ros.errors import InputError
 from iguana_ros.geometry import wrap_angle, yaw_of
 from iguana_ros.metrics import ProgressWindow, remaining_way
 from iguana_ros.motion.clips import ANY_GAIT
@@ -43,13 +44,15 @@ from iguana_ros.motion.motion_graph import AlignedClip, IDLE_CLIP, MotionGraph
 from iguana_ros.motion.planning import clip_table, MotionPlanner, rest_steps, STAND, Target
 from iguana_ros.motion.tracking import LibraryTracking, load_tracking
 from iguana_ros.parameters import node_parameters
-from iguana_ros.physics.pushes import region_force
+from iguana_ros.physics.body_watch import BodyLoss, BodyWatch
+from iguana_ros.physics.pushes import push_active, region_force, region_masses
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.scene import PushSpec, Scene
 from iguana_ros.scene import terrain_from_spec
 from iguana_ros.terrain.adaptation import adapt_pose, AdaptationState, pose_kinematics, residual_heights_of
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.placement import place_on_terrain
+from iguana_ros.validation import check_push, check_scene_pushes
 
 STANCE_HEIGHT = 0.006
 """A clip foot lower than this above the capture floor counts as in stance for residual fitting, m."""
@@ -591,13 +594,13 @@ def spring_stage(scene: Scene, model=None) -> SpringLengthComputer:
 
 # ----------------------------------------------------------------------------------------------- pushes
 
-def push_forces(model, pushes: tuple, time: float) -> np.ndarray | None:
+def push_forces(model, pushes: Sequence, time: float) -> np.ndarray | None:
     """
     External forces `(n_nodes, 3)` N of the pushes active at `time` (None when none is active).
 
     Each push's force is spread over its region's nodes in proportion to their mass (total = the force).
     """
-    active = [p for p in pushes if p.at <= time + 1e-9 < p.at + p.duration]
+    active = [p for p in pushes if push_active(p.at, p.duration, time)]
     if not active:
         return None
     forces = np.zeros((model.n_nodes, 3))
@@ -627,7 +630,11 @@ class SimulatorStage:
         """
         self.model = model
         self.terrain = terrain
+        self.region_masses = region_masses(model.node_mass, model.node_tags)
+        check_scene_pushes(pushes, self.region_masses)
         self.pushes = tuple(pushes)
+        self.live_pushes: list[PushSpec] = []
+        self.watch = BodyWatch(terrain)
         self.sim = SoftBodySimulator(model, terrain, fidelity, **(options or {}))
         self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
                                                   lift_only=True))
@@ -655,17 +662,38 @@ class SimulatorStage:
         """Load the simulator's compiled step loop without stepping (`SoftBodySimulator.load_kernels`)."""
         self.sim.load_kernels()
 
-    def advance(self, desired_lengths: np.ndarray | None, extra_forces: np.ndarray | None = None) -> None:
+    def add_push(self, force: np.ndarray, region: str, duration: float, torque: np.ndarray = np.zeros(3)) -> PushSpec:
+        """
+        Push `region` with `force (3,)` N for `duration` s from the next frame (a push topic's message).
+
+        InputError (and no push) when `validation.check_push` refuses it (a `torque (3,)` too) beside the pushes
+        still acting.
+        """
+        self.live_pushes = [p for p in self.live_pushes if p.at + p.duration > self.time]
+        acting = [p for p in self.live_pushes + list(self.pushes) if push_active(p.at, p.duration, self.time)]
+        force = check_push(force, torque, region, self.region_masses, self.time, duration, acting)
+        push = PushSpec(at=self.time, force=tuple(force.tolist()), duration=float(duration), region=region)
+        self.live_pushes.append(push)
+        return push
+
+    def advance(self, desired_lengths: np.ndarray | None) -> None:
         """
         Advance one frame (1/30 s) with desired spring lengths `(n_springs,)` (None = rest lengths).
 
-        the scene's active pushes and optional extra forces `(n_nodes, 3)` N.
+        The scene's and the live pushes acting now are applied. Raises SimulationDiverged; `lost` says once the body
+        left the terrain or fell (`physics.body_watch`), and a run ends there.
         """
-        forces = push_forces(self.model, self.pushes, self.time) if self.pushes else None
-        if extra_forces is not None:
-            forces = extra_forces if forces is None else forces + extra_forces
+        pushes = (*self.pushes, *self.live_pushes)
+        forces = push_forces(self.model, pushes, self.time) if pushes else None
         self.sim.advance_frame(desired_lengths, forces)
         self.frame += 1
+        root, orientation = self.root_pose()
+        self.watch.check(root, orientation, self.time)
+
+    @property
+    def lost(self) -> BodyLoss | None:
+        """Return the body's loss once it left the terrain or fell; None while it is on the terrain and upright."""
+        return self.watch.lost
 
 
 def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,
@@ -676,8 +704,21 @@ def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,
     Its model (or `model`) on its terrain (or `terrain`) at its fidelity (unless `fidelity` names a preset), placed at
     its start pose, with its pushes and the SoftBodySimulator `options`.
     """
-    return SimulatorStage(scene_model(scene) if model is None else model,
+    model = scene_model(scene) if model is None else model
+    check_pushes_of(scene, model)
+    return SimulatorStage(model,
                           scene_terrain(scene) if terrain is None else terrain,
                           scene.fidelity if fidelity is None else fidelity,
                           scene.pushes if scene.needs_pushes else (),
                           (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg), options)
+
+
+def check_pushes_of(scene: Scene, model=None) -> None:
+    """Check the scene's pushes against its model's (or `model`'s) masses; InputError naming the scene and push."""
+    if not scene.pushes:
+        return
+    model = scene_model(scene) if model is None else model
+    try:
+        check_scene_pushes(scene.pushes, region_masses(model.node_mass, model.node_tags))
+    except InputError as exc:
+        raise InputError(f'scene {scene.name}: {exc}') from None

@@ -22,6 +22,7 @@ from pathlib import Path
 import yaml
 
 from iguana_ros.config import config_path
+from iguana_ros.executables import NODE_EXECUTABLES
 
 RELIABILITY = ('reliable', 'best_effort')
 DURABILITY = ('volatile', 'transient_local')
@@ -50,6 +51,16 @@ class TopicSpec:
     publishers: tuple = field(default_factory=tuple)
     subscribers: tuple = field(default_factory=tuple)
     description: str = ''
+
+    @property
+    def subscriber_nodes(self) -> tuple:
+        """Return the package's nodes among the subscribers ('simulator_node (goal marker)' names simulator_node)."""
+        return tuple(entry.split()[0] for entry in self.subscribers if entry.split()[0] in NODE_EXECUTABLES)
+
+    @property
+    def publisher_nodes(self) -> tuple:
+        """Return the package's nodes among the publishers."""
+        return tuple(entry.split()[0] for entry in self.publishers if entry.split()[0] in NODE_EXECUTABLES)
 
 
 class TopicConfigError(ValueError):

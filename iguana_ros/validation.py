@@ -19,21 +19,25 @@ What a node accepts from a topic: one check per topic payload, bounded by the mo
 topic here, so every node that reads a topic applies the same rules (the planner and the simulator both read
 `goal_pose`). Each check raises InputError with one line naming the topic, the value and what was expected; the
 nodes log it as `rejected <topic>: …` and keep running. Finite but absurd values are rejected too, against bounds
-derived from the model and the scene: desired spring lengths within DESIRED_LENGTH_FACTOR of their rest lengths,
-pushes within MAX_PUSH_FORCE and MAX_PUSH_IMPULSE, poses within the terrain's extent plus WORLD_MARGIN, bone
-frames that fit the skeleton, frame stamps at most MAX_FRAME_GAP ahead.
+derived from the model and the scene: desired spring lengths within rest / DESIRED_SHRINK_FACTOR .. rest x
+DESIRED_STRETCH_FACTOR, pushes within MAX_PUSH_FORCE and the velocity changes MAX_PUSH_REGION_DELTA_V and
+MAX_PUSH_BODY_DELTA_V, poses within the terrain's extent plus WORLD_MARGIN, bone frames that fit the skeleton, frame
+stamps at most MAX_FRAME_GAP ahead.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
 
-from iguana_ros.constants import (BONE_LENGTH_TOLERANCE, DESIRED_LENGTH_FACTOR, DESIRED_STRAIN_RMS, MAX_FRAME_GAP,
-                                  MAX_PUSH_IMPULSE, QUATERNION_NORM_TOLERANCE, WORLD_MARGIN)
+from iguana_ros.constants import (BONE_LENGTH_TOLERANCE, DESIRED_SHRINK_FACTOR, DESIRED_STRAIN_RMS,
+                                  DESIRED_STRETCH_FACTOR, MAX_FRAME_GAP,
+                                  MAX_PUSH_BODY_DELTA_V, MAX_PUSH_REGION_DELTA_V,
+                                  QUATERNION_NORM_TOLERANCE, WORLD_MARGIN)
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
+from iguana_ros.physics.pushes import push_active, push_active_time
 from iguana_ros.scene import MAX_PUSH_FORCE, MAX_WAYPOINTS
 
 FRAME_STALE, FRAME_REPEAT, FRAME_NEW = 'stale', 'repeat', 'new'
@@ -109,6 +113,14 @@ class GoalRequest(NamedTuple):
     yaw: float | None
 
 
+class PushRequest(NamedTuple):
+    """A push from the push topic: force and torque `(3,)` (finite; `check_push` bounds them) and the region's tag."""
+
+    force: np.ndarray
+    torque: np.ndarray
+    region: str
+
+
 class RouteRequest(NamedTuple):
     """
     A route from the route topic.
@@ -171,15 +183,15 @@ def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.n
     """
     spring_rest_lengths.
 
-    Desired lengths `(n_springs,)` m, each within DESIRED_LENGTH_FACTOR of its rest length (above rest / factor, below
-    rest x factor), their RMS log strain at most DESIRED_STRAIN_RMS; InputError naming the worst spring (or the strain)
-    otherwise.
+    Desired lengths `(n_springs,)` m, each above rest / DESIRED_SHRINK_FACTOR and below rest x DESIRED_STRETCH_FACTOR,
+    their RMS log strain at most DESIRED_STRAIN_RMS (every such message is simulated stably: `iguana bench faults
+    limits`); InputError naming the worst spring (or the strain) otherwise.
     """
     rest = np.asarray(rest_lengths, dtype=np.float64)
     lengths = validate_array('spring_rest_lengths', lengths, rest.shape)
     with np.errstate(over='ignore', divide='ignore'):
         ratio = lengths / rest
-    low, high = 1.0 / DESIRED_LENGTH_FACTOR, DESIRED_LENGTH_FACTOR
+    low, high = 1.0 / DESIRED_SHRINK_FACTOR, DESIRED_STRETCH_FACTOR
     bad = (ratio < low) | (ratio > high)
     if bad.any():
         worst = int(np.argmax(np.abs(np.log(np.maximum(ratio, 1e-300)))))
@@ -193,33 +205,65 @@ def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.n
     return lengths
 
 
-def check_push(force: np.ndarray, torque: np.ndarray, region: str, regions: Sequence[str], duration: float,
-               active_forces: Sequence[np.ndarray] = ()) -> np.ndarray:
+def check_push(force: np.ndarray, torque: np.ndarray, region: str, region_masses: Mapping[str, float], at: float,
+               duration: float, acting: Sequence = ()) -> np.ndarray:
     """
-    push.
+    Check a push: its force `(3,)` N on `region` from `at` for `duration` s, while the pushes `acting` act.
 
-    The force `(3,)` N of a push on `region` (one of `regions`, or 'all') lasting `duration` s, while pushes of
-    `active_forces` still act; InputError if non-finite, with a torque (not applied), on an unknown region, above
-    MAX_PUSH_FORCE (alone or with the active pushes) or above MAX_PUSH_IMPULSE.
+    `region_masses`: kg per region (`physics.pushes.region_masses`). InputError if non-finite, with a torque (not
+    applied), on an unknown region, above MAX_PUSH_FORCE (alone or with `acting`), or giving its region more than
+    MAX_PUSH_REGION_DELTA_V or the body (with `acting`) more than MAX_PUSH_BODY_DELTA_V; returns the force.
     """
     force = validate_array('push force', force, (3,))
     torque = validate_array('push torque', torque, (3,))
     if np.any(torque != 0.0):
         raise InputError(f'push has torque {torque.tolist()} N m; only a force is applied, expected torque 0')
-    if region not in regions and region != 'all':
-        raise InputError(f'push region {region!r} is not a node tag; tags: {", ".join(regions)}')
-    with np.errstate(over='ignore'):
-        magnitude = float(np.linalg.norm(force))
+    if region not in region_masses:
+        raise InputError(f'push region {region!r} is not a node tag; tags: {", ".join(region_masses)}')
+    magnitude = _norm(force)
     if magnitude > MAX_PUSH_FORCE:
         raise InputError(f'push force {magnitude:.6g} N is above the {MAX_PUSH_FORCE:g} N limit')
-    total = magnitude + sum(float(np.linalg.norm(f)) for f in active_forces)
+    total = magnitude + sum(_norm(p.force) for p in acting)
     if total > MAX_PUSH_FORCE:
-        raise InputError(f'push force {magnitude:.6g} N with the {len(active_forces)} push(es) still acting '
+        raise InputError(f'push force {magnitude:.6g} N with the {len(acting)} push(es) still acting '
                          f'totals {total:.6g} N, above the {MAX_PUSH_FORCE:g} N limit')
-    if magnitude * duration > MAX_PUSH_IMPULSE:
-        raise InputError(f'push impulse {magnitude:.6g} N x {duration:g} s = {magnitude * duration:.6g} N s is above '
-                         f'the {MAX_PUSH_IMPULSE:g} N s limit')
+    _check_push_velocity(magnitude, region, region_masses, push_active_time(at, duration),
+                         sum(_norm(p.force) * push_active_time(p.at, p.duration) for p in acting))
     return force
+
+
+def _norm(vector) -> float:
+    """Euclidean norm of a vector (inf when it overflows)."""
+    with np.errstate(over='ignore'):
+        return float(np.linalg.norm(np.asarray(vector, dtype=np.float64)))
+
+
+def _check_push_velocity(magnitude: float, region: str, region_masses: Mapping[str, float], active_time: float,
+                         acting_impulse: float) -> None:
+    """Check the velocity change of a push of `magnitude` N acting `active_time` s on its region and on the body."""
+    impulse = magnitude * active_time
+    region_dv = impulse / region_masses[region]
+    if region_dv > MAX_PUSH_REGION_DELTA_V:
+        raise InputError(f'push of {magnitude:.6g} N acting {active_time:.4g} s (whole frames) gives {region} '
+                         f'({region_masses[region]:.3g} kg) {region_dv:.3g} m/s, above the '
+                         f'{MAX_PUSH_REGION_DELTA_V:g} m/s limit ({region_masses[region] * MAX_PUSH_REGION_DELTA_V:.3g}'
+                         f' N s on this region)')
+    body_dv = (impulse + acting_impulse) / region_masses['all']
+    if body_dv > MAX_PUSH_BODY_DELTA_V:
+        acting = ' with the pushes still acting' if acting_impulse > 0.0 else ''
+        raise InputError(f'push of {magnitude:.6g} N acting {active_time:.4g} s (whole frames){acting} gives the body '
+                         f'{body_dv:.3g} m/s, above the {MAX_PUSH_BODY_DELTA_V:g} m/s limit '
+                         f'({region_masses["all"] * MAX_PUSH_BODY_DELTA_V:.3g} N s in all)')
+
+
+def check_scene_pushes(pushes: Sequence, region_masses: Mapping[str, float]) -> None:
+    """Every push of a scene by `check_push`, with the pushes acting when it starts; InputError naming pushes[i]."""
+    for i, push in enumerate(pushes):
+        acting = [q for k, q in enumerate(pushes) if k != i and push_active(q.at, q.duration, push.at)]
+        try:
+            check_push(push.force, np.zeros(3), push.region, region_masses, push.at, push.duration, acting)
+        except InputError as exc:
+            raise InputError(f'pushes[{i}]: {exc}') from None
 
 
 def check_root_pose(what: str, position: np.ndarray, orientation: np.ndarray, bound: float) -> tuple:

@@ -32,6 +32,7 @@ SUITES = (
     ('bags', 'iguana_ros.cli.bench_faults_bags'),
     ('processes', 'iguana_ros.cli.bench_faults_processes'),
     ('topics', 'iguana_ros.cli.bench_faults_topics'),
+    ('limits', 'iguana_ros.cli.bench_faults_limits'),
 )
 
 

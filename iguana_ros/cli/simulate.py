@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -36,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
     """
     Run, print locomotion metrics, optionally save trajectories.
 
-    A bad scene or --duration is one error line (the scene is read before the simulator is loaded).
+    A bad scene or --duration is one error line (the scene is read before the simulator is loaded). A run whose body
+    left the terrain or fell ends there: its figures, `outcome`, one line on stderr and exit status 3 or 4.
     """
     from iguana_ros.scene import load_scene, with_duration
 
@@ -54,8 +56,9 @@ def run(args: argparse.Namespace) -> int:
     total = int(round(scene.duration * FRAME_RATE))
     with tqdm(total=total, unit='frame', desc=scene.name, disable=args.json) as bar:
         result = run_pipeline(scene, adaptation=adaptation, progress=lambda done, _n: bar.update(1))
-    metrics = metrics_of_run(result, scene).as_dict()
-    metrics['realtime_factor'] = scene.duration / result.wall_seconds if result.wall_seconds else 0.0
+    metrics = {'outcome': result.outcome, **metrics_of_run(result, scene).as_dict()}
+    metrics['realtime_factor'] = result.times[-1] / result.wall_seconds if result.wall_seconds and len(result.times) \
+        else 0.0
     if args.output is not None:
         metrics['output'] = str(result.save(args.output))
     if args.json:
@@ -63,4 +66,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         for key, value in metrics.items():
             print(f'{key:32s} {value:.4g}' if isinstance(value, float) else f'{key:32s} {value}')
+    if result.lost is not None:
+        print(f'iguana simulate: run ended at t={result.lost.time:.2f} s: {result.lost.message}', file=sys.stderr)
+        return result.lost.exit_code
     return 0

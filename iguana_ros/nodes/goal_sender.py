@@ -44,6 +44,12 @@ from iguana_ros.ros.endpoints import resolve
 POLL_S = 0.02
 """Wall seconds between checks while waiting."""
 
+GRAPH_SETTLE_S = 0.5
+"""Seconds the subscriptions of the goal topic must stay the same (all matched) before a confirmed goal goes out: a
+reader on a participant discovered a moment after the planner's (a bag recorder, a viewer) is then matched too, and
+acknowledges the goal before the sender exits (the probe's `iguana goal` during a recorded run reached the planner
+but not the bag in 4 of 6 tries)."""
+
 
 class GoalDelivery(NamedTuple):
     """Where goals went: the goal topic's resolved name and how many subscriptions acknowledged them."""
@@ -115,14 +121,31 @@ def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_goin
         executor.shutdown()
 
 
+class GraphWatch:
+    """Whether the subscriptions a sender sees (and its matched count) have stayed the same for GRAPH_SETTLE_S."""
+
+    def __init__(self) -> None:
+        """Nothing seen yet."""
+        self.seen: tuple | None = None
+        self.since = 0.0
+
+    def settled(self, names: set, matched: int) -> bool:
+        """Note the subscriptions' `names` and the `matched` count now; whether they held for GRAPH_SETTLE_S."""
+        now, seen = time.monotonic(), (frozenset(names), matched)
+        if seen != self.seen:
+            self.seen, self.since = seen, now
+        return now - self.since >= GRAPH_SETTLE_S
+
+
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
                keep_going: Callable[[], None] = lambda: None, confirm: bool = True,
-               topic_key: str = 'goal_pose') -> GoalDelivery:
+               topic_key: str = 'goal_pose', readers: frozenset = frozenset()) -> GoalDelivery:
     """
     Publish PoseStamped `goals` (or, with `topic_key` 'route', Path routes) once `min_subscribers` listen.
 
     (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
-    matched); wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
+    matched, the set unchanged for GRAPH_SETTLE_S), and the nodes named in `readers` have subscriptions on the graph;
+    wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
     Returns the topic name and how many subscriptions acknowledged the goals.
 
     IguanaError in one line when a step does not happen within `timeout` s (each step has the whole timeout).
@@ -132,14 +155,14 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('iguana_goal', context=context)
-        return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm, topic_key)
+        return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm, topic_key, readers)
     finally:
         rclpy.try_shutdown(context=context)
 
 
 def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 10.0,
                   keep_going: Callable[[], None] = lambda: None, confirm: bool = True,
-                  topic_key: str = 'goal_pose') -> GoalDelivery:
+                  topic_key: str = 'goal_pose', readers: frozenset = frozenset()) -> GoalDelivery:
     """`send_goals` on an existing rclpy `node` (its publisher and subscription are removed afterwards)."""
     name, cls, qos = resolve(topic_key)
     expected = list(goals) if topic_key == 'goal_pose' else [pose for route in goals for pose in route.poses]
@@ -153,19 +176,23 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
             accepted_sub = node.create_subscription(a_cls, a_name, lists.append, a_qos)
             accepted_topic = accepted_sub.topic_name
 
+        graph = GraphWatch()
+
         def wanted() -> int:
             """
-            Subscriptions the goals must reach.
+            Subscriptions the goals must reach (-1: not yet known).
 
-            The minimum, or (confirming) every one on the graph that can match this volatile publisher, the planners'
-            among them.
+            The minimum, the nodes named in `readers` among them, or (confirming) every one on the graph that can match
+            this volatile publisher, the planners' among them, the set unchanged for GRAPH_SETTLE_S.
             """
-            if not confirm:
-                return min_subscribers
             subs = node.get_subscriptions_info_by_topic(topic)
             names = {(s.node_name, s.node_namespace) for s in subs}
+            if not readers <= {name for name, _ in names}:
+                return -1
+            if not confirm:
+                return min_subscribers
             planners = {(p.node_name, p.node_namespace) for p in node.get_publishers_info_by_topic(accepted_topic)}
-            if not lists or not planners <= names:
+            if not lists or not planners <= names or not graph.settled(names, pub.get_subscription_count()):
                 return -1
             volatile = sum(1 for s in subs if s.qos_profile.durability != DurabilityPolicy.TRANSIENT_LOCAL)
             return max(min_subscribers, volatile)
@@ -179,6 +206,9 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
             if confirm and not lists:
                 return (f'no planner on {topic} within {timeout:g} s (nothing published {accepted_topic}); '
                         'is planner_node running on this ROS_DOMAIN_ID?')
+            missing = readers - {s.node_name for s in node.get_subscriptions_info_by_topic(topic)}
+            if missing:
+                return f'no subscription of {", ".join(sorted(missing))} on {topic} within {timeout:g} s'
             if confirm and wanted() < 0:
                 return f'the planner publishing {accepted_topic} has no subscription on {topic} within {timeout:g} s'
             if have == 0:

@@ -31,14 +31,15 @@ from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.base import IguanaNode, node_main, READER_HOLD_LIMIT_S, ReaderCount
 from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.progress import EVENT_BODY_LOST
 from iguana_ros.ros.cdr import TriangleListMarkerWriter
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
-from iguana_ros.ros.endpoints import MONITOR_NODE_NAME, RECORDER_NODE_NAME, resolve
+from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
                                      goal_from_msg, lengths_from_cdr, push_from_msg, route_from_msg, state_to_cdr)
 from iguana_ros.run_metrics import FootProbe
-from iguana_ros.scene import PushSpec
-from iguana_ros.stages import push_forces, simulator_stage
+from iguana_ros.stages import simulator_stage
+from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_STALE
 from iguana_ros.visuals import body_colors, terrain_mesh
 
@@ -82,7 +83,6 @@ class SimulatorNode(IguanaNode):
                                                     'iguana')
         self.latest_lengths: np.ndarray | None = None
         self.pending_lengths: dict[int, np.ndarray] = {}
-        self.live_pushes: list[PushSpec] = []
         self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals + scene.route]
         self.started = False
         self.goals_received = 0
@@ -158,12 +158,9 @@ class SimulatorNode(IguanaNode):
 
     def on_push(self, msg) -> None:
         """Apply a push (world-frame force on the tagged region named by header.frame_id) from the next frame."""
-        duration = self.param('push_duration')
-        self.live_pushes = [p for p in self.live_pushes if p.at + p.duration > self.stage.time]
-        force, region = push_from_msg(msg, self.model.node_tags, duration, [p.force for p in self.live_pushes])
-        push = PushSpec(at=self.stage.time, force=tuple(force.tolist()), duration=duration, region=region)
-        self.live_pushes.append(push)
-        self.get_logger().info(f'push {force.tolist()} N on {region} for {push.duration:g} s')
+        request = push_from_msg(msg)
+        push = self.stage.add_push(request.force, request.region, self.param('push_duration'), request.torque)
+        self.get_logger().info(f'push {list(push.force)} N on {push.region} for {push.duration:g} s')
 
     def on_goal(self, msg) -> None:
         """Show a new goal in scene_markers (the planner's rules: `goal_from_msg`)."""
@@ -220,16 +217,18 @@ class SimulatorNode(IguanaNode):
 
     def lockstep_peers_ready(self) -> bool:
         """
-        Two iguana_state subscriptions and a spring_rest_lengths publisher listed in the graph, every reader settled.
+        Return whether the lockstep peers are on the graph by name and every reader of iguana_state is settled.
 
-        (the planner's and the terrain adaptation's, besides the recorder's and `iguana run`'s progress monitor's; a
-        state published to a listed reader not matched yet is lost, and the run waits a lockstep timeout). Every listed
-        reader must be matched or report an incompatible QoS (`ReaderCount`); one that does neither holds the start
-        for READER_HOLD_LIMIT_S only.
+        The declared readers of iguana_state (the planner's and the terrain adaptation's) and publisher of
+        spring_rest_lengths, named: a stranger's reader (`ros2 topic echo`, Foxglove) must not stand in for one, or a
+        state would be published to a peer not there yet and the run would wait a lockstep timeout. Every listed reader
+        must be matched or report an incompatible QoS (`ReaderCount`); one that does neither holds the start for
+        READER_HOLD_LIMIT_S only.
         """
-        listed = self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])
-        peers = [info for info in listed if info.node_name not in (RECORDER_NODE_NAME, MONITOR_NODE_NAME)]
-        if len(peers) < 2 or self.lengths_sub.get_publisher_count() < 1:
+        listed = {info.node_name for info in self.get_subscriptions_info_by_topic(resolve('iguana_state')[0])}
+        writers = {info.node_name for info in self.get_publishers_info_by_topic(resolve('spring_rest_lengths')[0])}
+        if not (set(topic('iguana_state').subscriber_nodes) <= listed
+                and set(topic('spring_rest_lengths').publisher_nodes) <= writers):
             self.peers_listed_since = None
             return False
         now = time.monotonic()
@@ -241,7 +240,7 @@ class SimulatorNode(IguanaNode):
         self.timeouts += 1
         limit = self.param('lockstep_max_timeouts')
         why = (f'last rejected: {self.rejected_lengths}' if self.rejected_lengths
-               else 'is spring_length_node running?')
+               else 'is spring_length_node running, or did a node upstream reject the state? (see their logs)')
         self.get_logger().error(f'lockstep: no spring_rest_lengths for frame {self.stage.frame} within '
                                 f'{waited:.1f} s ({self.timeouts}/{limit}); {why}')
         if self.timeouts >= limit:
@@ -253,9 +252,8 @@ class SimulatorNode(IguanaNode):
 
     def advance(self, lengths: np.ndarray | None) -> None:
         """Simulate one frame, publish the new state; finish at the scene's end."""
-        extra = push_forces(self.model, tuple(self.live_pushes), self.stage.time) if self.live_pushes else None
         try:
-            self.stage.advance(lengths, extra)
+            self.stage.advance(lengths)
         except SimulationDiverged as exc:
             self.fail(str(exc))
             return
@@ -263,7 +261,12 @@ class SimulatorNode(IguanaNode):
         self.rejected_lengths = ''
         self.wait_since = time.monotonic()
         self.publish_state()
-        if self.stage.frame >= self.end_frame:
+        if self.stage.lost is not None:
+            lost = self.stage.lost
+            self.report(EVENT_BODY_LOST, detail=f'{lost.cause}: {lost.message}', frame=self.stage.frame)
+            self.get_logger().error(f'run ended at t={self.stage.time:.2f} s: {lost.message}')
+            self.finish(lost.exit_code)
+        elif self.stage.frame >= self.end_frame:
             wall = time.monotonic() - self.wall_start
             self.get_logger().info(f'scene finished: {self.stage.time:.2f} s simulated in {wall:.2f} s wall '
                                    f'(realtime factor {self.stage.time / max(wall, 1e-9):.2f})')

@@ -17,8 +17,29 @@ from __future__ import annotations
 
 import numpy as np
 
+from iguana_ros.constants import FRAME_RATE
+
 
 def region_force(node_mass: np.ndarray, mask: np.ndarray, force: np.ndarray) -> np.ndarray:
     """Return forces `(n_nodes, 3)` N summing to `force (3,)`, on the nodes of `mask (n_nodes,)` by mass."""
     weights = np.where(np.asarray(mask, bool), np.asarray(node_mass, float), 0.0)
     return np.outer(weights / weights.sum(), np.asarray(force, float))
+
+
+def push_active(at: float, duration: float, time: float) -> bool:
+    """Whether a push from `at` lasting `duration` s acts in the frame that starts at `time` s."""
+    return at <= time + 1e-9 < at + duration
+
+
+def push_active_time(at: float, duration: float) -> float:
+    """Seconds a push from `at` lasting `duration` s acts: a push acts over whole frames (`push_active`)."""
+    first = max(0, int(np.floor(at * FRAME_RATE)) - 1)
+    frames = np.arange(first, int(np.ceil((at + duration) * FRAME_RATE)) + 2) / FRAME_RATE
+    return float(np.count_nonzero((at <= frames + 1e-9) & (frames + 1e-9 < at + duration))) / FRAME_RATE
+
+
+def region_masses(node_mass: np.ndarray, node_tags: dict) -> dict:
+    """Mass (kg) of every pushable region: each node tag of `node_tags` and 'all' (the body), by `node_mass (n,)`."""
+    masses = {tag: float(np.sum(node_mass[np.asarray(mask, bool)])) for tag, mask in node_tags.items()}
+    masses['all'] = float(np.sum(node_mass))
+    return masses

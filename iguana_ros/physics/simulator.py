@@ -253,7 +253,7 @@ class SoftBodySimulator:
         self._info = np.zeros(2)
         self._zero_external = np.zeros((n, 3))
         self._lengths_work = np.zeros(len(self.desired_lengths_rest))
-        self._held_lengths: np.ndarray | None = None
+        self._held_lengths = self.desired_lengths_rest
 
     def _build_factor(self) -> CholeskyFactor:
         """
@@ -280,7 +280,7 @@ class SoftBodySimulator:
         self._counters[:] = 0
         self._chol.state[:] = 0
         self._fallback_steps = 0
-        self._held_lengths = None
+        self._held_lengths = self.desired_lengths_rest      # the first frame ramps from rest, never jumps
         self.time = 0.0
         self._diverged = None
         self.revision += 1
@@ -369,7 +369,7 @@ class SoftBodySimulator:
                              f'lengths >= 0 m, got shape {ld.shape}')
         ext = self._zero_external if external_forces is None else self._checked(external_forces, 'external_forces')
         n_steps = self.steps_per_frame if n_steps is None else int(n_steps)
-        ld_from = ld if self._held_lengths is None or self.length_hold == 'zero' else self._held_lengths
+        ld_from = ld if self.length_hold == 'zero' else self._held_lengths
         ramp = n_steps if ld_from is not ld else 0
         if self._direct is None:
             status, done = self._run_cg(ld_from, ld, ext, n_steps, ramp)

@@ -36,8 +36,8 @@ from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_stat
                                         time_from_msg, time_to_msg, validate_array)
 from iguana_ros.run_metrics import FEET, Stride
 from iguana_ros.scene import MAX_WAYPOINTS
-from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_push,
-                                   check_root_pose, check_route, GoalRequest, RouteRequest)
+from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_root_pose,
+                                   check_route, GoalRequest, PushRequest, RouteRequest)
 
 
 def check_frame_id(what: str, frame_id: str) -> None:
@@ -322,19 +322,17 @@ def planner_status_from_msg(msg) -> dict:
     return {'state': msg.status[0].message, **out, 'time': time_from_msg(msg.header.stamp)}
 
 
-def push_from_msg(msg, regions, duration: float, active_forces=()) -> tuple[np.ndarray, str]:
+def push_from_msg(msg) -> PushRequest:
     """
-    (force `(3,)` N, region) of a push message.
+    push.
 
-    (header.frame_id names the region, '' = trunk_left) lasting `duration` s while `active_forces` act; InputError
-    unless `check_push` accepts it.
+    The force and torque `(3,)` of a WrenchStamped and the region its header.frame_id names ('' = trunk_left),
+    finite (InputError otherwise); the simulator stage checks them against the body (`SimulatorStage.add_push`).
     """
     wrench = msg.wrench
-    region = msg.header.frame_id or 'trunk_left'
-    force = check_push([wrench.force.x, wrench.force.y, wrench.force.z],
-                       [wrench.torque.x, wrench.torque.y, wrench.torque.z], region, list(regions), duration,
-                       active_forces)
-    return force, region
+    force = validate_array('push force', [wrench.force.x, wrench.force.y, wrench.force.z], (3,))
+    torque = validate_array('push torque', [wrench.torque.x, wrench.torque.y, wrench.torque.z], (3,))
+    return PushRequest(force, torque, msg.header.frame_id or 'trunk_left')
 
 
 def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):

@@ -31,7 +31,8 @@ import numpy as np
 
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.errors import IguanaError
-from iguana_ros.progress import active_goal, EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus, StartupClock
+from iguana_ros.progress import (active_goal, EVENT_BODY_LOST, EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus,
+                                 StartupClock)
 from iguana_ros.ros.conversions import time_from_msg
 from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, resolve, tool_node
 from iguana_ros.ros.messages import state_from_cdr
@@ -56,6 +57,7 @@ class RunMonitor:
         self.frame, self.root, self.clip = -1, None, ''
         self.goals: list[tuple] = []
         self.heard = 0
+        self.body_lost = ''
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self.node = tool_node(MONITOR_NODE_NAME, self.context)
@@ -81,6 +83,8 @@ class RunMonitor:
         self.clock.note(event)
         if event.kind == EVENT_CLIP and event.clip:
             self.clip = event.clip
+        elif event.kind == EVENT_BODY_LOST:
+            self.body_lost = event.detail
 
     def _on_state(self, msg, info) -> None:
         """Handle the simulator's state of a frame: its publication time (frames 0 and 1) and the root."""

@@ -41,6 +41,7 @@ from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
 from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
+from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
 from iguana_ros.scene import load_scene, Scene, scene_path
 from iguana_ros.supervisor.cpu import CpuWindow
 from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
@@ -226,7 +227,9 @@ class SceneRun:
         self.monitor = None
         self.nodes_started = math.nan
         self.silence_checked = False
+        from iguana_ros.stages import check_pushes_of     # the model: only for a scene with pushes
         self.scene = load_scene(options.scene)
+        check_pushes_of(self.scene)           # the pushes against the body's masses: one line before any node starts
         self.scene_file = scene_path(options.scene).resolve()
         self.bag = new_bag_dir(options, self.scene)
         if self.bag.exists():
@@ -361,31 +364,43 @@ class SceneRun:
             raise IguanaError(f'the viewer did not start within {VIEWER_START_S:g} s; logs in {self.logs}')
         print(next(line for line in child.output.splitlines() if line.startswith(URL_PREFIX)), flush=True)
 
+    def goal_readers(self, key: str) -> frozenset:
+        """Return the node names whose subscriptions to topic `key` must be listed before a scene goal goes out."""
+        from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
+        from iguana_ros.topics import topic
+        recorder = {RECORDER_NODE_NAME} if 'recorder' in self.children else set()
+        return frozenset(topic(key).subscriber_nodes) | recorder
+
     def send_goals(self) -> None:
         """Publish the scene's goals (stamped with their times) or route once planner and simulator listen."""
         if not self.scene.goals and not self.scene.route:
             return
         from iguana_ros.nodes.goal_sender import goal_message, route_message, send_goals
-        # planner, simulator (goal marker) and recorder must all have them before frame 0
+        # planner, simulator (goal marker) and recorder must all have them before frame 0: named, not counted (a
+        # stranger's subscription, `ros2 topic echo goal_pose`, must not stand in for one of them)
         if self.scene.goals:
             goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in self.scene.goals]
-            send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going)
+            send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going,
+                       readers=self.goal_readers('goal_pose'))
         if self.scene.route:
             last = self.scene.route[-1].yaw_deg
             route = route_message([(w.x, w.y) for w in self.scene.route], last)
-            send_goals([route], min_subscribers=3, timeout=120.0, keep_going=self.keep_going, topic_key='route')
+            send_goals([route], min_subscribers=3, timeout=120.0, keep_going=self.keep_going, topic_key='route',
+                       readers=self.goal_readers('route'))
         self.watch_domain(may_close=True, force=True)
 
     def alive_or_raise(self, simulator_may_end: bool = False) -> None:
         """
         `ChildExited` naming the first child that has exited early, with its last lines.
 
-        (the simulator may end with status 0 once the run is under way: `simulator_may_end`).
+        (the simulator may end once the run is under way, `simulator_may_end`: with status 0, or with the body lost,
+        BODY_LOST_EXIT_CODES).
         """
         for name, child in self.children.items():
             if child.proc is None or child.running:
                 continue
-            if simulator_may_end and name in ('simulator_node', 'nodes') and child.proc.returncode == 0:
+            if simulator_may_end and name in ('simulator_node', 'nodes') and \
+                    child.proc.returncode in (0, *BODY_LOST_EXIT_CODES.values()):
                 continue
             raise ChildExited(name, child.proc.returncode, child.tail())
 
@@ -450,6 +465,9 @@ class SceneRun:
             return 'failed', str(self.failure), 1
         sim = self.children.get('simulator_node') or self.children.get('nodes')
         name = sim.name if sim is not None else 'the simulator'
+        lost = body_lost_outcome(self.sim_code, self.monitor.body_lost if self.monitor is not None else '')
+        if lost is not None:
+            return lost
         if self.sim_code not in (None, 0):
             return 'failed', f'{name} exited with {describe_exit(self.sim_code)}', 1
         if simulated < self.planned_s - 0.5 / FRAME_RATE:
@@ -506,6 +524,20 @@ class SceneRun:
                           cpu_ms_per_frame=self.cpu.ms_per_frame(progress.state_first_ns / 1e9,
                                                                  progress.state_last_ns / 1e9,
                                                                  round(simulated * FRAME_RATE)))
+
+
+def body_lost_outcome(sim_code: int | None, detail: str) -> tuple[str, str, int] | None:
+    """
+    Return (outcome, reason, exit code) of a run whose simulator ended it with the body lost, else None.
+
+    The simulator's exit status names the cause (BODY_LOST_EXIT_CODES); `detail` is its body_lost event ('cause:
+    what happened', '' when not heard).
+    """
+    causes = {code: cause for cause, code in BODY_LOST_EXIT_CODES.items()}
+    if sim_code not in causes:
+        return None
+    reason = detail.split(': ', 1)[1] if ': ' in detail else f'the body was lost ({causes[sim_code]})'
+    return causes[sim_code], reason, sim_code
 
 
 def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:

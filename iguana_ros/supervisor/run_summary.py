@@ -17,7 +17,7 @@ What a run reports, from data only.
 
 How far it got (the last iguana_state stamp in its bag), the wall time of its simulation loop (the recorder's receive
 times of the first and last iguana_state), the supervisor's own wall time, whether the bag was finalised, and the
-outcome (completed, failed, stopped by a signal).
+outcome (completed, failed, the body lost: left_terrain or fell, stopped by a signal).
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import math
 from pathlib import Path
 
+from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
 from iguana_ros.progress import startup_line
 from iguana_ros.supervisor.cpu import cpu_line
 from iguana_ros.supervisor.run_gait import RunGait
@@ -135,12 +136,14 @@ class RunSummary:
         return f'{self.simulated_s:.2f} of {self.planned_s:.2f} s simulated'
 
     def outcome_text(self) -> str:
-        """'run completed', 'run failed: <reason>' or 'run stopped by SIGTERM', with how far it got."""
+        """'run completed', 'run failed: <reason>', 'run ended: the iguana fell …' or 'run stopped by SIGTERM'."""
         if self.outcome in ('', 'completed'):
             return f'run completed: {self.progress()}'
         got = self.progress() if self.simulated_s > 0 else 'no frame simulated'
         if self.outcome == 'stopped':
             return f'run {self.reason} after {got}'
+        if self.outcome in BODY_LOST_EXIT_CODES:
+            return f'run ended after {got}: {self.reason}'
         return f'run failed after {got}' + (f': {self.reason}' if self.reason else '')
 
     def headline(self) -> str:

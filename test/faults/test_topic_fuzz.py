@@ -28,9 +28,10 @@ import yaml
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
 from iguana_ros.faults.topic_fuzz import fault_plan, FUZZ_KINDS, fuzz_message, FuzzContext, trial_scene
+from iguana_ros.physics.pushes import region_masses
 from iguana_ros.ros import messages as m
 from iguana_ros.scene import load_scene
-from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
+from iguana_ros.validation import check_frame, check_push, FRAME_NEW, world_bound
 
 SECONDS = 3.0
 
@@ -59,7 +60,8 @@ def _refused(key: str, msg, ctx: FuzzContext, model) -> bool:
         if key == 'goal_pose':
             m.goal_from_msg(msg, ctx.half_extent)
         elif key == 'push':
-            m.push_from_msg(msg, model.node_tags, 0.1)
+            push = m.push_from_msg(msg)
+            check_push(push.force, push.torque, push.region, region_masses(model.node_mass, model.node_tags), 1.0, 0.1)
         elif key == 'motion_clip':
             return check_frame('motion_clip', m.clip_from_msg(msg, skeleton, bound)[0], ctx.frame) != FRAME_NEW
         elif key == 'reference_pose':

@@ -95,6 +95,18 @@ class Probe:
         return self.got[key]
 
 
+def _lockstep_peers(make_node, executor):
+    """
+    Stand in for a lockstep simulator's peers, by name.
+
+    Readers of iguana_state named planner_node and terrain_adaptation_node; the returned Probe is named
+    spring_length_node (the lengths' publisher the start waits for).
+    """
+    for name in ('planner_node', 'terrain_adaptation_node'):
+        Probe(make_node(name), executor).listen('iguana_state')
+    return Probe(make_node('spring_length_node'), executor)
+
+
 def _state(frame, xy=(0.0, 0.0), yaw=0.0):
     from iguana_ros.ros.messages import state_to_msg
     root = np.array([xy[0], xy[1], 0.075])
@@ -287,7 +299,10 @@ def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_
 
 def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, executor, ros_context, monkeypatch):
     """
-    The simulator starts once two iguana_state peers and a lengths publisher are listed and every listed reader matched.
+    The simulator starts once its peers are listed by name and every listed reader matched.
+
+    Strangers' readers and a stranger's lengths publisher do not stand in for the planner, the terrain adaptation and
+    the spring-length node.
 
     A listed reader that cannot match (it asks for transient-local states from the volatile writer) is reported
     incompatible and does not hold the start; a listed reader neither matched nor incompatible holds it for
@@ -302,10 +317,17 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
     executor.add_node(node)
     try:
         assert not node.lockstep_peers_ready()
+        strangers = Probe(make_node('echo'), executor)           # `ros2 topic echo`, Foxglove: not peers
+        strangers.listen('iguana_state', copies=2)
+        strangers.pub('spring_rest_lengths')
+        assert spin_until(executor, lambda: len(node.get_subscriptions_info_by_topic(strangers.resolve(
+            'iguana_state')[0])) >= 2 and node.lengths_sub.get_publisher_count() >= 1, 30)
+        assert not node.lockstep_peers_ready()                   # two readers and a writer, none of them the peers
         peers = [Probe(make_node(name), executor) for name in ('planner_node', 'terrain_adaptation_node')]
         for peer in peers:
             peer.listen('iguana_state')
-        peers[0].pub('spring_rest_lengths')
+        assert not node.lockstep_peers_ready()                   # the lengths' publisher is not spring_length_node
+        Probe(make_node('spring_length_node'), executor).pub('spring_rest_lengths')
         state = peers[0].resolve('iguana_state')
         assert spin_until(executor, lambda: node.lockstep_peers_ready(), 30)
         assert node.state_pub.get_subscription_count() >= 2
@@ -420,8 +442,8 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     from iguana_ros.ros.messages import lengths_to_msg
     from visualization_msgs.msg import Marker
     model = build_model('coarse')
-    probe = Probe(make_node('probe'), executor)
-    probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
+    probe = _lockstep_peers(make_node, executor)
+    probe.listen('iguana_state')
     probe.listen('mesh_marker')
     probe.listen('scene_markers')
     probe.listen('foot_state')
@@ -480,8 +502,8 @@ def test_simulator_keeps_lengths_that_arrive_ahead_and_simulates_them_in_order(t
     model = build_model('coarse')
     rest = np.array(model.spring_rest_lengths)
     frames = [rest, rest * 1.01, rest * 0.99]
-    probe = Probe(make_node('probe'), executor)
-    probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
+    probe = _lockstep_peers(make_node, executor)
+    probe.listen('iguana_state')
     lengths_pub = probe.pub('spring_rest_lengths')
     with _node('simulator_node', _scene(tmp_path), tmp_path, lockstep_timeout=1.0, lockstep_max_timeouts=100) as sim:
         probe.wait('iguana_state', 1, timeout=60)
@@ -503,8 +525,8 @@ def test_simulator_keeps_lengths_that_arrive_ahead_and_simulates_them_in_order(t
 
 
 def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
-    probe = Probe(make_node('probe'), executor)
-    probe.listen('iguana_state', copies=2)
+    probe = _lockstep_peers(make_node, executor)
+    probe.listen('iguana_state')
     probe.pub('spring_rest_lengths')
     with _node('simulator_node', _scene(tmp_path), tmp_path, lockstep_timeout=0.5,
                lockstep_max_timeouts=2) as sim:

@@ -26,12 +26,15 @@ import pytest
 from iguana_ros import validation as v
 from iguana_ros.body.model import build_model
 from iguana_ros.body.skeleton import iguana_skeleton
-from iguana_ros.constants import DESIRED_LENGTH_FACTOR, MAX_FRAME_GAP, MAX_PUSH_IMPULSE
+from iguana_ros.constants import (DESIRED_SHRINK_FACTOR, DESIRED_STRETCH_FACTOR, FRAME_RATE, MAX_FRAME_GAP,
+                                  MAX_PUSH_BODY_DELTA_V,
+                                  MAX_PUSH_REGION_DELTA_V, PUSH_FORCE)
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.nodes.goal_sender import goal_message
+from iguana_ros.physics.pushes import push_active, push_active_time, region_masses
 from iguana_ros.ros import messages as m
-from iguana_ros.scene import MAX_PUSH_FORCE
+from iguana_ros.scene import PushSpec
 from iguana_ros.stages import motion_graph
 from iguana_ros.terrain.adaptation import pose_kinematics
 
@@ -72,7 +75,7 @@ def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
     with pytest.raises(InputError, match=r'strain the whole body: RMS \|ln\(length / rest\)\| is 0.693, above 0.3 '
                                          r'\(median length 2 x rest\)'):
         v.check_desired_lengths(rest * 2.0, rest)   # every spring x2 at once: diverges in one frame
-    for scale in (1e6 / rest.max(), DESIRED_LENGTH_FACTOR * 1.01, 1.0 / DESIRED_LENGTH_FACTOR / 1.01, 0.0):
+    for scale in (1e6 / rest.max(), DESIRED_STRETCH_FACTOR * 1.01, 1.0 / DESIRED_SHRINK_FACTOR / 1.01, 0.0):
         with pytest.raises(InputError, match='lengths outside .* x their rest length'):
             v.check_desired_lengths(rest * scale, rest)
     one = rest.copy()
@@ -85,21 +88,36 @@ def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
         m.lengths_from_msg(msg, len(rest), rest)                  # the simulator's check: rejected
 
 
-def test_push_force_impulse_torque_and_region_are_bounded(model):
-    tags = list(model.node_tags)
-    force = v.check_push([0.0, -MAX_PUSH_FORCE, 0.0], [0.0, 0.0, 0.0], 'trunk_left', tags, 0.1)
-    assert force.tolist() == [0.0, -MAX_PUSH_FORCE, 0.0]
+def test_push_force_velocity_change_torque_and_region_are_bounded(model):
+    masses = region_masses(model.node_mass, model.node_tags)
+    force = v.check_push([0.0, -PUSH_FORCE, 0.0], [0.0, 0.0, 0.0], 'trunk_left', masses, 1.0, 0.1)
+    assert force.tolist() == [0.0, -PUSH_FORCE, 0.0]                      # the paper's push
+    acting = (PushSpec(at=0.95, force=(0.0, 500.0, 0.0), duration=0.5, region='all'),)
     cases = [([0.0, -1e6, 0.0], [0, 0, 0], 'trunk_left', 0.1, (), r'push force 1e\+06 N is above the 1000 N limit'),
-             ([0.0, -600.0, 0.0], [0, 0, 0], 'trunk_left', 0.1, ([0.0, 500.0, 0.0],),
-              'with the 1 push\\(es\\) still acting totals 1100 N'),
-             ([0.0, -200.0, 0.0], [0, 0, 0], 'trunk_left', 1.0, (),
-              f'push impulse 200 N x 1 s = 200 N s is above the {MAX_PUSH_IMPULSE:g} N s limit'),
+             ([0.0, -600.0, 0.0], [0, 0, 0], 'all', 0.1, acting, r'with the 1 push\(es\) still acting totals 1100 N'),
+             ([0.0, -1000.0, 0.0], [0, 0, 0], 'trunk_left', 0.1, (), r'gives trunk_left \(0.6\d+ kg\) 1\d\d m/s, '
+              f'above the {MAX_PUSH_REGION_DELTA_V:g} m/s limit'),           # the probe's push
+             ([0.0, -30.0, 0.0], [0, 0, 0], 'feet', 0.1, (), 'gives feet'),
+             ([0.0, -250.0, 0.0], [0, 0, 0], 'all', 0.1, (), f'gives the body 6.25 m/s, above the '
+              f'{MAX_PUSH_BODY_DELTA_V:g} m/s limit'),
+             ([0.0, -150.0, 0.0], [0, 0, 0], 'all', 0.1, acting, 'with the pushes still acting gives the body'),
+             ([0.0, -700.0, 0.0], [0, 0, 0], 'all', 0.01, (), r'acting 0.03333 s \(whole frames\) gives the body'),
              ([0.0, -40.0, 0.0], [0, 0, 5.0], 'trunk_left', 0.1, (), 'only a force is applied'),
              ([0.0, float('nan'), 0.0], [0, 0, 0], 'trunk_left', 0.1, (), 'push force has 1 non-finite'),
              ([0.0, -40.0, 0.0], [0, 0, 0], 'wing', 0.1, (), "push region 'wing' is not a node tag")]
     for f, t, region, duration, active, message in cases:
         with pytest.raises(InputError, match=message):
-            v.check_push(f, t, region, tags, duration, active)
+            v.check_push(f, t, region, masses, 1.0, duration, active)
+
+
+def test_a_push_acts_over_whole_frames():
+    assert push_active_time(1.0, 0.1) == pytest.approx(3 / FRAME_RATE)
+    assert push_active_time(1.0, 0.01) == pytest.approx(1 / FRAME_RATE)      # a frame at least
+    assert push_active_time(1.01, 0.01) == 0.0                               # no frame starts within it: no push
+    assert push_active_time(0.0, 1.0) == pytest.approx(1.0)
+    times = np.arange(200) / FRAME_RATE
+    for at, duration in ((0.37, 0.2), (1.0, 0.1), (2.0 / 3.0, 0.5)):          # the rule push_forces applies
+        assert push_active_time(at, duration) * FRAME_RATE == sum(push_active(at, duration, t) for t in times)
 
 
 def test_poses_and_clips_must_fit_the_skeleton_and_the_world():
