@@ -33,6 +33,7 @@ SUITES = (
     ('processes', 'iguana_ros.cli.bench_faults_processes'),
     ('topics', 'iguana_ros.cli.bench_faults_topics'),
     ('limits', 'iguana_ros.cli.bench_faults_limits'),
+    ('strays', 'iguana_ros.cli.bench_faults_strays'),
 )
 
 

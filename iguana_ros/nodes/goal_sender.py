@@ -32,23 +32,17 @@ from typing import Callable, NamedTuple
 
 import rclpy
 from rclpy.duration import Duration
-from rclpy.qos import DurabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.ros.conversions import pose_stamped_msg
-from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.endpoints import resolve, volatile_readers
+from iguana_ros.ros.messages import goal_readers_from_msg
 
 POLL_S = 0.02
 """Wall seconds between checks while waiting."""
-
-GRAPH_SETTLE_S = 0.5
-"""Seconds the subscriptions of the goal topic must stay the same (all matched) before a confirmed goal goes out: a
-reader on a participant discovered a moment after the planner's (a bag recorder, a viewer) is then matched too, and
-acknowledges the goal before the sender exits (the probe's `iguana goal` during a recorded run reached the planner
-but not the bag in 4 of 6 tries)."""
 
 
 class GoalDelivery(NamedTuple):
@@ -121,22 +115,6 @@ def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_goin
         executor.shutdown()
 
 
-class GraphWatch:
-    """Whether the subscriptions a sender sees (and its matched count) have stayed the same for GRAPH_SETTLE_S."""
-
-    def __init__(self) -> None:
-        """Nothing seen yet."""
-        self.seen: tuple | None = None
-        self.since = 0.0
-
-    def settled(self, names: set, matched: int) -> bool:
-        """Note the subscriptions' `names` and the `matched` count now; whether they held for GRAPH_SETTLE_S."""
-        now, seen = time.monotonic(), (frozenset(names), matched)
-        if seen != self.seen:
-            self.seen, self.since = seen, now
-        return now - self.since >= GRAPH_SETTLE_S
-
-
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
                keep_going: Callable[[], None] = lambda: None, confirm: bool = True,
                topic_key: str = 'goal_pose', readers: frozenset = frozenset()) -> GoalDelivery:
@@ -144,7 +122,8 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
     Publish PoseStamped `goals` (or, with `topic_key` 'route', Path routes) once `min_subscribers` listen.
 
     (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
-    matched, the set unchanged for GRAPH_SETTLE_S), and the nodes named in `readers` have subscriptions on the graph;
+    matched, and as many as the planner sees on planner_status), and the nodes named in `readers` have subscriptions
+    on the graph;
     wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
     Returns the topic name and how many subscriptions acknowledged the goals.
 
@@ -167,7 +146,7 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
     name, cls, qos = resolve(topic_key)
     expected = list(goals) if topic_key == 'goal_pose' else [pose for route in goals for pose in route.poses]
     pub = node.create_publisher(cls, name, qos)
-    accepted_sub = None
+    accepted_sub = status_sub = None
     try:
         lists: list = []
         topic = pub.topic_name
@@ -176,14 +155,19 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
             accepted_sub = node.create_subscription(a_cls, a_name, lists.append, a_qos)
             accepted_topic = accepted_sub.topic_name
 
-        graph = GraphWatch()
+        seen: dict = {}
+        if confirm:
+            s_name, s_cls, s_qos = resolve('planner_status')
+            status_sub = node.create_subscription(s_cls, s_name, lambda m: seen.update(goal_readers_from_msg(m)),
+                                                  s_qos)
 
         def wanted() -> int:
             """
             Subscriptions the goals must reach (-1: not yet known).
 
             The minimum, the nodes named in `readers` among them, or (confirming) every one on the graph that can match
-            this volatile publisher, the planners' among them, the set unchanged for GRAPH_SETTLE_S.
+            this volatile publisher, the planners' among them, and as many as the planner sees (planner_status: its
+            long-settled view names a bag recorder that this sender's fresh view may not list yet).
             """
             subs = node.get_subscriptions_info_by_topic(topic)
             names = {(s.node_name, s.node_namespace) for s in subs}
@@ -192,10 +176,9 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
             if not confirm:
                 return min_subscribers
             planners = {(p.node_name, p.node_namespace) for p in node.get_publishers_info_by_topic(accepted_topic)}
-            if not lists or not planners <= names or not graph.settled(names, pub.get_subscription_count()):
+            if not lists or not planners <= names or topic_key not in seen:
                 return -1
-            volatile = sum(1 for s in subs if s.qos_profile.durability != DurabilityPolicy.TRANSIENT_LOCAL)
-            return max(min_subscribers, volatile)
+            return max(min_subscribers, volatile_readers(node, topic), seen[topic_key])
 
         def listening() -> bool:
             need = wanted()
@@ -233,5 +216,6 @@ def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 
         return GoalDelivery(topic, delivered)
     finally:
         node.destroy_publisher(pub)
-        if accepted_sub is not None:
-            node.destroy_subscription(accepted_sub)
+        for sub in (accepted_sub, status_sub):
+            if sub is not None:
+                node.destroy_subscription(sub)

@@ -23,15 +23,20 @@ where it is on planner_status (latched: state, waypoint, distance, heading error
 from __future__ import annotations
 
 from nav_msgs.msg import Path
+from rclpy.clock import Clock, ClockType
 
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
 from iguana_ros.progress import EVENT_CLIP
+from iguana_ros.ros.endpoints import resolve, volatile_readers
 from iguana_ros.ros.messages import (clip_to_cdr, goal_from_msg, planner_status_msg, reference_stance_to_cdr,
                                      route_from_msg, state_from_cdr)
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
+
+READERS_PERIOD_S = 0.5
+"""Wall seconds between two counts of the goal topics' readers (published on planner_status when they change)."""
 
 
 class PlannerNode(IguanaNode):
@@ -63,7 +68,11 @@ class PlannerNode(IguanaNode):
         self.accepted_pub = self.publisher('accepted_goals')
         self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
-        self.publish_status(0)
+        self.readers: dict[str, int] = {}
+        self.status_frame = 0
+        self.count_readers()
+        self.readers_timer = self.create_timer(READERS_PERIOD_S, self.count_readers,
+                                               clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f'planner ready: {len(self.stage.graph.clips)} clips, '
                                f'goal radius {self.stage.goal_radius:.2f} m')
 
@@ -135,8 +144,16 @@ class PlannerNode(IguanaNode):
 
     def publish_status(self, frame: int) -> None:
         """Publish where the planner is on planner_status (latched), stamped with the frame's simulated time."""
+        self.status_frame = frame
         self.status_pub.publish(planner_status_msg(self.stage.status(), self.goals_received, frame,
-                                                   frame / FRAME_RATE))
+                                                   frame / FRAME_RATE, self.readers))
+
+    def count_readers(self) -> None:
+        """Count the volatile readers of goal_pose and route; publish the status again when they changed."""
+        counts = {key: volatile_readers(self, resolve(key)[0]) for key in ('goal_pose', 'route')}
+        if counts != self.readers:
+            self.readers = counts
+            self.publish_status(self.status_frame)
 
 
 main = node_main(PlannerNode)

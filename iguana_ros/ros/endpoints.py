@@ -91,3 +91,9 @@ def talker(node, cls, name: str, qos: QoSProfile, on_incompatible: Callable | No
     from rclpy.event_handler import PublisherEventCallbacks
     return node.create_publisher(cls, name, qos, event_callbacks=PublisherEventCallbacks(
         incompatible_qos=on_incompatible, use_default_callbacks=False))
+
+
+def volatile_readers(node, topic_name: str) -> int:
+    """Return how many subscriptions of `topic_name` on `node`'s graph a volatile writer reaches (not latched)."""
+    return sum(1 for info in node.get_subscriptions_info_by_topic(topic_name)
+               if info.qos_profile.durability != DurabilityPolicy.TRANSIENT_LOCAL)

@@ -289,16 +289,18 @@ def route_from_msg(msg, half_extent: float) -> RouteRequest:
     return check_route(positions, orientations, time_from_msg(msg.header.stamp), half_extent)
 
 
-def planner_status_msg(status, goals: int, frame: int, stamp: float):
+def planner_status_msg(status, goals: int, frame: int, stamp: float, readers: dict | None = None):
     """
     Return the planner_status message: a DiagnosticArray stamped `stamp` s (simulated) of one PlannerStatus.
 
-    With the number of goal and route messages accepted and the frame of the stride end.
+    With the number of goal and route messages accepted, the frame of the stride end, and `readers`: the volatile
+    subscriptions of goal_pose and route the planner sees ('goal_pose_readers', 'route_readers'; see
+    `goal_readers_from_msg`).
     """
     level = DiagnosticStatus.WARN if status.recovery else DiagnosticStatus.OK
     values = {'waypoint': status.waypoint, 'waypoints': status.waypoints, 'distance': f'{status.distance:.4f}',
               'heading_error': f'{status.heading_error:.4f}', 'recovery': status.recovery, 'goals': goals,
-              'frame': frame}
+              'frame': frame, **{f'{key}_readers': n for key, n in (readers or {}).items()}}
     entry = DiagnosticStatus(level=level, name='planner_node', message=status.state,
                              values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
     return DiagnosticArray(header=Header(stamp=time_to_msg(stamp)), status=[entry])
@@ -320,6 +322,25 @@ def planner_status_from_msg(msg) -> dict:
     except (KeyError, ValueError) as exc:
         raise InputError(f'planner_status lacks a number: {exc}') from None
     return {'state': msg.status[0].message, **out, 'time': time_from_msg(msg.header.stamp)}
+
+
+def goal_readers_from_msg(msg) -> dict:
+    """
+    Return {topic key: volatile subscriptions the planner sees} of a planner_status message ({} when it has none).
+
+    A goal sender waits until it has matched as many (`goal_sender.publish_goals`): the planner's long-settled view of
+    the graph names the readers, a bag recorder among them, that a sender's fresh view may not list yet.
+    """
+    if len(msg.status) != 1:
+        return {}
+    values = {kv.key: kv.value for kv in msg.status[0].values}
+    out = {}
+    for key in ('goal_pose', 'route'):
+        try:
+            out[key] = int(values[f'{key}_readers'])
+        except (KeyError, ValueError):
+            continue
+    return out
 
 
 def push_from_msg(msg) -> PushRequest:

@@ -297,7 +297,7 @@ class SceneRun:
 
         Then take in the run's messages. Called while the run starts.
         """
-        self.alive_or_raise()
+        self.alive_or_raise(simulator_may_end=True)   # a short run may be simulated before the goals are confirmed
         self.watch_domain()
         self.listen()
 

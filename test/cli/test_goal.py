@@ -124,3 +124,31 @@ def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path,
                                        'see the planner log for "rejected goal_pose", e.g. a goal off the terrain)')
     assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain' in planner.output
     assert 'goal (1.00, 0.50), any heading scheduled for t=2.000 s' in planner.output
+
+
+@pytest.mark.ros
+@pytest.mark.long
+@pytest.mark.timeout(300)
+def test_every_goal_the_planner_accepted_during_a_recorded_run_is_in_the_bag(tmp_path):
+    """
+    Issue 30, item 4: 6 goals sent with `iguana goal` during `iguana run --record` each exited 0, 2 reached the bag.
+
+    `iguana goal` exited before the recorder had matched its short-lived publisher; it now waits until the goal
+    topic's subscriptions have stayed the same for GRAPH_SETTLE_S and all acknowledged the goal.
+    """
+    import yaml
+    from iguana_ros.bag.storage import BagReader
+    scene = tmp_path / 'goals.yaml'
+    scene.write_text(yaml.safe_dump({'model': {'resolution': 'coarse'}, 'terrain': {'kind': 'flat'},
+                                     'goals': [{'x': 1.0, 'y': 0.0}], 'duration': 40.0}))
+    bag = tmp_path / 'bag'
+    run = NodeProcess([*IGUANA, 'run', str(scene), '--mode', 'realtime', '--record', str(bag)], 'run', tmp_path)
+    with run.start():
+        assert run.wait_for_output('simulated', 120), run.output          # the progress lines: under way
+        for k in range(6):
+            goal = NodeProcess([*IGUANA, 'goal', f'{0.5 + 0.2 * k:g}', '-0.4', '--timeout', '30'], f'goal{k}',
+                               tmp_path).start()
+            assert goal.wait(60) == 0, goal.output
+        run.stop()
+    sent = [m for m in BagReader(bag).messages() if m.topic == '/goal_pose']
+    assert len(sent) == 7, f'{len(sent)} goal_pose messages in the bag, expected the scene goal and 6 sent'
