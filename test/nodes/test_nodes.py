@@ -460,6 +460,9 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
         push.wrench.force.y = -40.0
         push_pub.publish(push)
         push.header.frame_id = 'trunk_left'
+        push.wrench.force.y = -1000.0           # the probe's push: 163 m/s on trunk_left (13 such threw it 718 m)
+        push_pub.publish(push)
+        push.wrench.force.y = -40.0
         push_pub.publish(push)
         lengths_pub.publish(lengths_to_msg(np.ones(7), 0))  # wrong length: rejected, still waiting
         lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
@@ -487,6 +490,7 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
     assert 'rejected spring_rest_lengths' in sim.output
     assert "rejected push: push region 'wing' is not a node tag" in sim.output
     assert 'push [0.0, -40.0, 0.0] N on trunk_left' in sim.output
+    assert 'rejected push: push of 1000 N acting 0.1 s (whole frames) gives trunk_left' in sim.output
 
 
 def test_simulator_keeps_lengths_that_arrive_ahead_and_simulates_them_in_order(tmp_path, make_node, executor):
