@@ -139,7 +139,13 @@ class SimulatorNode(IguanaNode):
             self.advance_signal.trigger()
 
     def advance_due(self) -> None:
-        """Lockstep: simulate the current frame if its lengths are in; one frame per call, so input is read between."""
+        """
+        Lockstep: simulate the current frame if its lengths are in; one frame per call, so input is read between.
+
+        Never in realtime mode: there the timer paces every frame (lengths a stride ahead would be raced through).
+        """
+        if self.mode != 'lockstep':
+            return
         lengths = self.pending_lengths.pop(self.stage.frame, None) if self.started else None
         if lengths is None or self.exit_code or self.stage.frame >= self.end_frame:
             return
