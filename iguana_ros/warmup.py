@@ -84,7 +84,9 @@ def warm_direct_solver() -> None:
     from iguana_ros.physics.simulator import SoftBodySimulator
     from iguana_ros.terrain.heightfield import HeightField
 
-    SoftBodySimulator(build_model('coarse'), HeightField.flat(), 'balanced', solver='direct').advance_frame(None)
+    model = build_model('coarse')
+    sim = SoftBodySimulator(model, HeightField.flat(), 'balanced', solver='direct')
+    sim.advance_frame(model.spring_rest_lengths)             # lengths given: the first frame ramps from rest
 
 
 def warm_render() -> float:

@@ -26,7 +26,7 @@ import pytest
 
 from iguana_ros.body.model import build_model
 from ros_harness import spin_until
-from test_nodes import _node, _scene, _state, Probe
+from test_nodes import _lockstep_peers, _node, _scene, _state, Probe
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(150)]
 
@@ -45,8 +45,8 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
     from iguana_ros.terrain.heightfield import HeightField
     model = build_model('coarse')
     rest = np.array(model.spring_rest_lengths)
-    probe = Probe(make_node('probe'), executor)
-    probe.listen('iguana_state', copies=2)  # lockstep starts once planner + adaptation would listen
+    probe = _lockstep_peers(make_node, executor)
+    probe.listen('iguana_state')
     probe.listen('scene_markers')
     lengths_pub, push_pub, goal_pub = probe.pub('spring_rest_lengths'), probe.pub('push'), probe.pub('goal_pose')
 
