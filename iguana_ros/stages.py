@@ -662,7 +662,7 @@ class SimulatorStage:
         """Load the simulator's compiled step loop without stepping (`SoftBodySimulator.load_kernels`)."""
         self.sim.load_kernels()
 
-    def add_push(self, force: np.ndarray, region: str, duration: float, torque: np.ndarray = np.zeros(3)) -> PushSpec:
+    def add_push(self, force: np.ndarray, region: str, duration: float, torque: np.ndarray | None = None) -> PushSpec:
         """
         Push `region` with `force (3,)` N for `duration` s from the next frame (a push topic's message).
 
@@ -671,7 +671,8 @@ class SimulatorStage:
         """
         self.live_pushes = [p for p in self.live_pushes if p.at + p.duration > self.time]
         acting = [p for p in self.live_pushes + list(self.pushes) if push_active(p.at, p.duration, self.time)]
-        force = check_push(force, torque, region, self.region_masses, self.time, duration, acting)
+        force = check_push(force, np.zeros(3) if torque is None else torque, region, self.region_masses, self.time,
+                           duration, acting)
         push = PushSpec(at=self.time, force=tuple(force.tolist()), duration=float(duration), region=region)
         self.live_pushes.append(push)
         return push
@@ -704,13 +705,14 @@ def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,
     Its model (or `model`) on its terrain (or `terrain`) at its fidelity (unless `fidelity` names a preset), placed at
     its start pose, with its pushes and the SoftBodySimulator `options`.
     """
-    model = scene_model(scene) if model is None else model
-    check_pushes_of(scene, model)
-    return SimulatorStage(model,
-                          scene_terrain(scene) if terrain is None else terrain,
-                          scene.fidelity if fidelity is None else fidelity,
-                          scene.pushes if scene.needs_pushes else (),
-                          (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg), options)
+    try:
+        return SimulatorStage(scene_model(scene) if model is None else model,
+                              scene_terrain(scene) if terrain is None else terrain,
+                              scene.fidelity if fidelity is None else fidelity,
+                              scene.pushes if scene.needs_pushes else (),
+                              (scene.start.x, scene.start.y), np.radians(scene.start.yaw_deg), options)
+    except InputError as exc:                      # a push too strong for this body: name the scene
+        raise InputError(f'scene {scene.name}: {exc}') from None
 
 
 def check_pushes_of(scene: Scene, model=None) -> None:
