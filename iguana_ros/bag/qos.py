@@ -20,6 +20,8 @@ from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSPro
                        ReliabilityPolicy)
 
 from iguana_ros.bag.storage import INFINITE_DURATION
+from iguana_ros.ros.endpoints import qos_profile
+from iguana_ros.topics import default_topics
 
 _INFINITE_NS = INFINITE_DURATION['sec'] * 1_000_000_000 + INFINITE_DURATION['nsec']
 RECORD_DEPTH = 100
@@ -65,6 +67,22 @@ def request_profile(offered: list[QoSProfile]) -> QoSProfile:
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH,
                       reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+
+
+def table_request_profile(name: str) -> QoSProfile | None:
+    """
+    Subscription QoS of a topic of msg_configs/topics.yaml named `name` (its reliability and durability), else None.
+
+    The recorder asks this of the package's own topics rather than adapting to the first publisher it sees: a stranger's
+    transient-local publisher of goal_pose seen first made it ask transient-local, and the run's volatile goal
+    publisher then never matched it (`iguana bench faults strays`: a run waited 60 s for its goal).
+    """
+    spec = next((t for t in default_topics().values() if '/' + t.name.lstrip('/') == name), None)
+    if spec is None:
+        return None
+    profile = qos_profile(spec.qos)
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH, reliability=profile.reliability,
+                      durability=profile.durability)
 
 
 def offer_profile(recorded: list[dict], default_depth: int = 10) -> QoSProfile:

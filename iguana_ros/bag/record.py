@@ -25,7 +25,7 @@ import rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from iguana_ros.bag.qos import profile_to_dict, request_profile
+from iguana_ros.bag.qos import profile_to_dict, request_profile, table_request_profile
 from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
@@ -90,7 +90,7 @@ class Recorder:
         qos_yaml = qos_profiles_yaml([profile_to_dict(p) for p in offered])
         type_hash = str(getattr(endpoints[0], 'topic_type_hash', '') or '')
         channel = self.writer.add_topic(name, type_name, schema, qos_yaml, type_hash)
-        qos = request_profile(offered)
+        qos = table_request_profile(name) or request_profile(offered)
         listener(self.node, cls, name, lambda data, info, ch=channel: self._on_message(ch, data, info), qos, raw=True)
         self.subscriptions[name] = channel
         self.log(f'subscribed {name} [{type_name}] {qos.reliability.name.lower()}/'
