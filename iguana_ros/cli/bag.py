@@ -68,11 +68,12 @@ def run(args: argparse.Namespace) -> int:
         return 0
     from iguana_ros.doctor import environment_checks, require, require_ros
     if args.bag_action == 'play':
+        require_ros()   # before rclpy is imported (an RMW that is not installed ends the process at import)
         from iguana_ros.bag.play import play
-        require_ros()
         play(args.bag, rate=args.rate, loop=args.loop, topics=args.topics, clock=args.clock,
              wait_for_subscribers_s=args.wait_for_subscribers, allow_damaged=args.allow_damaged)
         return 0
+    require(environment_checks())  # the rclpy probe is left out: `iguana run` starts a recorder after its own checks
     from iguana_ros.bag.record import default_topic_names, record
     from iguana_ros.bag.storage import CHUNK_AGE_S
     from iguana_ros.errors import InputError
@@ -81,6 +82,5 @@ def run(args: argparse.Namespace) -> int:
     if args.chunk_age is not None and not 0 < args.chunk_age < float('inf'):
         raise InputError(f'--chunk-age must be a positive number of seconds, got {args.chunk_age}')
     topics = None if args.all else (args.topics or default_topic_names())
-    require(environment_checks())  # the rclpy probe is left out: `iguana run` starts a recorder after its own checks
     record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration)
     return 0

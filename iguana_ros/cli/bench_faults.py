@@ -32,6 +32,7 @@ SUITES = (
     ('bags', 'iguana_ros.cli.bench_faults_bags'),
     ('processes', 'iguana_ros.cli.bench_faults_processes'),
     ('topics', 'iguana_ros.cli.bench_faults_topics'),
+    ('environments', 'iguana_ros.cli.bench_faults_environments'),
 )
 
 
@@ -59,7 +60,7 @@ def faults_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:
     parser = sub.choices.get('faults')
     if parser is None:
         parser = sub.add_parser('faults', help='fault-injection suites: bad scenes, damaged bags, killed processes, '
-                                               'bad topic messages')
+                                               'bad topic messages, broken environments')
         return parser.add_subparsers(dest='suite', metavar='SUITE', required=True)
     return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
 

@@ -83,12 +83,12 @@ def _serve_bag(args: argparse.Namespace) -> int:
 def _serve_live(args: argparse.Namespace) -> int:
     """Live mode: the running system's topics, goals and pushes sent from the page."""
     from iguana_ros.doctor import require_ros
+
+    require_ros()  # before rclpy is imported: a bad ROS environment is one line naming it, not rcl's or Fast DDS's
     from iguana_ros.supervisor.domain_check import current_domain_id
     from iguana_ros.view.live import LiveSource
     from iguana_ros.view.scene import RunView
     from iguana_ros.view.server import ViewerPage
-
-    require_ros()  # before LiveSource's rclpy.init: a bad ROS environment is one line naming it
     library, push_duration = _defaults()
     view = RunView(keep_meshes=1)
     live = LiveSource(view, library, push_duration)
