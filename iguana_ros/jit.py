@@ -83,15 +83,19 @@ def numba_cache_folder(source_dir: Path, env: Mapping[str, str] | None = None) -
 
     `$NUMBA_CACHE_DIR/<dir>_<sha1 of the path>` when NUMBA_CACHE_DIR is set (in `env`, default this process's
     environment) and writable, else `source_dir/__pycache__` if writable, else the same subfolder of numba's user-wide
-    cache (~/.cache/numba); None when none can be written (numba then caches nothing).
+    cache (~/.cache/numba); None when none can be written (numba then caches nothing). numba itself is imported only
+    when the answer is not `__pycache__`.
     """
+    env = os.environ if env is None else env
+    in_tree = Path(source_dir) / '__pycache__'
+    if not env.get('NUMBA_CACHE_DIR') and not write_error(in_tree):
+        return in_tree
     from numba.core.caching import _CacheLocator
     from numba.misc.appdirs import AppDirs
 
-    env = os.environ if env is None else env
     sub = _CacheLocator.get_suitable_cache_subpath(str(Path(source_dir).absolute() / '_.py'))
     candidates = ([Path(env['NUMBA_CACHE_DIR']) / sub] if env.get('NUMBA_CACHE_DIR') else []) + [
-        Path(source_dir) / '__pycache__', Path(AppDirs(appname='numba', appauthor=False).user_cache_dir) / sub]
+        in_tree, Path(AppDirs(appname='numba', appauthor=False).user_cache_dir) / sub]
     return next((folder for folder in candidates if not write_error(folder)), None)
 
 
