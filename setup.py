@@ -135,6 +135,8 @@ setup(
         'pillow>=9',
         'tqdm>=4.60',
         'viser>=1.0,<2',     # `iguana view`: the web page and its client (shipped in the wheel)
+        'websockets>=13',    # ... the gate in front of it (iguana_ros/view/gate.py; viser's own dependency)
+        'msgspec>=0.18',     # ... which checks each page message as viser decodes them (view/wire.py)
         'dask>=2024.1',             # the sweep engine (iguana sweep): Dask's config and sizes ...
         'distributed>=2024.1',      # ... and its scheduler, workers, LocalCluster
     ],

@@ -20,15 +20,22 @@ of the kernels it calls: after an edit or upgrade of `forces.py`, the cached `in
 on running the old force code (seen here: a 15 % speed-up in `forces.py` did not show in the simulator until the
 cache was deleted). `ensure_fresh_kernel_cache` hashes every package module that defines kernels and, when the
 hash differs from the one stored beside the cache, deletes the package's cached kernels so they recompile.
+
+Where the cache is follows numba's own choice (`numba_cache_folder`): `$NUMBA_CACHE_DIR` when set and writable, else
+the `__pycache__` beside each module, else numba's user-wide cache folder; the stamp and the lock sit in the cache
+folder of the package itself, so a cache in NUMBA_CACHE_DIR has its own stamp (and a read-only install can still
+keep a fresh cache there).
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 import contextlib
 import fcntl
 import functools
 import hashlib
+import os
 from pathlib import Path
+import tempfile
 
 FASTMATH = {'arcp', 'reassoc', 'nsz'}
 """LLVM fast-math flags of the force and factorisation kernels: reassociation, reciprocals, signed zeros; not
@@ -42,13 +49,73 @@ STAMP_NAME = 'numba-sources.sha256'
 LOCK_NAME = 'numba-compile.lock'
 
 
+def nearest_existing(folder: Path) -> Path:
+    """Return `folder` made absolute, or its nearest parent that exists (where creating it would start)."""
+    probe = Path(folder).absolute()
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    return probe
+
+
+def write_error(folder: Path) -> str:
+    """
+    Return '' if a file can be created in `folder` (in its nearest existing parent if it does not exist), else why not.
+
+    The test is for real: permission bits say nothing to root or on a read-only mount, and a parent that is a file is
+    found too ('/etc/hostname: Not a directory').
+    """
+    probe = nearest_existing(folder)
+    try:
+        with tempfile.TemporaryFile(dir=probe):
+            return ''
+    except OSError as exc:
+        return f'{probe}: {exc.strerror or exc}'
+
+
+def numba_modules(package_dir: Path = PACKAGE_DIR) -> list[Path]:
+    """Modules under `package_dir` whose text mentions numba (those the source digest covers), sorted."""
+    return sorted(p for p in package_dir.rglob('*.py') if b'numba' in p.read_bytes())
+
+
+def numba_cache_folder(source_dir: Path, env: Mapping[str, str] | None = None) -> Path | None:
+    """
+    Return the folder where numba caches the kernels of the modules in `source_dir`, as its cache locators choose.
+
+    `$NUMBA_CACHE_DIR/<dir>_<sha1 of the path>` when NUMBA_CACHE_DIR is set (in `env`, default this process's
+    environment) and writable, else `source_dir/__pycache__` if writable, else the same subfolder of numba's user-wide
+    cache (~/.cache/numba); None when none can be written (numba then caches nothing). numba itself is imported only
+    when the answer is not `__pycache__`.
+    """
+    env = os.environ if env is None else env
+    in_tree = Path(source_dir) / '__pycache__'
+    if not env.get('NUMBA_CACHE_DIR') and not write_error(in_tree):
+        return in_tree
+    from numba.core.caching import _CacheLocator
+    from numba.misc.appdirs import AppDirs
+
+    sub = _CacheLocator.get_suitable_cache_subpath(str(Path(source_dir).absolute() / '_.py'))
+    candidates = ([Path(env['NUMBA_CACHE_DIR']) / sub] if env.get('NUMBA_CACHE_DIR') else []) + [
+        in_tree, Path(AppDirs(appname='numba', appauthor=False).user_cache_dir) / sub]
+    return next((folder for folder in candidates if not write_error(folder)), None)
+
+
+def cached_kernel_files(package_dir: Path = PACKAGE_DIR, env: Mapping[str, str] | None = None) -> list[Path]:
+    """Every cached kernel file (`*.nbi`, `*.nbc`) of `package_dir`'s modules where numba keeps them for `env`."""
+    folders = {numba_cache_folder(path.parent, env) for path in numba_modules(package_dir)}
+    return sorted(f for folder in folders if folder is not None for pattern in ('*.nbi', '*.nbc')
+                  for f in folder.glob(pattern))
+
+
+def stamp_folder(package_dir: Path = PACKAGE_DIR, env: Mapping[str, str] | None = None) -> Path:
+    """Return the folder of the source stamp and the compile lock: numba's cache folder of `package_dir` itself."""
+    return numba_cache_folder(package_dir, env) or package_dir / '__pycache__'
+
+
 def kernel_sources_digest(package_dir: Path = PACKAGE_DIR) -> str:
     """SHA-256 over the path and text of every module under `package_dir` that uses numba."""
     digest = hashlib.sha256()
-    for path in sorted(package_dir.rglob('*.py')):
-        text = path.read_bytes()
-        if b'numba' in text:
-            digest.update(str(path.relative_to(package_dir)).encode() + b'\0' + text)
+    for path in numba_modules(package_dir):
+        digest.update(str(path.relative_to(package_dir)).encode() + b'\0' + path.read_bytes())
     return digest.hexdigest()
 
 
@@ -58,9 +125,9 @@ def invalidate_stale_kernels(package_dir: Path = PACKAGE_DIR) -> int:
 
     Returns how many files were deleted (0 when fresh or when the cache is not writable).
     """
-    cache_dir = package_dir / '__pycache__'
+    cache_dir = stamp_folder(package_dir)
     try:
-        cache_dir.mkdir(exist_ok=True)
+        cache_dir.mkdir(parents=True, exist_ok=True)
         stamp = cache_dir / STAMP_NAME
         with open(stamp, 'a+', encoding='ascii') as fh:
             fcntl.flock(fh, fcntl.LOCK_EX)               # one process of a launch checks and deletes, the rest wait
@@ -69,7 +136,7 @@ def invalidate_stale_kernels(package_dir: Path = PACKAGE_DIR) -> int:
             if fh.read().strip() == digest:
                 return 0
             removed = 0
-            for cached in list(package_dir.rglob('*.nbi')) + list(package_dir.rglob('*.nbc')):
+            for cached in cached_kernel_files(package_dir):
                 cached.unlink(missing_ok=True)
                 removed += 1
             touch_kernel_sources(package_dir)
@@ -92,14 +159,12 @@ def touch_kernel_sources(package_dir: Path = PACKAGE_DIR) -> None:
     every kernel file make numba itself refuse every entry recorded before the invalidation, however late it was
     written.
     """
-    import os
     import time
 
     now = time.time_ns()
-    for path in sorted(package_dir.rglob('*.py')):
-        if b'numba' in path.read_bytes():
-            stat = path.stat()
-            os.utime(path, ns=(stat.st_atime_ns, max(now, stat.st_mtime_ns + 1000)))
+    for path in numba_modules(package_dir):
+        stat = path.stat()
+        os.utime(path, ns=(stat.st_atime_ns, max(now, stat.st_mtime_ns + 1000)))
 
 
 @functools.lru_cache(maxsize=None)
@@ -120,8 +185,8 @@ def kernel_cache_lock(package_dir: Path = PACKAGE_DIR) -> Iterator[bool]:
     processes of a sweep compile or load their kernels under this lock, one at a time (the later ones load).
     """
     try:
-        cache_dir = package_dir / '__pycache__'
-        cache_dir.mkdir(exist_ok=True)
+        cache_dir = stamp_folder(package_dir)
+        cache_dir.mkdir(parents=True, exist_ok=True)
         fh = open(cache_dir / LOCK_NAME, 'a+', encoding='ascii')
     except OSError:
         yield False

@@ -21,7 +21,10 @@ start-up.
 numba compiles a kernel per argument-type signature; the warm-up drives the real code paths (the library frame
 loop over a terrain that needs adaptation, and one rendered frame) with the types a real run uses, so the
 signatures it caches are the ones a run asks for. `kernel_signatures` lists them, so a test can check that a
-real run needs none beyond them.
+real run needs none beyond them. It also compiles the kernels of the builders (the body's shape field, which a model
+of another resolution needs, and the clips' forward kinematics), so every module with kernels is cached: what
+`iguana doctor` calls a warm cache (before, it found 9 of 11 after `make install`: the model was already cached, so
+the shape field was never called, and no run calls the clips' kinematics).
 """
 from __future__ import annotations
 
@@ -89,6 +92,16 @@ def warm_direct_solver() -> None:
     sim.advance_frame(model.spring_rest_lengths)             # lengths given: the first frame ramps from rest
 
 
+def warm_builders() -> None:
+    """Call the builders' kernels once: the body's shape field (model building) and the clips' forward kinematics."""
+    from iguana_ros.body.shape import body_field, iguana_shape
+    from iguana_ros.motion.dofs import iguana_body_model
+
+    body_field(iguana_shape(), np.zeros((2, 3)))
+    model = iguana_body_model()
+    model.state(np.zeros((1, model.dofs.n_dof)))
+
+
 def warm_render() -> float:
     """Render one small frame of a synthetic two-frame run through the renderer's kernels; wall seconds."""
     from iguana_ros.render.camera import preset_cameras
@@ -117,6 +130,7 @@ def warm_up(scene_name: str = WARM_SCENE) -> WarmReport:
 
     ensure_fresh_kernel_cache()
     loop_s = warm_loop(scene_name)
+    warm_builders()
     render_s = warm_render()
     signatures = kernel_signatures()
     return WarmReport(loop_s, render_s, len(signatures), sum(len(s) for s in signatures.values()))

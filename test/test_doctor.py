@@ -31,8 +31,9 @@ from ros_harness import IGUANA, NodeProcess, REPO
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
 
-CHECKS = ('Python', 'rclpy and RMW', 'DDS loopback on ROS_DOMAIN_ID', 'other participants on ROS_DOMAIN_ID',
-          'kernel cache', 'model cache', 'bag folder', 'ffmpeg for MP4')
+CHECKS = ('Python', 'ROS domain id', 'rclpy log directory', 'discovery range', 'rclpy and RMW',
+          'DDS loopback on ROS_DOMAIN_ID', 'other participants on ROS_DOMAIN_ID', 'kernel cache', 'model cache',
+          'bag folder', 'ffmpeg for MP4')
 
 FOREIGN = """
 import time, rclpy
@@ -64,7 +65,7 @@ def test_doctor_passes_here(tmp_path):
         assert any(line.startswith(f'✓ {name}') for line in passed), (name, done.stdout)
     domain = os.environ['ROS_DOMAIN_ID']
     assert f'✓ DDS loopback on ROS_DOMAIN_ID {domain}: a second process echoed a message' in done.stdout
-    assert done.stdout.splitlines()[-1].startswith('iguana doctor: ready (8 of 8 checks passed')
+    assert done.stdout.splitlines()[-1].startswith('iguana doctor: ready (11 of 11 checks passed')
 
 
 def test_a_missing_rmw_is_named_with_its_fix(tmp_path):
@@ -74,7 +75,7 @@ def test_a_missing_rmw_is_named_with_its_fix(tmp_path):
     at = lines.index(next(line for line in lines if line.startswith('✗ rclpy and RMW: ')))
     assert 'RMW_IMPLEMENTATION=rmw_missing_xyz cannot be used by this rclpy' in lines[at]
     assert lines[at + 1] == '    fix: unset RMW_IMPLEMENTATION or export RMW_IMPLEMENTATION=rmw_fastrtps_cpp'
-    assert 'iguana doctor: 3 of 8 checks failed: rclpy and RMW, DDS loopback, other participants' in lines[-1]
+    assert 'iguana doctor: 3 of 11 checks failed: rclpy and RMW, DDS loopback, other participants' in lines[-1]
     assert 'Traceback' not in done.stdout + done.stderr
 
 
@@ -137,14 +138,41 @@ def test_kernel_cache_cold_then_warm(tmp_path):
     (package / 'room' / 'fast.py').write_text('import numba\n\n\n@numba.njit(cache=True)\ndef f(x):\n    return x\n')
     (package / 'plain.py').write_text('"""mentions njit in words only"""\n')
     assert doctor.kernel_modules(package) == [package / 'room' / 'fast.py']
-    cold = doctor.check_kernel_cache(package)
-    assert cold.ok and cold.detail.startswith('cold, writable: room/fast.py compile at first use'), cold
+    cold = doctor.check_kernel_cache(package, env={})
+    assert cold.ok and cold.detail.startswith("cold in the package's __pycache__ folders, writable: room/fast.py "
+                                              'compile at first use'), cold
     (package / '__pycache__').mkdir()
     (package / '__pycache__' / STAMP_NAME).write_text(kernel_sources_digest(package))
     (package / 'room' / '__pycache__').mkdir()
     (package / 'room' / '__pycache__' / 'fast.f-4.py311.nbi').write_bytes(b'')
-    warm = doctor.check_kernel_cache(package)
-    assert warm.ok and warm.detail == 'warm (1 modules compiled and cached), writable', warm
+    warm = doctor.check_kernel_cache(package, env={})
+    assert warm.ok and warm.detail == "warm (1 modules compiled and cached in the package's __pycache__ folders), " \
+        'writable', warm
+
+
+def test_the_kernel_cache_check_looks_where_numba_caches(tmp_path):
+    """With NUMBA_CACHE_DIR set numba writes its cache there, and the doctor looks there (not in __pycache__)."""
+    package = tmp_path / 'pkg'
+    package.mkdir()
+    (package / '__init__.py').write_text('')
+    (package / 'fast.py').write_text('import numba\n\n\n@numba.njit(cache=True)\ndef f(x):\n    return x + 1\n')
+    numba_dir = tmp_path / 'numba_cache'
+    compile_it = ('import sys\nfrom pathlib import Path\nsys.path.insert(0, sys.argv[1])\n'
+                  'from iguana_ros.jit import invalidate_stale_kernels\n'
+                  'invalidate_stale_kernels(Path(sys.argv[1]) / "pkg")\nimport pkg.fast\npkg.fast.f(1)\n')
+    subprocess.run([sys.executable, '-c', compile_it, str(tmp_path)], cwd=REPO, check=True, timeout=120,
+                   env={**os.environ, 'NUMBA_CACHE_DIR': str(numba_dir)})
+    assert list(numba_dir.rglob('fast.f-*.nbi')) and not list(package.rglob('*.nbi'))   # numba wrote there only
+    warm = doctor.check_kernel_cache(package, env={'NUMBA_CACHE_DIR': str(numba_dir)})
+    assert warm.ok and warm.detail == f'warm (1 modules compiled and cached in NUMBA_CACHE_DIR ({numba_dir})), ' \
+        'writable', warm
+    assert doctor.kernel_cache(package, env={}).state == 'cold'                   # nothing in __pycache__
+    fresh = doctor.check_kernel_cache(package, env={'NUMBA_CACHE_DIR': str(tmp_path / 'fresh')})
+    assert fresh.ok and fresh.detail.startswith(f'cold in NUMBA_CACHE_DIR ({tmp_path / "fresh"})'), fresh
+    refused = doctor.check_kernel_cache(package, env={'NUMBA_CACHE_DIR': '/etc/hostname/numba'})
+    assert not refused.ok and not refused.needed and refused.detail.startswith(
+        'NUMBA_CACHE_DIR=/etc/hostname/numba cannot be written (/etc/hostname: Not a directory): numba caches in '
+        "the package's __pycache__ folders instead"), refused
 
 
 def test_iguana_run_that_hears_none_of_its_nodes_stops_with_the_loopback_line(tmp_path, monkeypatch):
@@ -173,3 +201,109 @@ def test_iguana_run_that_hears_none_of_its_nodes_stops_with_the_loopback_line(tm
         '(ROS_AUTOMATIC_DISCOVERY_RANGE OFF); fix: ROS_AUTOMATIC_DISCOVERY_RANGE=OFF turns discovery off: export '
         'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST'), summary.reason
     assert summary.phases == ()                                  # not even the launch finished: nothing was heard
+
+
+# ------------------------------------------------------------------------------- broken environments (issue 30, 7)
+DOMAIN_FIX = 'use 0–101 (or 215–232)'
+
+
+def cli(*args: str, env: dict, prefix: tuple = (), timeout: float = 100) -> subprocess.CompletedProcess:
+    """Run the iguana CLI with this test's environment changed by `env` (None deletes a variable), after `prefix`."""
+    changed = {**os.environ, **{k: v for k, v in env.items() if v is not None}}
+    for name in [k for k, v in env.items() if v is None]:
+        changed.pop(name, None)
+    return subprocess.run([*prefix, *IGUANA, *args], cwd=REPO, capture_output=True, text=True, timeout=timeout,
+                          env=changed)
+
+
+def read_only_mount(home: Path) -> tuple:
+    """Command prefix that runs a command with `home` mounted read-only (a private mount namespace), else a reason."""
+    import shutil
+    if shutil.which('unshare') is None:
+        return 'no unshare(1) here'
+    probe = subprocess.run(['unshare', '--mount', 'sh', '-c', 'mount -t tmpfs -o ro tmpfs "$0"', str(home)],
+                           capture_output=True, text=True)
+    if probe.returncode != 0:
+        return f'cannot mount a read-only tmpfs here: {probe.stderr.strip()}'
+    return ('unshare', '--mount', 'sh', '-c', 'mount -t tmpfs -o ro tmpfs "$0" && exec "$@"', str(home))
+
+
+@pytest.fixture(params=['read-only mount', 'a path through a file'])
+def unwritable_home(request, tmp_path) -> tuple[dict, tuple]:
+    """(environment, command prefix) where HOME cannot hold ~/.ros/log and neither ROS_LOG_DIR nor ROS_HOME is set."""
+    env = {'ROS_LOG_DIR': None, 'ROS_HOME': None, 'IGUANA_CACHE_DIR': str(tmp_path / 'models')}
+    if request.param == 'a path through a file':
+        return {**env, 'HOME': '/etc/hostname/x'}, ()
+    home = tmp_path / 'home'
+    home.mkdir()
+    prefix = read_only_mount(home)
+    if isinstance(prefix, str):
+        pytest.skip(prefix)
+    return {**env, 'HOME': str(home)}, prefix
+
+
+BROKEN = {
+    '999': ({'ROS_DOMAIN_ID': '999'}, f'✗ ROS domain id: ROS_DOMAIN_ID=999 is out of range: {DOMAIN_FIX}'),
+    'abc': ({'ROS_DOMAIN_ID': 'abc'}, f'✗ ROS domain id: ROS_DOMAIN_ID=abc is not an integer: {DOMAIN_FIX}'),
+}
+"""A broken ROS_DOMAIN_ID: its environment and the start of the line that names it."""
+
+
+def one_error_line(done: subprocess.CompletedProcess, command: str) -> str:
+    """Return the one line on stderr of a command that failed before it started anything (nothing on stdout)."""
+    assert done.returncode == 1, done.stdout + done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f'{command}: error: '), done.stderr
+    assert done.stdout == '', done.stdout
+    return lines[0][len(f'{command}: error: '):]
+
+
+def command_args(command: str, tmp_path: Path) -> tuple:
+    """Return the arguments of `iguana goal` (3 s time-out) or `iguana run flat_walk` (bag under `tmp_path`)."""
+    if command == 'goal':
+        return ('goal', '1', '0', '--timeout', '3')
+    return ('run', 'flat_walk', '--record', str(tmp_path / 'bag'))
+
+
+@pytest.mark.parametrize('domain', sorted(BROKEN))
+def test_a_bad_domain_id_is_named_by_the_doctor(domain):
+    env, named = BROKEN[domain]
+    done = cli('doctor', '--timeout', '5', env=env)
+    assert done.returncode == 1, done.stdout + done.stderr
+    lines = done.stdout.splitlines()
+    assert any(line.startswith(named) for line in lines), done.stdout
+    assert '✓ rclpy and RMW: rclpy initialises with rmw_fastrtps_cpp' in done.stdout, done.stdout
+    assert '✗ DDS loopback: not tried: fix ROS domain id first' in lines, done.stdout
+    assert 'install rmw' not in done.stdout and 'Calculated port number' not in done.stdout + done.stderr
+    assert 'Traceback' not in done.stdout + done.stderr
+
+
+@pytest.mark.parametrize('domain', sorted(BROKEN))
+@pytest.mark.parametrize('command', ['goal', 'run'])
+def test_a_bad_domain_id_stops_goal_and_run_with_one_line(domain, command, tmp_path):
+    env, named = BROKEN[domain]
+    line = one_error_line(cli(*command_args(command, tmp_path), env=env), f'iguana {command}')
+    assert line.startswith(named) and 'fix: export ROS_DOMAIN_ID=' in line, line
+    assert not (tmp_path / 'bag').exists()
+
+
+def test_an_unwritable_log_directory_is_named_by_the_doctor(unwritable_home):
+    env, prefix = unwritable_home
+    done = cli('doctor', '--timeout', '5', env=env, prefix=prefix)
+    assert done.returncode == 1, done.stdout + done.stderr
+    lines = done.stdout.splitlines()
+    named = [line for line in lines if line.startswith('✗ rclpy log directory: ')]
+    assert named and f'{env["HOME"]}/.ros/log cannot be created' in named[0], done.stdout
+    fix = lines[lines.index(named[0]) + 1]
+    assert 'export ROS_LOG_DIR=/tmp/ros_log' in fix and 'ROS_HOME' in fix, fix
+    assert '✓ rclpy and RMW: rclpy initialises with rmw_fastrtps_cpp' in done.stdout, done.stdout
+    assert 'install rmw' not in done.stdout and 'Traceback' not in done.stdout + done.stderr
+
+
+@pytest.mark.parametrize('command', ['goal', 'run'])
+def test_an_unwritable_log_directory_stops_goal_and_run_with_one_line(unwritable_home, command, tmp_path):
+    env, prefix = unwritable_home
+    line = one_error_line(cli(*command_args(command, tmp_path), env=env, prefix=prefix), f'iguana {command}')
+    assert line.startswith('✗ rclpy log directory: ') and 'export ROS_LOG_DIR=/tmp/ros_log' in line, line
+    assert 'install rmw' not in line
+    assert not (tmp_path / 'bag').exists()

@@ -19,6 +19,7 @@ A fresh process that runs the frame loop of a scene and renders a real bag uses 
 not compile (so `make install` leaves nothing to compile).
 """
 import json
+import os
 from pathlib import Path
 import subprocess
 import sys
@@ -70,6 +71,22 @@ def test_a_run_and_a_render_need_no_kernel_beyond_the_warm_up(tmp_path):
     assert any(k.startswith('iguana_ros.render.') for k in used), used          # ... and the renderer
     missing = {k: sorted(set(v) - set(warm.get(k, []))) for k, v in used.items() if set(v) - set(warm.get(k, []))}
     assert not missing, f'kernels a run compiles that `iguana warm` did not: {missing}'
+
+
+def test_after_the_warm_up_the_doctor_finds_the_kernel_cache_warm_where_numba_keeps_it(tmp_path):
+    """`iguana warm` (as `make install` runs it) into a fresh NUMBA_CACHE_DIR: the doctor, looking there, says warm."""
+    numba_dir = tmp_path / 'numba'
+    report = ('from iguana_ros.doctor import check_kernel_cache, kernel_cache\n'
+              'print(repr(kernel_cache().state), check_kernel_cache().lines()[0])')
+    env = {**os.environ, 'NUMBA_CACHE_DIR': str(numba_dir)}
+    warm = subprocess.run([sys.executable, '-m', 'iguana_ros.cli', 'warm'], cwd=REPO, capture_output=True, text=True,
+                          timeout=500, env=env)
+    assert warm.returncode == 0, warm.stdout + warm.stderr
+    assert any(numba_dir.rglob('*.nbi')), 'numba wrote nothing to NUMBA_CACHE_DIR'
+    done = subprocess.run([sys.executable, '-c', report], cwd=REPO, capture_output=True, text=True, timeout=100,
+                          env=env, check=True)
+    assert done.stdout.startswith("'warm' ✓ kernel cache: warm (11 modules compiled and cached in NUMBA_CACHE_DIR ("), \
+        done.stdout
 
 
 def test_warm_prints_its_figures(capsys):

@@ -66,11 +66,14 @@ def run(args: argparse.Namespace) -> int:
         print(text, flush=True)
         accept(summary, args.allow_damaged)
         return 0
+    from iguana_ros.doctor import environment_checks, require, require_ros
     if args.bag_action == 'play':
+        require_ros()   # before rclpy is imported (an RMW that is not installed ends the process at import)
         from iguana_ros.bag.play import play
         play(args.bag, rate=args.rate, loop=args.loop, topics=args.topics, clock=args.clock,
              wait_for_subscribers_s=args.wait_for_subscribers, allow_damaged=args.allow_damaged)
         return 0
+    require(environment_checks())  # the rclpy probe is left out: `iguana run` starts a recorder after its own checks
     from iguana_ros.bag.record import default_topic_names, record
     from iguana_ros.bag.storage import CHUNK_AGE_S
     from iguana_ros.errors import InputError

@@ -34,6 +34,7 @@ SUITES = (
     ('topics', 'iguana_ros.cli.bench_faults_topics'),
     ('limits', 'iguana_ros.cli.bench_faults_limits'),
     ('strays', 'iguana_ros.cli.bench_faults_strays'),
+    ('environments', 'iguana_ros.cli.bench_faults_environments'),
 )
 
 
@@ -61,7 +62,7 @@ def faults_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:
     parser = sub.choices.get('faults')
     if parser is None:
         parser = sub.add_parser('faults', help='fault-injection suites: bad scenes, damaged bags, killed processes, '
-                                               'bad topic messages')
+                                               'bad topic messages, broken environments')
         return parser.add_subparsers(dest='suite', metavar='SUITE', required=True)
     return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
 

@@ -16,7 +16,8 @@
 `iguana doctor`.
 
 Is this machine ready to run iguana_ros? One ✓/✗ line per check, the fix under each ✗, exit status 1 if anything a run
-needs is missing.
+needs is missing. The DDS checks are tried only when the ROS environment (domain id, log directory, discovery range,
+static peers) and rclpy pass: a domain id beyond 232 would end the process inside Fast DDS.
 """
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ from pathlib import Path
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `doctor` sub-command."""
     parser = subparsers.add_parser(
-        'doctor', help='check Python, rclpy/RMW, DDS between processes, the ROS domain, caches, bag folder, ffmpeg')
+        'doctor', help='check Python, the ROS environment (domain id, log directory, discovery), rclpy/RMW, DDS '
+                       'between processes, the ROS domain, caches, bag folder, ffmpeg')
     parser.add_argument('--bags-dir', type=Path, default=Path('bags'), help='bag folder to check (default: bags/)')
     parser.add_argument('--resolution', default='medium', help='model resolution whose cache to check')
     parser.add_argument('--timeout', type=float, default=None, metavar='S',
@@ -49,14 +51,17 @@ def all_checks(args: argparse.Namespace) -> list:
 
     if args.timeout is not None and not args.timeout > 0:
         raise InputError(f'--timeout is {args.timeout}; expected a positive number of seconds')
-    checks = [doctor.check_python(), doctor.check_rmw()]
-    if checks[-1].ok:
+    ros = [*doctor.environment_checks(), doctor.check_rmw()]
+    checks = [doctor.check_python(), *ros]
+    blocking = [c.name for c in ros if c.needed and not c.ok]
+    if not blocking:
         from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
         from iguana_ros.supervisor.doctor_dds import LOOPBACK_TIMEOUT_S, dds_checks
         from iguana_ros.supervisor.run import NODE_KINDS
         checks += dds_checks((*NODE_KINDS, RECORDER_NODE_NAME), args.timeout or LOOPBACK_TIMEOUT_S)
     else:
-        checks += [doctor.Check(name, False, 'not tried: rclpy does not work', 'fix rclpy and RMW first')
+        first = ' and '.join(blocking)
+        checks += [doctor.Check(name, False, f'not tried: fix {first} first')
                    for name in ('DDS loopback', 'other participants')]
     return checks + [doctor.check_kernel_cache(), doctor.check_model_cache(args.resolution),
                      doctor.check_bag_folder(args.bags_dir), doctor.check_ffmpeg()]

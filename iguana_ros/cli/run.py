@@ -40,7 +40,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--view-port', type=int, default=8080, metavar='PORT',
                         help='port of the viewer page (default 8080; 0 = any free port)')
     parser.add_argument('--view-host', default='127.0.0.1', metavar='HOST',
-                        help='address the viewer serves on (default 127.0.0.1)')
+                        help='address the viewer serves on (default 127.0.0.1; beyond this machine see --view-token)')
+    parser.add_argument('--view-token', default=None, metavar='TOKEN',
+                        help="the viewer's --token: pages must present it to steer ('auto': a random one; default: "
+                             '$IGUANA_VIEW_TOKEN, else none)')
     parser.add_argument('--view-rate', type=float, default=None, metavar='HZ',
                         help='redraws of the viewer page per second (default 20)')
     parser.set_defaults(func=run)
@@ -103,11 +106,13 @@ def run(args: argparse.Namespace) -> int:
     display = progress_display(args.progress_every)
     view = None
     if args.view:
-        from iguana_ros.view.server import check_draw_rate, check_port
+        from iguana_ros.view.server import check_draw_rate, check_port, resolve_token
         check_port(args.view_host, args.view_port)  # before anything starts: one line, exit 1
         check_draw_rate(args.view_rate, '--view-rate')
+        token = resolve_token(args.view_token, flag='--view-token')
         view = ['--port', str(args.view_port), '--host', args.view_host]
         view += [] if args.view_rate is None else ['--rate', repr(float(args.view_rate))]
+        view += [] if token is None else ['--token', token]
     return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
                                      single_process=args.single_process, timeout=args.timeout,
                                      extra_params=extra, view=view), 'iguana run', display)[1]

@@ -27,7 +27,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help='a recorded bag (directory or .mcap) to play with a timeline (default: live)')
     parser.add_argument('--port', type=int, default=8080, help='port of the web page (default 8080; 0 = any free)')
     parser.add_argument('--host', default='127.0.0.1',
-                        help='address to serve on (default 127.0.0.1: this machine only; 0.0.0.0 for every interface)')
+                        help='address to serve on (default 127.0.0.1: this machine only; 0.0.0.0 for every interface, '
+                             'where anyone who reaches the port can steer unless --token is given)')
+    parser.add_argument('--token', default=None, metavar='TOKEN',
+                        help='pages must present TOKEN (8-128 of A-Z a-z 0-9 . _ ~ -) to send goals, pushes or '
+                             "controls; the printed address carries it as ?token=...; 'auto' makes a random one "
+                             '(default: $IGUANA_VIEW_TOKEN, else none: every page may steer)')
     parser.add_argument('--rate', type=float, default=None, metavar='HZ',
                         help='redraws of the page per second (default 20; fewer spare a machine without a GPU)')
     parser.add_argument('--speed', type=float, default=1.0, help='bag mode: playback speed (default 1)')
@@ -41,12 +46,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def view(args: argparse.Namespace) -> int:
     """Serve the page until Ctrl-C / SIGTERM / SIGHUP; one line on stderr and status 1 for bad input."""
     from iguana_ros.errors import InputError
-    from iguana_ros.view.server import check_draw_rate, check_port
+    from iguana_ros.view.server import check_draw_rate, check_port, resolve_token
 
     if not args.speed > 0:
         raise InputError(f'--speed is {args.speed}; expected a positive factor')
     check_draw_rate(args.rate)
     check_port(args.host, args.port)
+    args.token = resolve_token(args.token)
     return _serve_bag(args) if args.bag is not None else _serve_live(args)
 
 
@@ -69,32 +75,44 @@ def _serve_bag(args: argparse.Namespace) -> int:
                         loop=args.loop)
     notes = tuple(([bag.damage] if bag.damage else []) + bag.notes)
     page = ViewerPage(bag.view, args.host, args.port, title=f'iguana view: {Path(args.bag).name}',
-                      playback=playback, notes=notes, draw_hz=args.rate)
-    _announce(page.url, f'bag {args.bag}, {playback.end - playback.start:.1f} s', notes)
+                      playback=playback, notes=notes, draw_hz=args.rate, token=args.token)
+    _announce(page, f'bag {args.bag}, {playback.end - playback.start:.1f} s', notes)
     return _until_stopped(page)
 
 
 def _serve_live(args: argparse.Namespace) -> int:
     """Live mode: the running system's topics, goals and pushes sent from the page."""
+    from iguana_ros.doctor import require_ros
+
+    require_ros()  # before rclpy is imported: a bad ROS environment is one line naming it, not rcl's or Fast DDS's
     from iguana_ros.supervisor.domain_check import current_domain_id
     from iguana_ros.view.live import LiveSource
     from iguana_ros.view.scene import RunView
     from iguana_ros.view.server import ViewerPage
-
     library, push_duration = _defaults()
     view = RunView(keep_meshes=1)
     live = LiveSource(view, library, push_duration)
     try:
-        page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live, draw_hz=args.rate)
-        _announce(page.url, f'live on ROS_DOMAIN_ID {current_domain_id()}', ())
+        page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live, draw_hz=args.rate,
+                          token=args.token)
+        _announce(page, f'live on ROS_DOMAIN_ID {current_domain_id()}', ())
         return _until_stopped(page)
     finally:
         live.close()
 
 
-def _announce(url: str, what: str, notes: tuple) -> None:
-    """Print the page's address (and what the bag reader tolerated) on stdout."""
-    print(f'iguana view: {url} ({what}; Ctrl-C stops)', flush=True)
+def _announce(page, what: str, notes: tuple) -> None:
+    """
+    Print the page's address (and what the bag reader tolerated) on stdout.
+
+    Before it, on stderr, who can steer when the page is served beyond this machine.
+    """
+    from iguana_ros.view.gate import say
+    from iguana_ros.view.server import exposure_lines
+
+    for line in exposure_lines(page.host, page.port, page.token, page.live is not None):
+        say(line)
+    print(f'iguana view: {page.url} ({what}; Ctrl-C stops)', flush=True)
     for note in notes:
         print(f'iguana view: note: {note}', flush=True)
 

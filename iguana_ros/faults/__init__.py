@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Fault-injection suites (`iguana bench faults scenes|bags|processes|topics`).
+Fault-injection suites (`iguana bench faults scenes|bags|processes|topics|environments`).
 
-Damaged scene and bag files, killed processes, bad messages on every subscribed topic.
+Damaged scene and bag files, killed processes, bad messages on every subscribed topic, broken environments.
 """

@@ -134,9 +134,18 @@ class DomainWatch:
     """
 
     def __init__(self, node_names: tuple[str, ...], watch_name: str = WATCH_NODE_NAME) -> None:
-        """Join the graph as node `watch_name` (rclpy context of its own, no signal handlers)."""
+        """
+        Join the graph as node `watch_name` (rclpy context of its own, no signal handlers).
+
+        `CheckFailed` (the doctor's line) first if the ROS environment is broken: a domain id beyond what DDS maps to
+        ports would end the process when the node is created.
+        """
         import rclpy
         from rclpy.signals import SignalHandlerOptions
+
+        from iguana_ros.doctor import environment_checks, require
+
+        require(environment_checks())
 
         self.node_names = tuple(node_names)
         self.topics = output_topics(self.node_names)

@@ -362,7 +362,11 @@ class SceneRun:
         if not child.wait_for_output(URL_PREFIX, VIEWER_START_S):
             self.alive_or_raise()
             raise IguanaError(f'the viewer did not start within {VIEWER_START_S:g} s; logs in {self.logs}')
-        print(next(line for line in child.output.splitlines() if line.startswith(URL_PREFIX)), flush=True)
+        lines = child.output.splitlines()
+        url = next(k for k, line in enumerate(lines) if line.startswith(URL_PREFIX))
+        for line in lines[:url + 1]:   # the address, and before it who can steer a page served beyond this machine
+            if line.startswith((URL_PREFIX, 'iguana view: warning: ', 'iguana view: note: ')):
+                print(line, flush=True)
 
     def goal_readers(self, key: str) -> frozenset:
         """Return the node names whose subscriptions to topic `key` must be listed before a scene goal goes out."""

@@ -18,7 +18,8 @@ The viewer's web page (viser).
 Scene nodes drawn from a `RunView`'s frames, a panel of figures, and either the live controls (a click on the terrain
 sends a goal, buttons send pushes) or the bag timeline (play, pause, scrub, speed). viser serves its own web client from
 the wheel; the page shows "Connecting..." in its panel when it loses the server and reconnects by itself when a server
-is back.
+is back. viser listens on a private loopback port behind the gate (`gate.py`), which serves `--host`/`--port`, checks
+every message a browser sends (`wire.py`) and, with a token, makes pages that have not presented it read-only.
 """
 from __future__ import annotations
 
@@ -33,8 +34,10 @@ import numpy as np
 from iguana_ros.errors import InputError
 from iguana_ros.render.renderer import TRAIL_LIFT, TRAIL_RGB
 from iguana_ros.scene import MAX_PUSH_FORCE
+from iguana_ros.view.gate import Gate, GateConfig, say, TOKEN_PARAMETER
 from iguana_ros.view.playback import Playback, SPEEDS
 from iguana_ros.view.scene import flank_push, panel_lines, PUSH_SIDES, RunView, terrain_hit, ViewFrame
+from iguana_ros.view.wire import InputRule
 
 DRAW_HZ = 20.0
 """How often the page is redrawn, per wall second, by default (`iguana view --rate`)."""
@@ -95,6 +98,52 @@ def check_port(host: str, port: int) -> None:
             raise InputError(f'port {port} on {host} {what}; choose another with --port (0 = any free port)') from None
 
 
+def is_loopback(host: str) -> bool:
+    """Return True if every address `host` stands for is this machine's loopback (only this machine can connect)."""
+    import ipaddress
+    try:
+        infos = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)
+    except socket.gaierror:
+        return False
+    return bool(infos) and all(ipaddress.ip_address(info[4][0].split('%')[0]).is_loopback for info in infos)
+
+
+TOKEN_ENV = 'IGUANA_VIEW_TOKEN'
+"""Environment variable with the viewer's token when --token is not given."""
+
+TOKEN_PATTERN = r'[A-Za-z0-9._~-]{8,128}'
+"""What a token may be: it travels in an address and a cookie unescaped."""
+
+
+def resolve_token(given: str | None, env: dict | None = None, flag: str = '--token') -> str | None:
+    """Return the page's token: `given` ('auto': a random one), else $IGUANA_VIEW_TOKEN, else None (InputError: bad)."""
+    import os
+    import re
+    import secrets
+
+    if given is None:
+        given = (os.environ if env is None else env).get(TOKEN_ENV) or None
+        flag = TOKEN_ENV
+    if given == 'auto':
+        return secrets.token_urlsafe(18)
+    if given is not None and not re.fullmatch(TOKEN_PATTERN, given):
+        raise InputError(f'{flag} must be 8 to 128 of the characters A-Z a-z 0-9 . _ ~ - (it travels in an address '
+                         f"and a cookie), or 'auto' for a random one; got {len(given)} characters")
+    return given
+
+
+def exposure_lines(host: str, port: int, token: str | None, live: bool) -> list[str]:
+    """Return the warning (no token) or note (a token) for a page served beyond this machine; [] on loopback."""
+    if is_loopback(host):
+        return []
+    steer = 'steer and push the iguana' if live else 'drive the timeline'
+    if token is None:
+        return [f'warning: serving on {host}, not on this machine only: anyone who can reach port {port} can {steer}, '
+                f'with no login; --token auto (or {TOKEN_ENV}) makes every page without the token read-only']
+    return [f'note: serving on {host}: anyone who can reach port {port} can watch; only a page opened with the token '
+            f'can {steer} (plain HTTP: the token crosses the network unencrypted)']
+
+
 def check_draw_rate(rate: float | None, flag: str = '--rate') -> float:
     """Return the page's redraws per second (DRAW_HZ for None); InputError naming `flag` outside (0, MAX_DRAW_HZ]."""
     if rate is None:
@@ -128,24 +177,37 @@ class ViewerPage:
     """
 
     def __init__(self, view: RunView, host: str = '127.0.0.1', port: int = 8080, title: str = 'iguana view',
-                 live=None, playback: Playback | None = None, notes: tuple = (), draw_hz: float | None = None) -> None:
-        """Start the server on `host`:`port` (InputError if the port is taken), redrawing `draw_hz` times a second."""
+                 live=None, playback: Playback | None = None, notes: tuple = (), draw_hz: float | None = None,
+                 token: str | None = None) -> None:
+        """
+        Start the page on `host`:`port` (InputError if the port is taken), redrawing `draw_hz` times a second.
+
+        With `token`, a page must present it (`url` carries it) for anything but its camera to be taken.
+        """
         import viser
 
         check_port(host, port)
         self.draw_hz = check_draw_rate(draw_hz)
-        self.view, self.live, self.playback, self.host = view, live, playback, host
-        with _quiet():
-            self.server = viser.ViserServer(host=host, port=port, verbose=False)  # its label: Connected / Connecting...
-        self.port = self.server.get_port()
-        if port and self.port != port:  # taken between the check and the bind: viser moved on to the next one
+        self.view, self.live, self.playback, self.host, self.token = view, live, playback, host, token
+        self.inputs: dict[str, InputRule] = {}
+        self.gate: Gate | None = None
+        with _quiet():  # on a private loopback port; the gate is the public one
+            self.server = viser.ViserServer(host='127.0.0.1', port=0, verbose=False)  # Connected / Connecting...
+        try:
+            self._build(title, notes)
+            self.gate = Gate(GateConfig(self.server.get_port(), host, port, token, self.inputs))
+        except BaseException:
             self.close()
-            raise InputError(f'port {port} on {host} is in use; choose another with --port (0 = any free port)')
+            raise
+        self.port = self.gate.port
+
+    def _build(self, title: str, notes: tuple) -> None:
+        """Set up the scene, the panel, the controls and the click handlers."""
         self.server.scene.set_up_direction('+z')
         self.drawn = _Drawn()
         self.handles: dict[str, object] = {}
         self.status = ('Click on the terrain to send a goal; shift-click to point the heading to arrive in.'
-                       if live is not None else '')
+                       if self.live is not None else '')
         self.pending_goal: tuple[float, float] | None = None
         self.pending_heading = ''
         self.last_goal: tuple[float, float] | None = None
@@ -154,30 +216,38 @@ class ViewerPage:
         self._status = self.server.gui.add_markdown(self.status)
         for note in notes:
             self.server.gui.add_markdown(f'*{note}*')
-        self._follow = self.server.gui.add_checkbox('follow the iguana', initial_value=True)
-        if live is not None:
+        self._follow = self._input(self.server.gui.add_checkbox('follow the iguana', initial_value=True),
+                                   InputRule('follow the iguana', 'checkbox'))
+        if self.live is not None:
             self._live_controls()
-        if playback is not None:
+        if self.playback is not None:
             self._timeline()
-        self.server.scene.on_click()(self._on_click)
-        self.server.scene.on_click(modifier='shift')(self._on_heading_click)
+        self.server.scene.on_click()(_guarded(self._on_click, 'a click'))
+        self.server.scene.on_click(modifier='shift')(_guarded(self._on_heading_click, 'a shift-click'))
         self.server.on_client_connect(self._on_connect)
+
+    def _input(self, handle, rule: InputRule):
+        """Return GUI input `handle`, its values from now on checked against `rule` before viser takes them."""
+        self.inputs[handle._impl.uuid] = rule  # viser names an input by this uuid on the wire, and nowhere publicly
+        return handle
 
     @property
     def url(self) -> str:
-        """Return the page's address."""
+        """Return the page's address (with `?token=` when there is a token)."""
         host = f'[{self.host}]' if ':' in self.host else self.host
-        return f'http://{host}:{self.port}/'
+        query = f'?{TOKEN_PARAMETER}={self.token}' if self.token else ''
+        return f'http://{host}:{self.port}/{query}'
 
     # ------------------------------------------------------------------------------------------ controls
     def _live_controls(self) -> None:
         """Push force and one button per flank."""
         gui = self.server.gui
-        self._force = gui.add_number('push force (N)', initial_value=DEFAULT_PUSH_N, min=0.0,
-                                     max=float(MAX_PUSH_FORCE), step=1.0)
+        self._force = self._input(gui.add_number('push force (N)', initial_value=DEFAULT_PUSH_N, min=0.0,
+                                                 max=float(MAX_PUSH_FORCE), step=1.0),
+                                  InputRule('push force (N)', 'number', 0.0, float(MAX_PUSH_FORCE)))
         for side in PUSH_SIDES:
-            button = gui.add_button(f'push {side} flank')
-            button.on_click(lambda _event, side=side: self._push(side))
+            button = self._input(gui.add_button(f'push {side} flank'), InputRule(f'push {side} flank', 'button'))
+            button.on_click(_guarded(lambda _event, side=side: self._push(side), f'push {side} flank'))
 
     def _push(self, side: str) -> None:
         """Send a push on flank `side` with the panel's force, sideways to the iguana's heading."""
@@ -192,18 +262,23 @@ class ViewerPage:
         """Play/pause, time slider, speed and loop (bag mode)."""
         gui, pb = self.server.gui, self.playback
         folder = gui.add_folder('timeline')
+        low, high = round(pb.start, 3), round(max(pb.end, pb.start + 1e-3), 3)
+        speeds = tuple(f'{s:g}x' for s in sorted(set(SPEEDS) | {pb.speed}))   # --speed may ask for another one
         with folder:
-            self._play = gui.add_button('pause' if pb.playing else 'play')
-            self._time = gui.add_slider('time (s)', min=round(pb.start, 3), max=round(max(pb.end, pb.start + 1e-3), 3),
-                                        step=0.01, initial_value=round(pb.time, 3))
-            speeds = sorted(set(SPEEDS) | {pb.speed})                      # --speed may ask for another one
-            self._speed = gui.add_dropdown('speed', [f'{s:g}x' for s in speeds], initial_value=f'{pb.speed:g}x')
-            self._loop = gui.add_checkbox('loop', initial_value=pb.loop)
+            self._play = self._input(gui.add_button('pause' if pb.playing else 'play'), InputRule('play', 'button'))
+            self._time = self._input(gui.add_slider('time (s)', min=low, max=high, step=0.01,
+                                                    initial_value=round(pb.time, 3)),
+                                     InputRule('time (s)', 'number', low, high))
+            self._speed = self._input(gui.add_dropdown('speed', speeds, initial_value=f'{pb.speed:g}x'),
+                                      InputRule('speed', 'choice', choices=speeds))
+            self._loop = self._input(gui.add_checkbox('loop', initial_value=pb.loop), InputRule('loop', 'checkbox'))
         self._was_playing = pb.playing
-        self._play.on_click(lambda _event: pb.toggle())
-        self._time.on_update(lambda event: pb.seek(self._time.value) if event.client is not None else None)
-        self._speed.on_update(lambda _event: setattr(pb, 'speed', float(self._speed.value.rstrip('x'))))
-        self._loop.on_update(lambda _event: setattr(pb, 'loop', bool(self._loop.value)))
+        self._play.on_click(_guarded(lambda _event: pb.toggle(), 'play'))
+        self._time.on_update(_guarded(lambda event: pb.seek(self._time.value) if event.client is not None else None,
+                                      'a time'))
+        self._speed.on_update(_guarded(lambda _event: setattr(pb, 'speed', float(self._speed.value.rstrip('x'))),
+                                       'a speed'))
+        self._loop.on_update(_guarded(lambda _event: setattr(pb, 'loop', bool(self._loop.value)), 'loop'))
 
     def _on_click(self, event) -> None:
         """Handle a click in the scene: on the terrain in live mode, a goal there."""
@@ -418,6 +493,19 @@ class ViewerPage:
         def stop() -> None:
             with _quiet():
                 self.server.stop()
+        if self.gate is not None:
+            self.gate.close()
         stopper = threading.Thread(target=stop, name='iguana-view-stop', daemon=True)
         stopper.start()
         stopper.join(CLOSE_S)
+
+
+def _guarded(callback, what: str):
+    """Return `callback` that logs one line instead of raising (viser would print a traceback for each event)."""
+    def guarded(event) -> None:
+        try:
+            callback(event)
+        except Exception as exc:  # noqa: BLE001 -- one line per failed event; the page goes on
+            client = getattr(getattr(event, 'client', None), 'client_id', '?')
+            say(f'ignored {what} from page {client}: {type(exc).__name__}: {exc}')
+    return guarded
