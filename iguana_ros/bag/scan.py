@@ -25,8 +25,14 @@ index only costs time) or, when there is none, the next bytes that parse as a ch
 The summary is read first and trusted only when its CRC matches (or it has none and parses): then its
 channels name the messages of chunks whose own channel records were lost, and the chunks, message counts and
 message indexes are checked against it. The data-section CRC (DataEnd; BagWriter writes it) covers what no
-other CRC covers (header, message indexes); when it and the summary CRC both match, the file is sound without
-decompressing a chunk (`Scan.verified_by_crcs`).
+other CRC covers (header, message indexes). CRCs prove bytes are as written, not that what was written is
+consistent, so a file is called sound only after every chunk was read: a schema or channel id defined twice with
+different contents (channel 1 first `/iguana_state`, then `/mesh_marker`) is damage, and the messages of such an id
+after its second definition are not attributed to either (a reader would decode a Marker as an Odometry).
+
+Decompression is bounded: a chunk declaring more than MAX_CHUNK_MEMORY uncompressed bytes is damage, not an
+allocation, and no chunk is decompressed beyond its declared size (a 135 kB zstd chunk declaring 4 GiB took
+4.2 GB, an lz4 chunk without a bound 3.4 GB).
 
 A file that ends inside the data section (a killed recorder) is `truncated`; every complete chunk before the
 end is recovered. Truncation and damage both make the file unsound (`Health.sound`).
@@ -63,6 +69,9 @@ CHUNK_FIXED = 8 + 8 + 8 + 4 + 4 + 8
 """Chunk record body without its compression string and records: times, sizes, CRC and length prefixes."""
 COMPRESSIONS = ('', 'zstd', 'lz4')
 MAX_CHUNK_BYTES = 1 << 32
+MAX_CHUNK_MEMORY = 256 << 20
+"""Largest uncompressed chunk read, bytes: BagWriter's chunks hold ~0.8 MB (CHUNK_BYTES), rosbag2's and Foxglove's a
+few MB; a chunk declaring more is refused as damage (it would take that much memory at once)."""
 """Largest uncompressed chunk the reader accepts (a damaged size field could claim anything)."""
 SEARCH_BLOCK = 1 << 20
 """Bytes read at a time while searching for the next chunk after damage."""
@@ -99,6 +108,8 @@ class Health:
     messages: int = 0
     unattributed: int = 0
     """Messages recovered from intact chunks whose channel record was lost with the damage."""
+    ambiguous: int = 0
+    """Messages on a channel id defined twice with different contents, after the second definition (not attributed)."""
     expected_messages: int | None = None
     expected_chunks: int | None = None
     summary: str = 'missing'
@@ -128,6 +139,8 @@ class Health:
             out.append(f'{len(self.damage) - MAX_LISTED} more damaged regions')
         if self.unattributed:
             out.append(f'{self.unattributed} messages of intact chunks lost with their channel records')
+        if self.ambiguous:
+            out.append(f'{self.ambiguous} messages on a redefined channel id not attributed')
         return out
 
     def recovered(self) -> str:
@@ -224,7 +237,14 @@ def _chunk_fields(body: bytes | memoryview, at: int = 0, length: int | None = No
 
 
 def _decompress(compression: str, data: bytes, size: int) -> bytes:
-    """Return the chunk's records; ValueError when they do not decompress to exactly `size` bytes."""
+    """
+    Return the chunk's records; ValueError when they do not decompress to exactly `size` bytes.
+
+    Never more than `size` bytes (at most MAX_CHUNK_MEMORY) are produced.
+    """
+    if size > MAX_CHUNK_MEMORY:
+        raise ValueError(f'declares {size} bytes uncompressed, above the {MAX_CHUNK_MEMORY >> 20} MiB a chunk may '
+                         'hold here')
     if compression == '':
         out = data
     elif compression == 'zstd':
@@ -237,7 +257,10 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
             import lz4.frame
         except ImportError:
             raise ValueError('lz4-compressed chunk and the lz4 package is not installed') from None
-        out = lz4.frame.decompress(data)
+        decompressor = lz4.frame.LZ4FrameDecompressor()
+        out = decompressor.decompress(data, max_length=size)
+        if not decompressor.eof:
+            raise ValueError(f'lz4 frame does not end within the {size} bytes the chunk declares')
     if len(out) != size:
         raise ValueError(f'decompressed to {len(out)} bytes, the chunk declares {size}')
     return out
@@ -323,6 +346,10 @@ class Scan:
         self._data_end: int | None = None
         self._data_end_crc = 0
         self._last_chunk: dict[int, tuple[int, int]] = {}
+        self._redefined: set[tuple[type, int]] = set()
+        """(Schema or Channel, id) defined twice with different contents: their messages are not attributed."""
+        self._span = (0, 0)
+        """Bytes of the record (or chunk) being taken, for the damage a redefinition is."""
         self._file = _File(self.path)
         try:
             self._read_ends()
@@ -391,12 +418,9 @@ class Scan:
                 body = data[pos + RECORD_HEAD:pos + RECORD_HEAD + length]
                 if len(body) != length:
                     return False
-                if op == OP_SCHEMA:
-                    schema = _parse_exact(Schema, body)
-                    self.schemas[schema.id] = schema
-                elif op == OP_CHANNEL:
-                    channel = _parse_exact(Channel, body)
-                    self.channels[channel.id] = channel
+                if op in (OP_SCHEMA, OP_CHANNEL):
+                    self._span = (base + pos, base + pos + RECORD_HEAD + length)
+                    self._register(_parse_exact(Schema if op == OP_SCHEMA else Channel, body))
                 elif op == OP_CHUNK_INDEX:
                     index = _parse_exact(ChunkIndex, body)
                     self.chunk_index[index.chunk_start_offset] = index
@@ -407,35 +431,6 @@ class Scan:
                 pos += RECORD_HEAD + length
         except (*_PARSE_ERRORS, MemoryError):
             return False
-        return True
-
-    def verified_by_crcs(self) -> bool:
-        """
-        Return True when the summary CRC and a non-zero data-section CRC both match and nothing else was found wrong.
-
-        Then every chunk is as written and the file is sound without decompressing one.
-        """
-        if not (self._summary_ok and self.health.summary == 'verified' and not self.health.damage
-                and self._footer and self._footer[2] != 0):
-            return False
-        at = self._footer[0] - DATA_END_BYTES
-        record = self._file.read(at, DATA_END_BYTES)
-        if len(record) != DATA_END_BYTES or record[:RECORD_HEAD] != _DATA_END_HEAD:
-            return False
-        (crc,) = struct.unpack_from('<I', record, RECORD_HEAD)
-        if crc == 0 or self._file.crc(0, at) != crc:
-            return False
-        self.health.data_crc = 'verified'
-        self._data_end = at
-        head = self._file.read(len(MAGIC), RECORD_HEAD)
-        if len(head) == RECORD_HEAD and head[0] == OP_HEADER:
-            (length,) = struct.unpack_from('<Q', head, 1)
-            self.header = _parse_exact(Header, self._file.read(len(MAGIC) + RECORD_HEAD, min(length, at)))
-        if self.statistics is not None:
-            self.counts = dict(self.statistics.channel_message_counts)
-            self.health.messages = self.statistics.message_count
-            self.start_ns, self.end_ns = self.statistics.message_start_time, self.statistics.message_end_time
-        self.health.chunks = len(self.chunk_index)
         return True
 
     # -- the data section ---------------------------------------------------------------------------------------
@@ -452,7 +447,7 @@ class Scan:
             self._file.close()
 
     def close(self) -> None:
-        """Release the file without scanning the data section (after `verified_by_crcs`)."""
+        """Release the file without scanning the data section (a trusted summary taken as it is)."""
         self._file.close()
 
     def _scan(self) -> Iterator:
@@ -487,7 +482,7 @@ class Scan:
                 self._check_message_index(pos, f.read(pos + RECORD_HEAD, length))
             elif op in (OP_SCHEMA, OP_CHANNEL, OP_MESSAGE) or (op == OP_HEADER and pos == len(MAGIC)):
                 try:
-                    record = self._top_level(op, f.read(pos + RECORD_HEAD, length))
+                    record = self._top_level(op, f.read(pos + RECORD_HEAD, length), pos)
                 except _PARSE_ERRORS:
                     record, problem = None, f'unreadable record (opcode 0x{op:02x})'
                 if record is not None:
@@ -577,6 +572,7 @@ class Scan:
             return f'chunk unreadable ({exc or type(exc).__name__})'
         self.health.chunks += 1
         self._last_chunk = {}
+        self._span = (pos, pos + RECORD_HEAD + length)
         times = []
         for offset, record in parsed:
             if isinstance(record, Message):
@@ -617,18 +613,19 @@ class Scan:
         if not ok:
             self._damage(pos, pos + RECORD_HEAD + len(body), 'message index does not match its chunk')
 
-    def _top_level(self, op: int, body: bytes):
+    def _top_level(self, op: int, body: bytes, pos: int = 0):
         """Return a Schema, Channel or Message record outside a chunk (unchunked files), or the Header."""
         if op == OP_HEADER:
             self.header = _parse_exact(Header, body)
             return None
+        self._span = (pos, pos + RECORD_HEAD + len(body))
         if op == OP_MESSAGE:
             return self._take(_message(body))
         return self._take(_parse_exact(Schema if op == OP_SCHEMA else Channel, body))
 
     def _take(self, record):
         """
-        Register a schema/channel (the first record of an id wins).
+        Register a schema/channel (the first record of an id wins; another definition is damage: `_register`).
 
         Count a message. Returns the record to yield, or None (a message whose channel is unknown).
         """
@@ -636,14 +633,33 @@ class Scan:
             if record.channel_id not in self.channels:
                 self.health.unattributed += 1
                 return None
+            if self._ambiguous(record.channel_id):
+                self.health.ambiguous += 1
+                return None
             self.counts[record.channel_id] = self.counts.get(record.channel_id, 0) + 1
             self.health.messages += 1
             self.start_ns = record.log_time if self.start_ns is None else min(self.start_ns, record.log_time)
             self.end_ns = max(self.end_ns, record.log_time)
             return record
-        table = self.schemas if isinstance(record, Schema) else self.channels
-        table.setdefault(record.id, record)
+        self._register(record)
         return record
+
+    def _register(self, record: Schema | Channel) -> None:
+        """Keep the first definition of an id; one with other contents is damage and makes the id ambiguous."""
+        table = self.schemas if isinstance(record, Schema) else self.channels
+        known = table.setdefault(record.id, record)
+        if known != record and (type(record), record.id) not in self._redefined:
+            self._redefined.add((type(record), record.id))
+            if isinstance(record, Channel):
+                what = f'channel {record.id} defined twice: {known.topic} and {record.topic}'
+            else:
+                what = f'schema {record.id} defined twice: {known.name} and {record.name}'
+            self._damage(*self._span, what)
+
+    def _ambiguous(self, channel_id: int) -> bool:
+        """Whether a channel id, or the schema its channel names, was defined twice with different contents."""
+        schema = self.channels[channel_id].schema_id
+        return (Channel, channel_id) in self._redefined or (Schema, schema) in self._redefined
 
     def _finish(self, pos: int) -> None:
         """After the data section: a missing DataEnd or summary, the data-section CRC, counts against the summary."""

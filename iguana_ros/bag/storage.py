@@ -363,20 +363,20 @@ def summarize(path: str | Path, verify: bool = True) -> BagSummary:
     """
     `BagSummary` of the bag at `path` (directory or .mcap), its metadata.yaml checked for a directory.
 
-    With `verify` the file is checked in full: by the data-section and summary CRCs when both are there,
-    else by reading every chunk. Without it a trusted summary is taken as it is (the chunks are checked when
-    they are read). InputError for a missing or non-MCAP file, or one with nothing readable.
+    With `verify` the file is checked in full by reading every chunk (CRCs prove bytes as written, not a
+    consistent file: a channel id defined twice is found only there; ~0.2 s for 25 MB). Without it a trusted
+    summary is taken as it is (the chunks are checked when they are read). InputError for a missing or non-MCAP
+    file, or one with nothing readable.
     """
     mcap = resolve_bag_file(path)
     scan = Scan(mcap)
     trusted = scan.health.summary == 'verified'
-    if (not verify and trusted) or (verify and scan.verified_by_crcs()):
+    if not verify and trusted:
         scan.close()
-        if not verify:
-            scan.counts = dict(scan.statistics.channel_message_counts) if scan.statistics else {}
-            scan.health.messages = sum(scan.counts.values())
-            stats = scan.statistics
-            scan.start_ns, scan.end_ns = (stats.message_start_time, stats.message_end_time) if stats else (0, 0)
+        scan.counts = dict(scan.statistics.channel_message_counts) if scan.statistics else {}
+        scan.health.messages = sum(scan.counts.values())
+        stats = scan.statistics
+        scan.start_ns, scan.end_ns = (stats.message_start_time, stats.message_end_time) if stats else (0, 0)
     else:
         for _ in scan.records():
             pass

@@ -30,6 +30,7 @@ SUITES = (
     # (name, module exposing `register(suites)`); a suite is imported only when listed here.
     ('scenes', 'iguana_ros.cli.bench_faults_scenes'),
     ('bags', 'iguana_ros.cli.bench_faults_bags'),
+    ('crafted', 'iguana_ros.cli.bench_faults_crafted'),
     ('processes', 'iguana_ros.cli.bench_faults_processes'),
     ('topics', 'iguana_ros.cli.bench_faults_topics'),
     ('limits', 'iguana_ros.cli.bench_faults_limits'),
