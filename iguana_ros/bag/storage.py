@@ -25,17 +25,20 @@ every intact chunk is recovered, and what was damaged or missing is reported, ne
 from __future__ import annotations
 
 from collections.abc import Iterator
+import copy
 from dataclasses import dataclass, field
+import os
 from pathlib import Path
 import time
 
+from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Header, Message, Schema
 from mcap.writer import CompressionType, Writer
 import yaml
 
 from iguana_ros.bag.metadata import check_metadata, load_metadata, relative_files
 from iguana_ros.bag.scan import Health, looks_like_mcap, Scan
-from iguana_ros.errors import InputError
+from iguana_ros.errors import IguanaError, InputError
 
 PROFILE = 'ros2'
 SCHEMA_ENCODING = 'ros2msg'
@@ -50,6 +53,34 @@ INFINITE_DURATION = {'sec': 9223372036, 'nsec': 854775807}
 """RMW_DURATION_INFINITE as rosbag2 writes it."""
 _NO_SIZE_LIMIT = 1 << 62
 """Chunk size given to mcap's Writer: BagWriter closes chunks itself (so each new one gets its preamble)."""
+
+SPACE_RESERVE_BYTES = 1 << 20
+"""Disk space a BagWriter holds (a hidden file in the bag directory, released when it finishes or the disk is full),
+so that the summary and metadata.yaml still fit after a full disk: other processes writing to the same disk took
+the room of the cut-off chunk before the summary was written in 1 of 4 runs. 1 MiB holds the summary of ~2 h."""
+
+RESERVE_NAME = '.space_reserve'
+"""Name of that file."""
+
+DISK_FULL_EXIT = 28
+"""Exit status of `iguana bag record` when writing failed (28 = ENOSPC, a full disk): `iguana run` names it."""
+
+
+class BagWriteError(IguanaError):
+    """Writing the bag failed (a full disk); the bag was finalised from what reached the disk. One line."""
+
+
+@dataclass
+class _Written:
+    """What was on disk after the last chunk the OS took: file size, chunk indexes, statistics, CRC, counts, times."""
+
+    offset: int
+    chunks: int
+    statistics: object
+    data_crc: int
+    counts: dict
+    first_ns: int | None
+    last_ns: int
 
 
 class DamagedBag(InputError):
@@ -137,6 +168,13 @@ class BagWriter:
             raise InputError(f'output {self.directory} already exists; choose a new bag directory')
         self.directory.mkdir(parents=True)
         self.path = self.directory / f'{self.directory.name}.mcap'
+        self._reserve = self.directory / RESERVE_NAME
+        try:
+            with open(self._reserve, 'wb') as reserve:
+                os.posix_fallocate(reserve.fileno(), 0, SPACE_RESERVE_BYTES)
+        except OSError as exc:
+            self._reserve.unlink(missing_ok=True)
+            raise BagWriteError(f'{exc.strerror or exc} in {self.directory}: no room to start a bag') from None
         self._file = open(self.path, 'wb')
         self._writer = Writer(self._file, chunk_size=_NO_SIZE_LIMIT, compression=CompressionType.ZSTD,
                               enable_data_crcs=True)
@@ -144,6 +182,7 @@ class BagWriter:
             raise RuntimeError('this mcap version has no chunk finaliser; age-bounded chunks need mcap>=1.1')
         self._writer.start(profile=PROFILE, library=_library())
         self._file.flush()
+        self.failed: OSError | None = None
         self.chunk_bytes = chunk_bytes
         self.chunk_age_s = chunk_age_s
         self._preamble: list[Schema | Channel] = []
@@ -153,6 +192,7 @@ class BagWriter:
         self._first_ns: int | None = None
         self._last_ns = 0
         self.closed = False
+        self._written = self._snapshot()
 
     def add_topic(self, name: str, type_name: str, schema_text: str,
                   offered_qos_profiles: str = '', type_hash: str = '') -> int:
@@ -174,7 +214,14 @@ class BagWriter:
         return channel_id
 
     def write(self, channel_id: int, data: bytes, log_time: int, publish_time: int | None = None) -> None:
-        """Append one serialized message (times in ns since the epoch)."""
+        """Append one serialized message (times in ns since the epoch); BagWriteError when the disk is full."""
+        try:
+            self._write(channel_id, data, log_time, publish_time)
+        except OSError as exc:
+            self._fail(exc)
+
+    def _write(self, channel_id: int, data: bytes, log_time: int, publish_time: int | None) -> None:
+        """Append one message (see `write`)."""
         info = self._channels[channel_id]
         seq = info.message_count
         self._writer.add_message(channel_id=channel_id, log_time=log_time, data=data,
@@ -193,7 +240,10 @@ class BagWriter:
     def close_chunk_if_old(self) -> None:
         """Close and flush the open chunk if it is older than `chunk_age_s` (call it from a timer too)."""
         if self._chunk_opened is not None and time.monotonic() - self._chunk_opened >= self.chunk_age_s:
-            self.close_chunk()
+            try:
+                self.close_chunk()
+            except OSError as exc:
+                self._fail(exc)
 
     def close_chunk(self) -> None:
         """
@@ -209,6 +259,7 @@ class BagWriter:
                 (builder.add_schema if isinstance(record, Schema) else builder.add_channel)(record)
         self._file.flush()
         self._chunk_opened = None
+        self._written = self._snapshot()
 
     @property
     def topics(self) -> list[TopicInfo]:
@@ -216,14 +267,88 @@ class BagWriter:
         return list(self._channels.values())
 
     def close(self) -> None:
-        """Finish the MCAP file (last chunk, summary, footer) and write metadata.yaml."""
+        """Finish the MCAP file (last chunk, summary, footer) and write metadata.yaml; BagWriteError on a full disk."""
         if self.closed:
             return
-        self._writer.finish()
-        self._file.close()
+        self._reserve.unlink(missing_ok=True)
+        try:
+            self._writer.finish()
+            self._file.close()
+        except OSError as exc:
+            self._fail(exc)
         self.closed = True
+        try:
+            self._write_metadata()
+        except OSError as exc:
+            self.failed = exc
+            raise BagWriteError(f'{exc.strerror or exc} writing {self.directory / "metadata.yaml"}; the bag '
+                                f'{self.path} is finalised, without metadata.yaml') from None
+
+    def _write_metadata(self) -> None:
+        """Write metadata.yaml (rosbag2's) beside the MCAP file."""
         (self.directory / 'metadata.yaml').write_text(yaml.safe_dump(
             self.metadata(), sort_keys=False, default_flow_style=False))
+
+    def _snapshot(self) -> _Written:
+        """Return what is on disk now (after each flushed chunk): where a failed write is cut back to."""
+        w = self._writer
+        return _Written(self._file.tell(), len(w._Writer__chunk_indices), copy.deepcopy(w._Writer__statistics),
+                        w._Writer__data_section_crc, {c: t.message_count for c, t in self._channels.items()},
+                        self._first_ns, self._last_ns)
+
+    def _fail(self, exc: OSError) -> None:
+        """
+        Finalise the bag from what reached the disk and raise BagWriteError saying so (once; then it is closed).
+
+        The file is cut back to its last whole chunk (freeing the bytes of the one that did not fit), the writer's
+        summary of the chunks before is written after it, and metadata.yaml; what cannot be written is named.
+        """
+        if self.failed is not None:
+            raise BagWriteError(self._failure_line(self.failed, True, True)) from None
+        self.failed, self.closed = exc, True
+        self._reserve.unlink(missing_ok=True)          # the room for the summary and metadata.yaml
+        try:
+            self._file.close()                          # flushes what it can, then closes the file regardless
+        except OSError:
+            pass
+        os.truncate(self.path, self._written.offset)
+        ended = self._finish_written()
+        for info_id, n in self._written.counts.items():
+            self._channels[info_id].message_count = n
+        self._first_ns, self._last_ns = self._written.first_ns, self._written.last_ns
+        try:
+            self._write_metadata()
+            metadata = True
+        except OSError:
+            metadata = False
+        raise BagWriteError(self._failure_line(exc, ended, metadata)) from None
+
+    def _finish_written(self) -> bool:
+        """Write the summary and footer of the chunks on disk after them; False (file cut back) if even that fails."""
+        w, done = self._writer, self._written
+        try:
+            with open(self.path, 'r+b') as stream:
+                stream.seek(done.offset)
+                w._Writer__stream = stream               # mcap keeps its state private: the chunks on disk, no more
+                w._Writer__record_builder = RecordBuilder()
+                w._Writer__chunk_builder.reset()
+                del w._Writer__chunk_indices[done.chunks:]
+                w._Writer__statistics = copy.deepcopy(done.statistics)
+                w._Writer__data_section_crc = done.data_crc
+                w.finish()
+            return True
+        except OSError:
+            os.truncate(self.path, done.offset)
+            return False
+
+    def _failure_line(self, exc: OSError, ended: bool, metadata: bool) -> str:
+        """One line: what failed, where, and what the bag keeps."""
+        kept = sum(self._written.counts.values())
+        how = ('finalised' if ended and metadata else
+               'its summary written, metadata.yaml not' if ended else
+               'without a summary (bag info --allow-damaged reads it)' + ('' if metadata else ' or metadata.yaml'))
+        return (f'{exc.strerror or exc} writing {self.path}; the bag keeps the {kept} messages of its complete chunks, '
+                f'{how}')
 
     def metadata(self) -> dict:
         """

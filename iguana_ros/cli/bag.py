@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -82,5 +83,10 @@ def run(args: argparse.Namespace) -> int:
     if args.chunk_age is not None and not 0 < args.chunk_age < float('inf'):
         raise InputError(f'--chunk-age must be a positive number of seconds, got {args.chunk_age}')
     topics = None if args.all else (args.topics or default_topic_names())
-    record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration)
+    from iguana_ros.bag.storage import BagWriteError, DISK_FULL_EXIT
+    try:
+        record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration)
+    except BagWriteError as exc:                      # a full disk: one line, the bag finalised from what was written
+        print(f'iguana bag record: error: {exc}', file=sys.stderr, flush=True)
+        return DISK_FULL_EXIT
     return 0

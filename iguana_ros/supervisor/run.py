@@ -37,6 +37,7 @@ import uuid
 
 import numpy as np
 
+from iguana_ros.bag.storage import DISK_FULL_EXIT
 from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
@@ -125,7 +126,11 @@ class ChildExited(IguanaError):
     def __init__(self, name: str, code: int | None, tail: str) -> None:
         """One-line message; `tail` kept apart."""
         self.name, self.tail = name, tail
-        super().__init__(f'{name} exited with {describe_exit(code)}')
+        if name == 'recorder' and code == DISK_FULL_EXIT:
+            super().__init__('the recorder ran out of disk space (no space left on device); the bag keeps what was '
+                             'written')
+        else:
+            super().__init__(f'{name} exited with {describe_exit(code)}')
 
 
 @dataclass
