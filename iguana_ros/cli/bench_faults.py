@@ -20,9 +20,14 @@ The fault-injection suites, one module each (listed in SUITES) adding its sub-co
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 import importlib
+import json
 import os
 from pathlib import Path
+import shutil
+import sys
+import tempfile
 
 from iguana_ros.cli.argtypes import count
 
@@ -52,6 +57,24 @@ def suite_domain(args: argparse.Namespace) -> str:
     """Return the ROS_DOMAIN_ID of a suite's runs (--domain, else one from the pid), discovery kept on localhost."""
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     return str(args.domain if args.domain is not None else 1 + os.getpid() % 200)
+
+
+def run_suite_in(args: argparse.Namespace, prefix: str, suite: Callable[[Path, Callable], dict],
+                 row_line: Callable[[object], str], figures_line: Callable[[dict], str]) -> int:
+    """
+    Run `suite(workdir, progress)` in --keep DIR or a temporary folder (removed after); exit 1 unless all survived.
+
+    Each row's line as it ends (stderr with --json), then the figures' line or the result as JSON.
+    """
+    out = sys.stderr if args.json else sys.stdout
+    workdir = args.keep or Path(tempfile.mkdtemp(prefix=prefix))
+    try:
+        result = suite(workdir, lambda row: print(row_line(row), file=out, flush=True))
+    finally:
+        if args.keep is None:
+            shutil.rmtree(workdir, ignore_errors=True)
+    print(json.dumps(result, indent=1) if args.json else figures_line(result))
+    return 0 if result['survived'] == result['trials'] else 1
 
 
 def faults_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:

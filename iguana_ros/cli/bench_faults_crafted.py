@@ -21,14 +21,9 @@ read by `bag info`, `bag play --allow-damaged` and the viewer's reader in child 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-from pathlib import Path
-import shutil
-import sys
-import tempfile
 
-from iguana_ros.cli.bench_faults import add_run_options, suite_domain
+from iguana_ros.cli.bench_faults import add_run_options, run_suite_in, suite_domain
 
 
 def register(suites: argparse._SubParsersAction) -> None:
@@ -43,16 +38,6 @@ def run(args: argparse.Namespace) -> int:
     from iguana_ros.faults.bag_crafts import crafted_suite, PEAK_LIMIT_MB, trial_line
 
     env = {**os.environ, 'ROS_DOMAIN_ID': suite_domain(args)}
-    workdir = args.keep or Path(tempfile.mkdtemp(prefix='iguana_crafted_'))
-    try:
-        out = sys.stderr if args.json else sys.stdout
-        result = crafted_suite(workdir, env, lambda row: print(trial_line(row), file=out, flush=True))
-    finally:
-        if args.keep is None:
-            shutil.rmtree(workdir, ignore_errors=True)
-    if args.json:
-        print(json.dumps(result, indent=1))
-    else:
-        print(f"crafted bags: {result['survived']}/{result['trials']} readings as expected, peak memory "
-              f"{result['peak_mb']:.0f} MB (limit {PEAK_LIMIT_MB} MB)")
-    return 0 if result['survived'] == result['trials'] else 1
+    return run_suite_in(args, 'iguana_crafted_', lambda folder, progress: crafted_suite(folder, env, progress),
+                        trial_line, lambda r: f"crafted bags: {r['survived']}/{r['trials']} readings as expected, peak "
+                                              f"memory {r['peak_mb']:.0f} MB (limit {PEAK_LIMIT_MB} MB)")

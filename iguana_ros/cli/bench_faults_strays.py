@@ -21,15 +21,10 @@ completes as it would alone, or, against publishers of its outputs, refuses the 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-from pathlib import Path
-import shutil
-import sys
-import tempfile
 
 from iguana_ros.cli.argtypes import count
-from iguana_ros.cli.bench_faults import add_run_options, suite_domain
+from iguana_ros.cli.bench_faults import add_run_options, run_suite_in, suite_domain
 
 
 def register(suites: argparse._SubParsersAction) -> None:
@@ -46,16 +41,8 @@ def run(args: argparse.Namespace) -> int:
     from iguana_ros.faults.strays import stray_suite, trial_line
 
     os.environ['ROS_DOMAIN_ID'] = suite_domain(args)
-    workdir = args.keep or Path(tempfile.mkdtemp(prefix='iguana_strays_'))
-    try:
-        result = stray_suite(args.trials, args.seed, workdir,
-                             lambda t: print(trial_line(t), file=sys.stderr if args.json else sys.stdout, flush=True))
-    finally:
-        if args.keep is None:
-            shutil.rmtree(workdir, ignore_errors=True)
-    if args.json:
-        print(json.dumps(result, indent=1))
-    else:
-        print(f"strays: {result['survived']}/{result['trials']} runs as expected ({result['refused']} refused the busy "
-              f"domain in one line), longest run {result['max_run_wall_s']} s, {result['wall_s']:.0f} s wall")
-    return 0 if result['survived'] == result['trials'] else 1
+    return run_suite_in(args, 'iguana_strays_', lambda folder, progress: stray_suite(args.trials, args.seed, folder,
+                                                                                     progress), trial_line,
+                        lambda r: f"strays: {r['survived']}/{r['trials']} runs as expected ({r['refused']} refused the "
+                                  f"busy domain in one line), longest run {r['max_run_wall_s']} s, {r['wall_s']:.0f} s "
+                                  'wall')

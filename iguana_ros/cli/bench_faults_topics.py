@@ -22,14 +22,10 @@ and the library run's trajectory (iguana_ros/faults/topic_fuzz.py).
 from __future__ import annotations
 
 import argparse
-import json
 import os
-from pathlib import Path
-import sys
-import tempfile
 
 from iguana_ros.cli.argtypes import count, positive
-from iguana_ros.cli.bench_faults import add_run_options, suite_domain
+from iguana_ros.cli.bench_faults import add_run_options, run_suite_in, suite_domain
 
 
 def register(suites: argparse._SubParsersAction) -> None:
@@ -47,21 +43,8 @@ def register(suites: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the trials (one line each as they end), then the figures; exit status 1 if any run failed."""
-    import shutil
-
     from iguana_ros.faults.topic_fuzz import suite_line, topic_fault_suite, trial_line
 
     os.environ['ROS_DOMAIN_ID'] = suite_domain(args)
-    workdir = args.keep or Path(tempfile.mkdtemp(prefix='iguana_topic_faults_'))
-    try:
-        result = topic_fault_suite(args.trials, args.seed, args.messages, args.seconds, args.mesh, workdir,
-                                   lambda row: print(trial_line(row), file=sys.stderr if args.json else sys.stdout,
-                                                     flush=True))
-    finally:
-        if args.keep is None:
-            shutil.rmtree(workdir, ignore_errors=True)
-    if args.json:
-        print(json.dumps(result, indent=1))
-    else:
-        print(suite_line(result))
-    return 0 if result['survived'] == result['trials'] else 1
+    return run_suite_in(args, 'iguana_topic_faults_', lambda folder, progress: topic_fault_suite(
+        args.trials, args.seed, args.messages, args.seconds, args.mesh, folder, progress), trial_line, suite_line)
