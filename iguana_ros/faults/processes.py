@@ -157,6 +157,16 @@ def _kill_leftovers(procs: list[ProcessInfo]) -> None:
             pass
 
 
+def trial_folder(workdir: Path, index: int, scene: dict) -> tuple[Path, Path, Path]:
+    """Return (a fresh folder for trial `index` under `workdir`, the `scene` written there, the bag's path)."""
+    folder = workdir / f'trial_{index:02d}'
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True)
+    path = folder / f'{scene.get("name", "scene")}.yaml'
+    path.write_text(yaml.safe_dump(scene))
+    return folder, path, folder / 'bag'
+
+
 def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path, domain_id: str | None = None,
               under_way: bool = False, before_fault: Callable[[Path], None] | None = None) -> Trial:
     """
@@ -168,12 +178,7 @@ def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path,
     """
     domain_id = domain_id or os.environ.get('ROS_DOMAIN_ID', '0')
     trial = Trial(index, target, signal.Signals(sig).name, moment_s, 'under way' if under_way else 'start-up')
-    folder = workdir / f'trial_{index:02d}'
-    shutil.rmtree(folder, ignore_errors=True)
-    folder.mkdir(parents=True)
-    scene = folder / 'faults.yaml'
-    scene.write_text(yaml.safe_dump(TRIAL_SCENE))
-    bag = folder / 'bag'
+    folder, scene, bag = trial_folder(workdir, index, TRIAL_SCENE)
     command = [sys.executable, '-m', 'iguana_ros.cli', 'run', str(scene), '--record', str(bag)]
     marker = f'{os.getpid()}-{index}-{time.time_ns()}'
     run = NodeProcess(command, 'iguana_run', folder, env={'ROS_DOMAIN_ID': domain_id, TRIAL_ENV: marker})

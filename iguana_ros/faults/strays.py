@@ -31,14 +31,12 @@ from dataclasses import asdict, dataclass, field
 import os
 from pathlib import Path
 import random
-import shutil
 import signal
 import sys
 import time
 
-import yaml
-
 from iguana_ros.constants import FRAME_RATE
+from iguana_ros.faults.processes import trial_folder
 from iguana_ros.supervisor.process import NodeProcess, wait_for
 
 STRAY_MODES = ('readers', 'inputs', 'outputs')
@@ -125,12 +123,7 @@ def stray_main(argv: list[str] | None = None) -> int:
 def run_trial(index: int, mode: str, qos: str, moment_s: float, workdir: Path) -> StrayTrial:
     """Launch `iguana run` on the trial scene, start the strays `moment_s` s after (before, if negative), check it."""
     trial = StrayTrial(index, mode, qos, moment_s)
-    folder = workdir / f'trial_{index:02d}'
-    shutil.rmtree(folder, ignore_errors=True)
-    folder.mkdir(parents=True)
-    scene = folder / 'strays.yaml'
-    scene.write_text(yaml.safe_dump(TRIAL_SCENE))
-    bag = folder / 'bag'
+    folder, scene, bag = trial_folder(workdir, index, TRIAL_SCENE)
     strays = NodeProcess([sys.executable, '-m', 'iguana_ros.faults.strays', '--mode', mode, '--qos', qos], 'strays',
                          folder)
     run = NodeProcess([sys.executable, '-m', 'iguana_ros.cli', 'run', str(scene), '--record', str(bag)], 'iguana_run',
