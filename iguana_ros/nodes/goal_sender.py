@@ -123,8 +123,8 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
 
     (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
     matched, and as many as the planner sees on planner_status), and the nodes named in `readers` have subscriptions
-    on the graph;
-    wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as accepted.
+    on the graph; wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as
+    accepted.
     Returns the topic name and how many subscriptions acknowledged the goals.
 
     IguanaError in one line when a step does not happen within `timeout` s (each step has the whole timeout).
