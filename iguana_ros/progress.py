@@ -142,7 +142,8 @@ class StartupClock:
 
     def _ends(self) -> list[float]:
         """End time of each phase in PHASES order (nan while not reached)."""
-        every = (lambda d: max(d[n] for n in self.nodes) if all(n in d for n in self.nodes) else math.nan)
+        def every(times: dict) -> float:
+            return max(times[n] for n in self.nodes) if all(n in times for n in self.nodes) else math.nan
         return [every(self.up), every(self.loaded), self.frame0, self.frame1]
 
     def finished(self) -> tuple:

@@ -345,10 +345,10 @@ def goal_readers_from_msg(msg) -> dict:
 
 def push_from_msg(msg) -> PushRequest:
     """
-    push.
+    Decode a push message: the force and torque `(3,)` of a WrenchStamped and the region its frame_id names.
 
-    The force and torque `(3,)` of a WrenchStamped and the region its header.frame_id names ('' = trunk_left),
-    finite (InputError otherwise); the simulator stage checks them against the body (`SimulatorStage.add_push`).
+    '' names trunk_left; InputError unless both are finite. The simulator stage checks them against the body
+    (`SimulatorStage.add_push`).
     """
     wrench = msg.wrench
     force = validate_array('push force', [wrench.force.x, wrench.force.y, wrench.force.z], (3,))
