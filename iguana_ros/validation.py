@@ -149,7 +149,7 @@ def goal_heading(orientation: np.ndarray) -> float | None:
 
 def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_extent: float) -> GoalRequest:
     """
-    goal_pose: the GoalRequest of a goal at `position` `(3,)`, `orientation` `(4,)` stamped `at` s.
+    Return the GoalRequest of a goal_pose at `position` `(3,)`, `orientation` `(4,)` stamped `at` s.
 
     On a terrain reaching `half_extent` m from the origin; InputError if non-finite, off the terrain, stamped before 0,
     or of an orientation that is neither a unit quaternion nor all zeros (`goal_heading`).
@@ -181,9 +181,9 @@ def check_route(positions: np.ndarray, orientations: np.ndarray, at: float, half
 
 def check_desired_lengths(lengths: np.ndarray, rest_lengths: np.ndarray) -> np.ndarray:
     """
-    spring_rest_lengths.
+    Check a spring_rest_lengths payload: desired lengths `(n_springs,)` m within the limits of their rest lengths.
 
-    Desired lengths `(n_springs,)` m, each above rest / DESIRED_SHRINK_FACTOR and below rest x DESIRED_STRETCH_FACTOR,
+    Each above rest / DESIRED_SHRINK_FACTOR and below rest x DESIRED_STRETCH_FACTOR,
     their RMS log strain at most DESIRED_STRAIN_RMS (every such message is simulated stably: `iguana bench faults
     limits`); InputError naming the worst spring (or the strain) otherwise.
     """
@@ -277,9 +277,9 @@ def check_root_pose(what: str, position: np.ndarray, orientation: np.ndarray, bo
 def check_bone_frames(what: str, positions: np.ndarray, rotations: np.ndarray, parents: np.ndarray,
                       offsets: np.ndarray, bound: float) -> tuple:
     """
-    reference_pose.
+    Check a reference_pose payload: world bone positions and rotations that fit the skeleton.
 
-    World bone positions `(n_bones, 3)` within `bound` m, unit rotations `(n_bones, 4)`, each bone as far from its
+    Positions `(n_bones, 3)` within `bound` m, unit rotations `(n_bones, 4)`, each bone as far from its
     parent as the skeleton's offset (within BONE_LENGTH_TOLERANCE); InputError otherwise.
     """
     n = len(parents)
@@ -300,9 +300,9 @@ def check_bone_frames(what: str, positions: np.ndarray, rotations: np.ndarray, p
 def check_clip(translations: np.ndarray, rotations: np.ndarray, offsets: np.ndarray, bound: float,
                max_frames: int) -> tuple:
     """
-    motion_clip.
+    Check a motion_clip payload: bone translations and local rotations of 2..`max_frames` frames.
 
-    translations `(n_frames, n_bones, 3)` (root first, then the skeleton's `offsets`) and unit local rotations
+    Translations `(n_frames, n_bones, 3)` (root first, then the skeleton's `offsets`) and unit local rotations
     `(n_frames, n_bones, 4)`, 2..`max_frames` frames, root within `bound` m; InputError otherwise.
     """
     n_bones = len(offsets)

@@ -536,9 +536,9 @@ def smooth_bad_nodes(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sli
 def improve_mesh(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sliding: np.ndarray,
                  threshold: float, rounds: int, peel_threshold: float, seed: int = 0) -> tuple:
     """
-    (points, tets).
+    Return the improved (points, tets) after rounds of sliver peeling, flips and node smoothing.
 
-    rounds of peeling boundary slivers (least dihedral < `peel_threshold` rad), flips and node smoothing until every
+    Boundary slivers (least dihedral < `peel_threshold` rad) are peeled, then flips and smoothing run until every
     tet's `tet_quality` reaches `threshold` rad (or `rounds` are done).
 
     Flips and moves keep the surface closed and its nodes on the body surface (`sliding` nodes slide on it).

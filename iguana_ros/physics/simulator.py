@@ -338,7 +338,7 @@ class SoftBodySimulator:
     @property
     def stats(self) -> dict:
         """
-        Counters.
+        Return the counters of the run so far.
 
         Steps, CG iterations (total and per step), Jacobian refreshes, Cholesky factorisations, nodes in contact.
         """

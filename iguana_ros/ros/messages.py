@@ -358,10 +358,9 @@ def push_from_msg(msg) -> PushRequest:
 
 def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):
     """
-    foot_state.
+    Return the foot_state message: a JointState named FEET, stamped with `frame` (the state after `frame` frames).
 
-    JointState named FEET, position = sole heights above the terrain `(4,)` m, effort = contact flags `(4,)` as 1.0 /
-    0.0, stamped with `frame` (the state after `frame` frames).
+    position = sole heights above the terrain `(4,)` m, effort = contact flags `(4,)` as 1.0 / 0.0.
     """
     return _feet_msg(heights, contact, frame)
 

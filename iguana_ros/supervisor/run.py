@@ -144,9 +144,9 @@ class SignalState:
 @contextmanager
 def stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalState]:
     """
-    While inside.
+    Catch the stop `signals` while inside: the first raises RunInterrupted, later ones are only noted.
 
-    The first of `signals` raises RunInterrupted, later ones are only noted (so the orderly stop completes); a signal
+    Later signals are only noted so that the orderly stop completes; a signal
     the parent made us ignore stays ignored; outside the main thread nothing is installed. The previous handlers come
     back on exit.
     """
