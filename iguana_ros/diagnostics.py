@@ -71,9 +71,9 @@ FRICTION_LIMIT_FRACTION = 0.95
 
 def model_variant(model: IguanaModel, spring_scale: float = 1.0, leg_factor: float | None = None) -> IguanaModel:
     """
-    `model` with every spring stiffness times `spring_scale` and the preset's leg factor replaced by `leg_factor`.
+    Return `model` with every spring stiffness times `spring_scale` and the leg factor replaced by `leg_factor`.
 
-    (None = keep); the same model object when nothing changes.
+    None keeps a value; the same model object is returned when nothing changes.
     """
     if not (np.isfinite(spring_scale) and spring_scale > 0):
         raise InputError(f'spring scale must be a positive number, got {spring_scale!r}')
@@ -342,10 +342,10 @@ def _bending_moment(a: np.ndarray, b: np.ndarray, force: np.ndarray, x0: float) 
 
 def statics_pipeline(scene: Scene | str, model: IguanaModel | None = None) -> Pipeline:
     """
-    `pipeline.build_pipeline` of `scene` (a Scene or a scene name), its simulator.
+    Return `pipeline.build_pipeline` of `scene` (a Scene or a scene name), optionally for another `model`.
 
-    (and spring-length stage) built for `model` instead of the scene's model when given; the scene then names `model`'s
-    resolution and preset.
+    With `model`, its simulator (and spring-length stage) are built for it instead of the scene's model; the scene then
+    names `model`'s resolution and preset.
     """
     scene = load_scene(scene) if isinstance(scene, str) else scene
     if model is not None:

@@ -211,9 +211,10 @@ def foot_slip(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> 
 
 def slip_per_foot(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int) -> np.ndarray:
     """
-    Horizontal travel `(n_feet,)` m of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames.
+    Return the horizontal travel `(n_feet,)` m per stride of each foot while it touches the ground.
 
-    in which it touches the ground (`foot_contact (n_frames, n_feet)`), per stride.
+    Of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames in which it touches the ground
+    (`foot_contact (n_frames, n_feet)`).
     """
     step = np.linalg.norm(np.diff(foot_xy, axis=0), axis=2)
     held = foot_contact[1:] & foot_contact[:-1]

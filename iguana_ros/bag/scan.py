@@ -217,9 +217,10 @@ def looks_like_mcap(path: Path) -> bool:
 
 def _chunk_fields(body: bytes | memoryview, at: int = 0, length: int | None = None) -> tuple | None:
     """
-    (start_ns, end_ns, uncompressed_size, crc, compression, records_offset, records_length) of a chunk record body.
+    Return the fields of the chunk record body at `at` in `body`, or None if it is not shaped like one.
 
-    at `at` whose record length is `length` (default: the rest of `body`), or None if it is not shaped like one.
+    (start_ns, end_ns, uncompressed_size, crc, compression, records_offset, records_length) of a record whose length is
+    `length` (default: the rest of `body`).
     """
     length = len(body) - at if length is None else length
     if length < CHUNK_FIXED or len(body) < at + 32:

@@ -66,10 +66,9 @@ def read_topics(bag: str | Path, keys: list[str] | tuple[str, ...]) -> RecordedT
 
 def root_trajectory(messages: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
-    Return times `(n,)` (header stamps, s).
+    Return times `(n,)` s, root positions `(n, 3)` and orientations `(n, 4)` xyzw of iguana_state messages.
 
-    root positions `(n, 3)` and orientations `(n, 4)` xyzw of iguana_state messages, in time order (a re-sent stamp
-    counts once, its last message).
+    In time order of their header stamps (a re-sent stamp counts once, its last message).
     """
     rows: dict[float, tuple] = {}
     for msg in messages:

@@ -30,9 +30,9 @@ STAND_IN_CELLS = {'coarse': (16, 2, 2), 'medium': (44, 2, 2), 'fine': (48, 4, 4)
 
 def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
     """
-    Return the iguana model at `resolution`.
+    Return `(model, name)`: the iguana model at `resolution`, or a box stand-in if the body model is not installed.
 
-    or a 0.85 m box stand-in of similar node count if the body model is not installed. Returns `(model, name)`.
+    The stand-in is a 0.85 m box of similar node count.
     """
     if resolution not in STAND_IN_CELLS:
         raise InputError(f'mesh resolution must be one of {sorted(STAND_IN_CELLS)}, got {resolution!r}')

@@ -76,9 +76,10 @@ class RootTracker:
 
     def root_twist(self, positions: np.ndarray, velocities: np.ndarray) -> tuple:
         """
-        (linear `(3,)` m/s, angular `(3,)` rad/s) velocity of the root region for node positions.
+        Return the root region's (linear `(3,)` m/s, angular `(3,)` rad/s) velocity for node positions and velocities.
 
-        and velocities `(n_nodes, 3)`: its centre of mass's, and the angular velocity of its momentum about that centre.
+        Both `(n_nodes, 3)`: the region's centre-of-mass velocity, and the angular velocity of its momentum about that
+        centre.
         """
         return rigid_velocity(np.asarray(positions, float)[self.nodes], np.asarray(velocities, float)[self.nodes],
                               self.weights)

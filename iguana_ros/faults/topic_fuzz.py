@@ -504,10 +504,10 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
 def fuzz_run(scene_path: str | Path, bag: str | Path, seed: int, n_messages: int, timeout: float = 300.0,
              compare: bool = True) -> dict:
     """
-    Run `scene_path` as four lockstep node processes recording to `bag` while `n_messages` faults.
+    Run `scene_path` as four lockstep node processes recording to `bag` while `n_messages` faults go to every topic.
 
-    (seeded by `seed`, a tenth before frame 0, the rest spread over the first 80 % of the frames) go to every subscribed
-    topic; one plain row: the faults sent per topic, the run's exit status, whether every child lived to the end, the
+    The faults are seeded by `seed`, a tenth before frame 0, the rest spread over the first 80 % of the frames. Returns
+    one plain row: the faults sent per topic, the run's exit status, whether every child lived to the end, the
     non-finite floats and undecodable messages found in what the nodes published, how many lines the nodes logged about
     bad input, and (with `compare`) whether the root trajectory equals `pipeline.run` of the scene bit for bit (nothing
     bad was simulated).
