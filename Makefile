@@ -11,8 +11,8 @@ export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): $(PY) setup.py setup.cfg package.xml
-	$(PY) -m pip install -e '.[ros,test]'
+$(STAMP): $(PY) setup.py setup.cfg package.xml lab/setup.py
+	$(PY) -m pip install -e '.[ros,test]' -e ./lab   # the product, and beside it the lab (benchmarks, fault suites, sweeps)
 	$(VENV)/bin/iguana warm   # compile the kernels and cache the model once, not in four processes at the first run
 	touch $(STAMP)
 

@@ -15,6 +15,9 @@
 """
 ament_python package for iguana_ros; also installs with `pip install -e .[ros,test]`.
 
+The lab (benchmarks, fault suites, sweeps) is a distribution of its own in lab/ (`pip install -e ./lab`), not part
+of this one.
+
 Version, description, maintainer and license come from package.xml; the executables from
 iguana_ros/executables.py (read as plain literals, without importing the package).
 """
@@ -115,7 +118,7 @@ class Develop(develop):
 
 setup(
     **_manifest(),
-    packages=find_packages(exclude=['test', 'test.*']),
+    packages=find_packages(include=[PACKAGE, PACKAGE + '.*']),
     package_data={PACKAGE: ['data/*', 'data/capture/*']},
     data_files=_data_files(),
     python_requires='>=3.10',
@@ -125,7 +128,6 @@ setup(
         'pyyaml>=6',
         'numba>=0.59',
         'mcap>=1.1',
-        'mcap-ros2-support>=0.5',
         'zstandard>=0.21',
         'lz4>=3',
         'c3d>=0.5',
@@ -137,8 +139,6 @@ setup(
         'viser>=1.0,<2',     # `iguana view`: the web page and its client (shipped in the wheel)
         'websockets>=13',    # ... the gate in front of it (iguana_ros/view/gate.py; viser's own dependency)
         'msgspec>=0.18',     # ... which checks each page message as viser decodes them (view/wire.py)
-        'dask>=2024.1',             # the sweep engine (iguana sweep): Dask's config and sizes ...
-        'distributed>=2024.1',      # ... and its scheduler, workers, LocalCluster
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
@@ -154,6 +154,8 @@ setup(
             'flake8>=7.0', 'flake8-builtins>=2.5', 'flake8-comprehensions>=3.16', 'flake8-docstrings>=1.7',
             'flake8-import-order>=0.18.2', 'flake8-quotes>=3.4', 'pydocstyle>=6.3',
             'ruff>=0.6',         # test/test_ruff.py, with the repository's ruff.toml
+            'mcap-ros2-support>=0.5',   # an independent reader of our bags (examples/read_bag.py, bag tests)
+            'wheel>=0.40',       # test/test_packaging.py builds the product's wheel (no lab in it)
         ],
     },
     zip_safe=False,

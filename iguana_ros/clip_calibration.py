@@ -20,11 +20,14 @@ of two slopes in four directions; at each stride end the body's planar root pose
 achieved motion in the frame of its start (dx, dy, dyaw), the terrain gradient there in the body frame, and the feet's
 slip in contact during it. `motion.tracking.fit_tracking` fits them per clip (level ground plus a gain per unit slope)
 and the figures are written next to the library (`iguana_ros/data/clip_tracking.json`), where the planner's search
-reads them. The tours run in parallel on the sweep engine.
+reads them. The tours run in parallel on a pool of spawned processes (the standard library's; no Dask needed).
 """
 from __future__ import annotations
 
+from concurrent.futures import as_completed, ProcessPoolExecutor
 import dataclasses
+import multiprocessing
+import os
 
 import numpy as np
 
@@ -38,7 +41,6 @@ from iguana_ros.pipeline import build_pipeline
 from iguana_ros.run_metrics import foot_groups, foot_probe
 from iguana_ros.scene import ModelSpec, Scene, TerrainSpec
 from iguana_ros.stages import PlannerStage
-from iguana_ros.sweep.engine import parallel_map
 
 TOUR = ('start', 'walk', 'walk', 'pivot_left', 'pivot_left', 'pivot_left', 'walk', 'pivot_right', 'pivot_right',
         'pivot_right', 'sharp_left', 'sharp_left', 'sharp_left', 'walk', 'sharp_right', 'sharp_right', 'sharp_right',
@@ -129,16 +131,34 @@ def calibrate(workers: int | None = None, fidelity: str = 'balanced', stiffness:
     library = load_clip_library()
     scenes = calibration_scenes(fidelity, stiffness)
     script = tuple(name for name in TOUR if name in library)
-    results = parallel_map(measure_tour, [(scene, script) for scene in scenes], workers, progress,
-                           identity=lambda args: {'scene': args[0].name})
-    failed = [r for r in results if isinstance(r, dict) and r.get('error')]
-    if failed:
-        raise RuntimeError(f'calibration run {failed[0].get("scene")} failed: {failed[0]["error"]}')
+    results = _tours(scenes, script, workers, progress)
     samples = [StrideSample(**{**row, **{k: tuple(row[k]) for k in ('gradient', 'motion', 'previous_motion')}})
                for rows in results for row in rows]
     nominal = {name: (*clip.root_displacement[:2], clip.heading_change) for name, clip in library.items()}
     cyclic = {name for name, clip in library.items() if clip.cyclic}
     return fit_tracking(samples, nominal, cyclic), samples
+
+
+def _tours(scenes: list, script: tuple, workers: int | None, progress=None) -> list:
+    """
+    Return `measure_tour(scene, script)` of every scene, in scene order, run on `workers` spawned processes.
+
+    `progress(rows, n_done, n_total)` is called as each tour finishes; a tour that raises stops the calibration with
+    a RuntimeError naming its scene.
+    """
+    n = max(1, min(workers or len(os.sched_getaffinity(0)), len(scenes)))
+    results: list = [None] * len(scenes)
+    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context('spawn')) as pool:
+        futures = {pool.submit(measure_tour, scene, script): k for k, scene in enumerate(scenes)}
+        for done, future in enumerate(as_completed(futures), 1):
+            k = futures[future]
+            try:
+                results[k] = future.result()
+            except Exception as exc:
+                raise RuntimeError(f'calibration run {scenes[k].name} failed: {exc}') from exc
+            if progress is not None:
+                progress(results[k], done, len(scenes))
+    return results
 
 
 def write_calibration(path, tracking, samples: list, fidelity: str, stiffness: str) -> None:

@@ -34,7 +34,7 @@ except ImportError:  # ROS 2 from PyPI wheels
     ament_copyright_main = None
 
 ROOT = Path(__file__).resolve().parents[1]
-SOURCE_DIRS = ('iguana_ros', 'test', 'launch', 'examples', 'tools')
+SOURCE_DIRS = ('iguana_ros', 'lab', 'test', 'launch', 'examples', 'tools')
 SOURCE_FILES = ('setup.py',)
 COPYRIGHT_LINE = re.compile(r'# Copyright \d{4}(-\d{4})? iguana_ros developers')
 APACHE2_HEADER = """

@@ -28,7 +28,7 @@ from ament_flake8.main import main_with_errors
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PATHS = ['iguana_ros', 'test', 'launch', 'examples', 'setup.py', 'tools']
+PATHS = ['iguana_ros', 'lab', 'test', 'launch', 'examples', 'setup.py', 'tools']
 
 
 def merged_config(path: Path) -> tuple[Path, int]:

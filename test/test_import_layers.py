@@ -13,33 +13,14 @@
 # limitations under the License.
 
 """
-The floors of the house, checked over the `ast` imports of every module of iguana_ros/ (function-level ones too).
+The floors of the house, checked over the `ast` imports of every module of iguana_ros/ and of the lab beside it.
 
-Each floor imports only from the floors below it (and, unless it is marked independent, from its own):
-
-1. base -- the package's root (`package_version`), constants, errors, config, jit, geometry (the one rotation
-   toolkit), topics and parameters (the ROS-free tables of msg_configs/), executables (the one list of them).
-2. core rooms -- body, motion, terrain, physics, metrics, render (headless drawing of a recorded run, numpy only),
-   visuals (colours and meshes the simulator node shows).
-3. scene -- the scene description (`scene`, which also builds its terrain) and the input bounds of every topic
-   payload (`validation`).
-4. pipeline stages -- `stages` (each stage built from the scene by its factory), `pipeline` (the frame loop) and
-   `run_metrics` (figures of a run).
-5. library tools -- ROS-free studies and tools over the library loop: `diagnostics`, `locomotion_bench`,
-   `push_experiment`, `warmup` (compiles the kernels a run and a render use), `doctor` (the checks that need no
-   ROS graph; it probes rclpy in a child process), `progress` (start-up phases and the progress display of a run).
-6. ROS adapter -- `ros/`: topics and QoS resolved from msg_configs/topics.yaml, message conversions, the CDR
-   codec, the pipeline's values as messages. The lowest floor that may import rclpy or message packages.
-7. nodes and bag -- `nodes/` (the four nodes, goal sending) and `bag/` (record, play, read); independent: neither
-   imports the other, both go through the adapter layer.
-8. supervisor -- `supervisor/` (`iguana run`: processes, domain check, the run's summary from its bag; the
-   doctor's DDS checks, which use the domain check).
-9. tools -- `bench/` (benchmarks), `faults/` (fault-injection suites), `view/` (the browser viewer) and `sweep/`
-   (distributed sweeps); each may start runs through the supervisor.
-10. cli -- `cli/`, the `iguana` command, on top.
-
-Also: no cycle between units (a package of iguana_ros or a top-level module), whatever their floors. The checker
-is tested on a synthetic tree with planted violations, so it cannot pass by finding nothing.
+Each floor imports only from the floors below it (and, unless it is marked independent, from its own); nothing
+below the ROS adapter imports rclpy or a message package; no two units form a cycle. FLOORS (iguana_ros) and
+LAB_FLOORS (iguana_lab, all of it above iguana_ros, which never imports it) are the one table of the floors:
+docs/ARCHITECTURE.md's table is generated from them (`python test/test_import_layers.py --write-docs`) and a test
+here checks that it is. The checker is tested on a synthetic tree with planted violations, so it cannot pass by
+finding nothing.
 """
 from __future__ import annotations
 
@@ -56,31 +37,53 @@ import iguana_ros
 
 @dataclass(frozen=True)
 class Floor:
-    """One floor: its name, its units, and whether its units may import each other."""
+    """One floor: its name, its units, what it holds, and whether its units may import each other."""
 
     name: str
-    units: frozenset
+    units: tuple
+    what: str = ''
     independent: bool = False
 
 
 def floors(*rows: tuple) -> tuple[Floor, ...]:
-    """Floors from (name, 'unit unit ...'[, independent]) rows, lowest first."""
-    return tuple(Floor(row[0], frozenset(row[1].split()), *row[2:]) for row in rows)
+    """Floors from (name, 'unit unit ...'[, what[, independent]]) rows, lowest first."""
+    return tuple(Floor(row[0], tuple(row[1].split()), *row[2:]) for row in rows)
 
 
 FLOORS = floors(
-    ('base', 'constants errors config jit geometry topics parameters executables'),
-    ('core rooms', 'body motion terrain physics metrics render visuals'),
-    ('scene', 'scene validation random_scenes'),
-    ('pipeline stages', 'stages pipeline run_metrics'),
-    ('library tools', 'diagnostics warmup doctor progress'),
-    ('ROS adapter', 'ros'),
-    ('nodes and bag', 'nodes bag', True),
-    ('supervisor', 'supervisor'),
-    ('tools', 'bench faults view sweep locomotion_bench push_experiment clip_calibration'),
-    ('cli', 'cli'),
+    ('base', 'constants errors config jit geometry topics parameters executables',
+     'physical constants, error types, the kernel cache, the one rotation toolkit, the ROS-free tables of '
+     '`msg_configs/`, the one list of executables'),
+    ('core rooms', 'body motion terrain physics metrics render visuals',
+     "the paper's algorithms, numpy + numba, no ROS; headless drawing of a recorded run; the simulator's colours"),
+    ('scene', 'scene validation',
+     'the scene description and its limits; the bounds of every topic payload'),
+    ('pipeline stages', 'stages pipeline run_metrics',
+     'each stage built from the scene by one factory; the frame loop; the figures of a run'),
+    ('library tools', 'warmup doctor progress clip_calibration',
+     'ROS-free tools over the library loop: compiling the kernels, the start-up phases and progress display of a '
+     "run, the clips' tracking measurement"),
+    ('ROS adapter', 'ros',
+     'topics and QoS resolved from `msg_configs/topics.yaml`, numpy ⇄ message conversions, the one CDR codec, stage '
+     "values as messages, the listeners' lean wait loop; the lowest floor that may import rclpy"),
+    ('nodes and bag', 'nodes bag',
+     'the four nodes, goal sending and `IguanaCommander`; MCAP record, play, read, damage scan', True),
+    ('supervisor', 'supervisor',
+     "`iguana run`: processes in one group, domain check, the run's summary from its bag"),
+    ('tools', 'view', 'the browser viewer'),
+    ('cli', 'cli', 'the `iguana` command: parses, calls one function below, prints one line on error'),
 )
-"""The floors of iguana_ros, lowest first (see the module docstring)."""
+"""The floors of iguana_ros, lowest first."""
+
+LAB_FLOORS = floors(
+    ('studies', 'random_scenes diagnostics bench',
+     'seeded random benchmark scenes, the statics study of a model variant, the benchmarks of `iguana bench`'),
+    ('sweep engine', 'sweep', 'distributed sweeps (Dask) and the benchmarks that run on them'),
+    ('experiments', 'locomotion_bench push_experiment faults',
+     'the randomized locomotion benchmark, the push experiment (paper VIII-D), the fault-injection suites'),
+    ('lab cli', 'cli', "the lab's sub-commands, added to `iguana` through the `iguana_ros.commands` entry points"),
+)
+"""The floors of iguana_lab (lab/), lowest first; all of them stand on the whole of iguana_ros."""
 
 ROS_FLOOR = 'ROS adapter'
 """The lowest floor that may import rclpy, rosidl or message packages."""
@@ -236,6 +239,63 @@ def test_iguana_ros_keeps_its_floors():
     assert layer_violations(root) == []
 
 
+def test_the_lab_keeps_its_floors_and_iguana_ros_never_imports_it():
+    import iguana_lab
+
+    lab = Path(iguana_lab.__file__).resolve().parent
+    assert layer_violations(lab, LAB_FLOORS, LAB_FLOORS[0].name) == []
+    root = Path(iguana_ros.__file__).resolve().parent
+    upward = [f'{path.relative_to(root.parent)}:{imp.line}: {imp.target}' for path in sorted(root.rglob('*.py'))
+              for imp in imports_of(root, path) if imp.target.split('.')[0] == lab.name]
+    assert upward == []
+
+
+DOC = Path(__file__).resolve().parent.parent / 'docs' / 'ARCHITECTURE.md'
+"""The document whose floor table is generated from FLOORS and LAB_FLOORS."""
+
+TABLE_BEGIN = '<!-- floors: generated from FLOORS and LAB_FLOORS in test/test_import_layers.py; do not edit -->'
+TABLE_END = '<!-- end of floors -->'
+
+
+def _shown_units(root: Path, floor: Floor) -> str:
+    """Return a floor's units as the doc shows them: packages as `name/`, modules as `name`."""
+    return ', '.join(f'`{u}/`' if (root / u).is_dir() else f'`{u}`' for u in floor.units)
+
+
+def floor_table() -> str:
+    """Return the Markdown floor table of docs/ARCHITECTURE.md, top floor first, the lab's floors above."""
+    root = Path(iguana_ros.__file__).resolve().parent
+    rows = ['| floor | units | what |', '|---|---|---|']
+    for k, floor in reversed(list(enumerate(LAB_FLOORS, start=len(FLOORS) + 1))):
+        rows.append(f'| {k}. {floor.name} | lab: {_shown_units(root.parent / "lab" / "iguana_lab", floor)} | '
+                    f'{floor.what} |')
+    for k, floor in reversed(list(enumerate(FLOORS, start=1))):
+        units = _shown_units(root, floor) + (' (independent of each other)' if floor.independent else '')
+        rows.append(f'| {k}. {floor.name} | {units} | {floor.what} |')
+    return '\n'.join([TABLE_BEGIN, *rows, TABLE_END])
+
+
+def _documented_table(text: str) -> str:
+    """Return the generated block of `text` (between TABLE_BEGIN and TABLE_END, both included), '' if none."""
+    begin, end = text.find(TABLE_BEGIN), text.find(TABLE_END)
+    return text[begin:end + len(TABLE_END)] if 0 <= begin < end else ''
+
+
+def test_the_architecture_doc_shows_the_floors_of_this_file():
+    """docs/ARCHITECTURE.md's table is FLOORS and LAB_FLOORS; regenerate it with `--write-docs`."""
+    assert _documented_table(DOC.read_text()) == floor_table(), \
+        'run: python test/test_import_layers.py --write-docs'
+
+
+def write_docs() -> None:
+    """Replace the floor table of docs/ARCHITECTURE.md by the one generated from FLOORS and LAB_FLOORS."""
+    text = DOC.read_text()
+    old = _documented_table(text)
+    if not old:
+        raise SystemExit(f'{DOC}: no {TABLE_BEGIN!r} ... {TABLE_END!r} block to replace')
+    DOC.write_text(text.replace(old, floor_table()))
+
+
 def test_every_imported_name_of_the_package_exists():
     """A move leaves no stale path behind, in function-level imports either (which run only when called)."""
     root = Path(iguana_ros.__file__).resolve().parent
@@ -300,7 +360,7 @@ def _tree(tmp_path: Path, files: dict[str, str]) -> Path:
     return root
 
 
-SYNTHETIC = floors(('low', 'core'), ('adapter', 'ros'), ('middle', 'nodes bag', True), ('top', 'cli'))
+SYNTHETIC = floors(('low', 'core'), ('adapter', 'ros'), ('middle', 'nodes bag', '', True), ('top', 'cli'))
 """A small house for the planted violations."""
 
 SOUND = {
@@ -341,7 +401,7 @@ def test_checker_finds_nodes_and_bag_importing_each_other(tmp_path):
 
 
 def test_checker_finds_a_cycle_within_a_floor(tmp_path):
-    layout = floors(('low', 'core extra'), ('adapter', 'ros'), ('middle', 'nodes bag', True), ('top', 'cli'))
+    layout = floors(('low', 'core extra'), ('adapter', 'ros'), ('middle', 'nodes bag', '', True), ('top', 'cli'))
     tree = _tree(tmp_path, {**SOUND, 'extra.py': 'from pkg.core import maths\n',
                             'core/helpers.py': 'import pkg.extra\n'})
     assert layer_violations(tree, layout, 'adapter') == ['import cycle between units: core <-> extra']
@@ -352,3 +412,11 @@ def test_checker_finds_a_unit_on_no_floor(tmp_path):
     problems = layer_violations(tree, SYNTHETIC, 'adapter')
     assert problems == ["pkg/cli.py:1: imports pkg.stray, whose unit 'stray' is on no floor",
                         "pkg/stray.py: unit 'stray' is on no floor (declare it in FLOORS)"]
+
+
+if __name__ == '__main__':
+    import sys
+
+    if sys.argv[1:] != ['--write-docs']:
+        raise SystemExit('usage: python test/test_import_layers.py --write-docs')
+    write_docs()

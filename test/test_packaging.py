@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ast
 import importlib.metadata
+import json
 import os
 from pathlib import Path
 import shutil
@@ -164,6 +165,73 @@ def test_declared_dependencies_are_exactly_the_imported_ones():
     assert not missing, f'imported but not in install_requires: {missing}'
     unused = declared - set().union(*imported.values())
     assert not unused, f'in install_requires but never imported: {unused}'
+
+
+WITHOUT_LAB = """
+import importlib.abc, importlib.metadata, sys
+
+
+class NoLab(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.split('.')[0] in ('iguana_lab', 'dask', 'distributed'):
+            raise ModuleNotFoundError(f'No module named {name!r} (the lab is not installed here)')
+        return None
+
+
+sys.meta_path.insert(0, NoLab())
+every_entry_point = importlib.metadata.entry_points
+importlib.metadata.entry_points = lambda **kw: (
+    [] if kw.get('group') == 'iguana_ros.commands' else every_entry_point(**kw))
+from iguana_ros.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+"""`iguana` as installed without the lab: iguana_lab, dask and distributed cannot be imported, no command is added."""
+
+
+def _iguana_without_lab(*argv: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Return the finished `iguana argv...` run as if the lab (and Dask) were not installed."""
+    return subprocess.run([sys.executable, '-c', WITHOUT_LAB, *argv], capture_output=True, text=True,
+                          timeout=timeout, cwd=REPO)
+
+
+def test_the_product_wheel_holds_no_lab_and_needs_no_dask(tmp_path):
+    """`pip install .` ships iguana_ros only: the wheel has no iguana_lab module and no Dask requirement."""
+    built = subprocess.run([sys.executable, '-m', 'pip', 'wheel', '--no-deps', '--no-build-isolation', '-q',
+                            '-w', str(tmp_path), str(REPO)], capture_output=True, text=True, timeout=300)
+    assert built.returncode == 0, built.stderr[-2000:]
+    import zipfile
+    (wheel,) = tmp_path.glob('iguana_ros-*.whl')
+    names = zipfile.ZipFile(wheel).namelist()
+    assert not [n for n in names if n.startswith(('iguana_lab/', 'lab/'))]
+    assert 'iguana_ros/cli/run.py' in names and 'iguana_ros/data/clips.npz' in names
+    metadata = next(n for n in names if n.endswith('.dist-info/METADATA'))
+    requires = [line for line in zipfile.ZipFile(wheel).read(metadata).decode().splitlines()
+                if line.startswith('Requires-Dist:') and 'extra ==' not in line]
+    assert requires and not [r for r in requires if 'dask' in r or 'distributed' in r]
+
+
+def test_iguana_works_without_the_lab():
+    """Without the lab: no bench or sweep command, and the product's commands run (simulate end to end)."""
+    shown = _iguana_without_lab('--help')
+    assert shown.returncode == 0 and ' simulate ' in shown.stdout
+    assert ' bench ' not in shown.stdout and ' sweep ' not in shown.stdout and not shown.stderr
+    for command in ('run', 'goal', 'bag', 'view', 'render', 'doctor', 'motion', 'model', 'topics'):
+        helped = _iguana_without_lab(command, '--help')
+        assert helped.returncode == 0, (command, helped.stderr)
+    refused = _iguana_without_lab('bench', 'sim')
+    assert refused.returncode == 2 and "invalid choice: 'bench'" in refused.stderr
+    simulated = _iguana_without_lab('simulate', 'flat_walk', '--duration', '0.5', '--json')
+    assert simulated.returncode == 0, simulated.stderr[-2000:]
+    assert json.loads(simulated.stdout)['outcome'] == 'completed'
+
+
+def test_the_lab_adds_its_commands_through_entry_points():
+    """Where the lab is installed, `iguana` has `bench` and `sweep`, from the `iguana_ros.commands` group."""
+    from iguana_ros.cli import added_commands, build_parser
+    assert dict(added_commands()) == {'bench': 'iguana_lab.cli.bench', 'sweep': 'iguana_lab.cli.sweep'}
+    assert importlib.metadata.version('iguana_lab') == importlib.metadata.version(PACKAGE)
+    commands = build_parser()._subparsers._group_actions[0].choices
+    assert {'bench', 'sweep', 'run', 'simulate'} <= set(commands) and 'bench-adaptation' not in commands
 
 
 def _colcon(tmp_path: Path, *args: str) -> Path:

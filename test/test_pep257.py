@@ -27,5 +27,5 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_pep257(monkeypatch):
     """Every docstring follows ament's convention (its errors are printed above a failure)."""
     monkeypatch.chdir(ROOT)
-    rc = main(argv=['iguana_ros', 'test', 'launch', 'examples', 'tools'])
+    rc = main(argv=['iguana_ros', 'lab', 'test', 'launch', 'examples', 'tools'])
     assert rc == 0, 'Found code style errors / warnings'

@@ -21,7 +21,7 @@ import sys
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PATHS = ['iguana_ros', 'test', 'launch', 'examples', 'setup.py', 'tools']
+PATHS = ['iguana_ros', 'lab', 'test', 'launch', 'examples', 'setup.py', 'tools']
 
 
 @pytest.mark.linter

@@ -12,11 +12,18 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The `iguana` command: one sub-command per module listed in SUBCOMMANDS."""
+"""
+The `iguana` command: one sub-command per module listed in SUBCOMMANDS, plus those other distributions add.
+
+A distribution adds commands through the `iguana_ros.commands` entry-point group (each entry a module exposing
+`register(subparsers)`): the lab (`lab/`, distribution iguana_lab) adds `bench` and `sweep` that way, so they exist
+only where the lab is installed.
+"""
 from __future__ import annotations
 
 import argparse
 import importlib
+from importlib.metadata import entry_points
 import sys
 
 from iguana_ros import package_version
@@ -31,16 +38,21 @@ SUBCOMMANDS = (
     ('view', 'iguana_ros.cli.view'),
     ('motion', 'iguana_ros.cli.motion'),
     ('model', 'iguana_ros.cli.model'),
-    ('bench', 'iguana_ros.cli.bench'),
-    ('bench-adaptation', 'iguana_ros.cli.bench_adaptation'),
     ('simulate', 'iguana_ros.cli.simulate'),
-    ('sweep', 'iguana_ros.cli.sweep'),
     ('run', 'iguana_ros.cli.run'),
     ('demo', 'iguana_ros.cli.demo'),
     ('warm', 'iguana_ros.cli.warm'),
     ('doctor', 'iguana_ros.cli.doctor'),
     ('layout', 'iguana_ros.cli.layout'),
 )
+
+COMMAND_GROUP = 'iguana_ros.commands'
+"""Entry-point group through which other distributions (the lab) add sub-commands."""
+
+
+def added_commands() -> list[tuple[str, str]]:
+    """Return (name, module) of the sub-commands installed distributions add, sorted by name."""
+    return sorted((ep.name, ep.value) for ep in entry_points(group=COMMAND_GROUP))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -51,6 +63,14 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest='command', metavar='COMMAND', required=True)
     for _name, module in SUBCOMMANDS:
         importlib.import_module(module).register(subparsers)
+    for name, module in added_commands():
+        try:
+            register = importlib.import_module(module).register
+        except Exception as exc:                  # noqa: BLE001 - a broken add-on must not take the core down
+            print(f'iguana: the {name!r} command of an installed add-on is unavailable: {module}: {exc}',
+                  file=sys.stderr)
+            continue
+        register(subparsers)
     return parser
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from iguana_ros.bench.workload import gait_for
+from iguana_lab.bench.workload import gait_for
 from iguana_ros.body.model import build_model
 from iguana_ros.errors import InputError
 from iguana_ros.physics.errors import SimulationDiverged

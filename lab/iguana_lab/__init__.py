@@ -1,0 +1,20 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The lab of iguana_ros: benchmarks (`bench/`), fault-injection suites (`faults/`), distributed sweeps (`sweep/`).
+
+Also the studies over the library loop (`locomotion_bench`, `push_experiment`, `diagnostics`, `random_scenes`) and
+their commands (`cli/`, added to `iguana` as `bench` and `sweep`). It imports iguana_ros; iguana_ros never imports it.
+"""
