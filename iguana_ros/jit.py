@@ -30,11 +30,13 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 import contextlib
+from dataclasses import dataclass
 import fcntl
 import functools
 import hashlib
 import os
 from pathlib import Path
+import re
 import tempfile
 
 FASTMATH = {'arcp', 'reassoc', 'nsz'}
@@ -197,3 +199,67 @@ def kernel_cache_lock(package_dir: Path = PACKAGE_DIR) -> Iterator[bool]:
             yield True
         finally:
             fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+KERNEL_DECORATOR = re.compile(rb'^\s*@(\w+\.)?njit\b', re.MULTILINE)
+"""A line that decorates a compiled kernel."""
+
+
+def kernel_modules(package_dir: Path | None = None) -> list[Path]:
+    """Package modules that define compiled kernels, sorted."""
+    root = Path(package_dir or PACKAGE_DIR)
+    return sorted(p for p in root.rglob('*.py') if KERNEL_DECORATOR.search(p.read_bytes()))
+
+
+@dataclass(frozen=True)
+class KernelCache:
+    """
+    State of the compiled-kernel cache, where numba keeps it (see `numba_cache_folder`).
+
+    The package's kernel modules, those without cached kernels for their current source (relative paths), those numba
+    cannot cache anywhere, where the package's cache is ('' if nowhere), and why NUMBA_CACHE_DIR is not used when it is
+    set but cannot be written ('' otherwise).
+    """
+
+    modules: tuple
+    cold: tuple
+    unwritable: tuple
+    where: str = ''
+    refused: str = ''
+
+    @property
+    def state(self) -> str:
+        """'warm', 'cold' or 'partly warm (7 of 10)'."""
+        if not self.cold:
+            return 'warm'
+        if len(self.cold) == len(self.modules):
+            return 'cold'
+        return f'partly warm ({len(self.modules) - len(self.cold)} of {len(self.modules)})'
+
+
+def _cache_place(root: Path, env: Mapping[str, str]) -> tuple[str, str]:
+    """Return (where numba caches `root`'s kernels for `env`, why a set NUMBA_CACHE_DIR is not used or '')."""
+    folder = numba_cache_folder(root, env)
+    wanted = env.get('NUMBA_CACHE_DIR', '')
+    if folder is None:
+        where = ''
+    elif wanted and folder.is_relative_to(Path(wanted)):
+        where = f'NUMBA_CACHE_DIR ({wanted})'
+    else:
+        where = "the package's __pycache__ folders" if folder == root / '__pycache__' else str(folder.parent)
+    refused = write_error(Path(wanted)) if wanted and not where.startswith('NUMBA_CACHE_DIR') else ''
+    return where, refused and f'NUMBA_CACHE_DIR={wanted} cannot be written ({refused})'
+
+
+def kernel_cache(package_dir: Path | None = None, env: Mapping[str, str] | None = None) -> KernelCache:
+    """Return the `KernelCache` of the package: cold unless its stamp matches the sources (see the module)."""
+    env = os.environ if env is None else env
+    root = Path(package_dir or PACKAGE_DIR)
+    modules = kernel_modules(root)
+    stamp = stamp_folder(root, env) / STAMP_NAME
+    fresh = stamp.is_file() and stamp.read_text(encoding='ascii', errors='replace').strip() == \
+        kernel_sources_digest(root)
+    folders = {m: numba_cache_folder(m.parent, env) for m in modules}
+    cached = [m for m in modules if folders[m] and any(folders[m].glob(f'{m.stem}.*.nbi'))] if fresh else []
+    return KernelCache(tuple(modules), tuple(str(m.relative_to(root)) for m in modules if m not in cached),
+                       tuple(m for m in modules if folders[m] is None), *_cache_place(root, env))

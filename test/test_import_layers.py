@@ -60,17 +60,20 @@ FLOORS = floors(
      'the scene description and its limits; the bounds of every topic payload'),
     ('pipeline stages', 'stages pipeline run_metrics',
      'each stage built from the scene by one factory; the frame loop; the figures of a run'),
-    ('library tools', 'warmup doctor progress clip_calibration',
-     'ROS-free tools over the library loop: compiling the kernels, the start-up phases and progress display of a '
-     "run, the clips' tracking measurement"),
+    ('library tools', 'warmup doctor.checks clip_calibration',
+     "ROS-free tools over the library loop: compiling the kernels, the doctor's checks, the clips' tracking "
+     'measurement'),
     ('ROS adapter', 'ros',
      'topics and QoS resolved from `msg_configs/topics.yaml`, numpy ⇄ message conversions, the one CDR codec, stage '
-     "values as messages, the listeners' lean wait loop; the lowest floor that may import rclpy"),
+     "values as messages, the node events' vocabulary, the listeners' lean wait loop; the lowest floor that may "
+     'import rclpy'),
     ('nodes and bag', 'nodes bag',
      'the four nodes, goal sending and `IguanaCommander`; MCAP record, play, read, damage scan', True),
     ('supervisor', 'supervisor',
-     "`iguana run`: processes in one group, domain check, the run's summary from its bag"),
-    ('tools', 'view', 'the browser viewer'),
+     "`iguana run`: processes in one group, domain check, start-up phases and progress display, the run's summary "
+     'from its bag'),
+    ('tools', 'view doctor doctor.dds',
+     "the browser viewer; the doctor's DDS checks and the order of `iguana doctor` (its room, doctor/, spans floors)"),
     ('cli', 'cli', 'the `iguana` command: parses, calls one function below, prints one line on error'),
 )
 """The floors of iguana_ros, lowest first."""
@@ -133,16 +136,19 @@ def imports_of(root: Path, path: Path) -> list[Import]:
     return sorted(out, key=lambda imp: imp.line)
 
 
-def unit_of(root: Path, module: str) -> str | None:
+def unit_of(root: Path, module: str, split: frozenset = frozenset()) -> str | None:
     """
     Return the unit of a dotted path in the package at `root`.
 
     The module or subpackage right below the package, '' for the package's own __init__ (a name defined there, such as
-    `package_version`), None outside the package.
+    `package_version`), None outside the package. A module of a room whose modules stand on different floors is a
+    unit of its own when `split` names it ('doctor.checks'); the room's other modules are the room's unit.
     """
     parts = module.split('.')
     if parts[0] != root.name:
         return None
+    if len(parts) > 2 and f'{parts[1]}.{parts[2]}' in split:
+        return f'{parts[1]}.{parts[2]}'
     if len(parts) > 1 and ((root / parts[1]).is_dir() or (root / f'{parts[1]}.py').is_file()):
         return parts[1]
     return ''
@@ -202,18 +208,19 @@ def layer_violations(root: Path, layout: tuple[Floor, ...] = FLOORS, ros_floor: 
     cycles between units; one line each.
     """
     level = {unit: k for k, floor in enumerate(layout) for unit in floor.units}
+    split = frozenset(unit for unit in level if '.' in unit)
     level[''] = 0
     independent = {unit for floor in layout if floor.independent for unit in floor.units}
     lowest_ros = next(k for k, floor in enumerate(layout) if floor.name == ros_floor)
     problems, edges = [], {}
     for path in sorted(root.rglob('*.py')):
         where = path.relative_to(root.parent)
-        unit = unit_of(root, module_name(root, path))
+        unit = unit_of(root, module_name(root, path), split)
         if unit not in level:
             problems.append(f'{where}: unit {unit!r} is on no floor (declare it in FLOORS)')
             continue
         for imp in imports_of(root, path):
-            target = unit_of(root, imp.target)
+            target = unit_of(root, imp.target, split)
             if target is None:
                 if is_ros(imp.target) and level[unit] < lowest_ros:
                     problems.append(f'{where}:{imp.line}: imports {imp.target} below the {ros_floor} floor '
@@ -405,6 +412,18 @@ def test_checker_finds_a_cycle_within_a_floor(tmp_path):
     tree = _tree(tmp_path, {**SOUND, 'extra.py': 'from pkg.core import maths\n',
                             'core/helpers.py': 'import pkg.extra\n'})
     assert layer_violations(tree, layout, 'adapter') == ['import cycle between units: core <-> extra']
+
+
+def test_checker_places_the_modules_of_a_split_room_on_their_own_floors(tmp_path):
+    layout = floors(('low', 'core doc.checks'), ('adapter', 'ros'), ('middle', 'nodes bag', '', True),
+                    ('top', 'cli doc'))
+    files = {**SOUND, 'doc/__init__.py': 'def every():\n    from pkg.cli import main\n',
+             'doc/checks.py': 'import os\n', 'core/helpers.py': 'from pkg.doc.checks import os\n'}
+    assert layer_violations(_tree(tmp_path, files), layout, 'adapter') == []
+    files['doc/checks.py'] = 'from pkg.doc import every\n'
+    problems = layer_violations(_tree(tmp_path / 'b', files), layout, 'adapter')
+    assert problems[0] == ('pkg/doc/checks.py:1: imports pkg.doc.every from the floor above (doc.checks on low, doc '
+                           'on top)')
 
 
 def test_checker_finds_a_unit_on_no_floor(tmp_path):

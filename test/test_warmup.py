@@ -76,7 +76,7 @@ def test_a_run_and_a_render_need_no_kernel_beyond_the_warm_up(tmp_path):
 def test_after_the_warm_up_the_doctor_finds_the_kernel_cache_warm_where_numba_keeps_it(tmp_path):
     """`iguana warm` (as `make install` runs it) into a fresh NUMBA_CACHE_DIR: the doctor, looking there, says warm."""
     numba_dir = tmp_path / 'numba'
-    report = ('from iguana_ros.doctor import check_kernel_cache, kernel_cache\n'
+    report = ('from iguana_ros.doctor.checks import check_kernel_cache\nfrom iguana_ros.jit import kernel_cache\n'
               'print(repr(kernel_cache().state), check_kernel_cache().lines()[0])')
     env = {**os.environ, 'NUMBA_CACHE_DIR': str(numba_dir)}
     warm = subprocess.run([sys.executable, '-m', 'iguana_ros.cli', 'warm'], cwd=REPO, capture_output=True, text=True,

@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         print(text, flush=True)
         accept(summary, args.allow_damaged)
         return 0
-    from iguana_ros.doctor import environment_checks, require, require_ros
+    from iguana_ros.doctor.checks import environment_checks, require, require_ros
     if args.bag_action == 'play':
         require_ros()   # before rclpy is imported (an RMW that is not installed ends the process at import)
         from iguana_ros.bag.play import play

@@ -44,33 +44,12 @@ def environment_line() -> str:
     return ', '.join(f'{name} {os.environ.get(name) or "unset"}' for name in names)
 
 
-def all_checks(args: argparse.Namespace) -> list:
-    """Every check in order; the DDS checks only when rclpy works (else they are failed as skipped)."""
-    from iguana_ros import doctor
-    from iguana_ros.errors import InputError
-
-    if args.timeout is not None and not args.timeout > 0:
-        raise InputError(f'--timeout is {args.timeout}; expected a positive number of seconds')
-    ros = [*doctor.environment_checks(), doctor.check_rmw()]
-    checks = [doctor.check_python(), *ros]
-    blocking = [c.name for c in ros if c.needed and not c.ok]
-    if not blocking:
-        from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
-        from iguana_ros.supervisor.doctor_dds import LOOPBACK_TIMEOUT_S, dds_checks
-        from iguana_ros.supervisor.run import NODE_KINDS
-        checks += dds_checks((*NODE_KINDS, RECORDER_NODE_NAME), args.timeout or LOOPBACK_TIMEOUT_S)
-    else:
-        first = ' and '.join(blocking)
-        checks += [doctor.Check(name, False, f'not tried: fix {first} first')
-                   for name in ('DDS loopback', 'other participants')]
-    return checks + [doctor.check_kernel_cache(), doctor.check_model_cache(args.resolution),
-                     doctor.check_bag_folder(args.bags_dir), doctor.check_ffmpeg()]
-
-
 def run(args: argparse.Namespace) -> int:
     """Print every check; 1 if a needed one failed."""
     print(f'iguana doctor: {environment_line()}', flush=True)
-    checks = all_checks(args)
+    from iguana_ros.doctor import all_checks
+
+    checks = all_checks(args.timeout, args.resolution, args.bags_dir)
     for check in checks:
         for line in check.lines():
             print(line, flush=True)

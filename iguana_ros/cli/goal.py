@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     """
     _check_finite(args)
     from iguana_ros.constants import WORLD_FRAME
-    from iguana_ros.doctor import require_ros
+    from iguana_ros.doctor.checks import require_ros
 
     require_ros()  # before rclpy is imported: a bad ROS environment is one line naming it, not rcl's or Fast DDS's
     from iguana_ros.nodes.goal_sender import goal_message, send_goals

@@ -62,7 +62,7 @@ def progress_display(every_s: float):
     import sys
 
     from iguana_ros.errors import InputError
-    from iguana_ros.progress import ProgressDisplay
+    from iguana_ros.supervisor.progress_display import ProgressDisplay
     if not (every_s >= 0 and math.isfinite(every_s)):
         raise InputError(f'--progress-every is {every_s}; expected a number of seconds >= 0')
     return ProgressDisplay(sys.stdout, every_s) if every_s > 0 else None
@@ -78,7 +78,7 @@ def run_and_report(options, prog: str, display=None) -> tuple:
     """
     import sys
 
-    from iguana_ros.doctor import quick_checks, require
+    from iguana_ros.doctor.checks import quick_checks, require
     from iguana_ros.supervisor.run import RunInterrupted, run_scene
 
     require(quick_checks(options.record.parent if options.record is not None else options.bags_dir))

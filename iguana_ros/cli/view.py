@@ -82,7 +82,7 @@ def _serve_bag(args: argparse.Namespace) -> int:
 
 def _serve_live(args: argparse.Namespace) -> int:
     """Live mode: the running system's topics, goals and pushes sent from the page."""
-    from iguana_ros.doctor import require_ros
+    from iguana_ros.doctor.checks import require_ros
 
     require_ros()  # before rclpy is imported: a bad ROS environment is one line naming it, not rcl's or Fast DDS's
     from iguana_ros.supervisor.domain_check import current_domain_id

@@ -28,8 +28,8 @@ from rclpy.node import Node
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.parameters import node_parameters, ParamSpec
-from iguana_ros.progress import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.endpoints import listener, resolve, talker
+from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.ros.wait_loop import settle_heap
 from iguana_ros.scene import load_scene, Scene

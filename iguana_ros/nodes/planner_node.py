@@ -28,10 +28,10 @@ from rclpy.clock import Clock, ClockType
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
-from iguana_ros.progress import EVENT_CLIP
 from iguana_ros.ros.endpoints import resolve, volatile_readers
 from iguana_ros.ros.messages import (clip_to_cdr, goal_from_msg, planner_status_msg, reference_stance_to_cdr,
                                      route_from_msg, state_from_cdr)
+from iguana_ros.ros.run_events import EVENT_CLIP
 from iguana_ros.stages import planner_stage
 from iguana_ros.validation import world_bound
 

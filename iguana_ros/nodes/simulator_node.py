@@ -31,12 +31,12 @@ from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.base import IguanaNode, node_main, READER_HOLD_LIMIT_S, ReaderCount
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.progress import EVENT_BODY_LOST
 from iguana_ros.ros.cdr import TriangleListMarkerWriter
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
 from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
                                      goal_from_msg, lengths_from_cdr, push_from_msg, route_from_msg, state_to_cdr)
+from iguana_ros.ros.run_events import EVENT_BODY_LOST
 from iguana_ros.run_metrics import FootProbe
 from iguana_ros.stages import simulator_stage
 from iguana_ros.topics import topic

@@ -15,18 +15,49 @@
 """
 run_events messages.
 
-What a node process reports about itself (iguana_ros.progress.RunEvent) as the topic table's
+The vocabulary of what a node process reports about itself (RunEvent, EVENT_*), and its message: the topic table's
 diagnostic_msgs/DiagnosticArray: header stamped with the wall clock (system time) of the event, one DiagnosticStatus
 whose name is the node, message the event, values detail, clip and frame.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 
 from iguana_ros.errors import InputError
-from iguana_ros.progress import RunEvent
 from iguana_ros.ros.conversions import time_from_msg, time_to_msg
+
+EVENT_UP = 'up'
+"""Event a node sends once its process has started and its ROS node exists."""
+
+EVENT_LOADED = 'loaded'
+"""Event a node sends once it is built (model, motion graph, simulator: what it loads before it can work)."""
+
+EVENT_CLIP = 'clip'
+"""Event the planner sends when it starts a clip."""
+
+EVENT_BODY_LOST = 'body_lost'
+"""Event the simulator sends when the body left the terrain or fell (detail 'cause: what happened'); the run ends."""
+
+
+@dataclass(frozen=True)
+class RunEvent:
+    """
+    One message of `run_events`.
+
+    Which node, what happened (EVENT_*), its wall-clock time (s since the epoch), and for a clip its name and start
+    frame; `detail` says more (e.g. 'model from cache').
+    """
+
+    node: str
+    kind: str
+    wall_time: float
+    detail: str = ''
+    clip: str = ''
+    frame: int = -1
+
 
 MAX_TEXT = 200
 """Longest node name, event, detail or clip name accepted from the topic (characters)."""

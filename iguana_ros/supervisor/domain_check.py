@@ -143,7 +143,7 @@ class DomainWatch:
         import rclpy
         from rclpy.signals import SignalHandlerOptions
 
-        from iguana_ros.doctor import environment_checks, require
+        from iguana_ros.doctor.checks import environment_checks, require
 
         require(environment_checks())
 

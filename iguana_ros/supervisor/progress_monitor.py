@@ -31,13 +31,14 @@ import numpy as np
 
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.errors import IguanaError
-from iguana_ros.progress import (active_goal, EVENT_BODY_LOST, EVENT_CLIP, ProgressDisplay, RateWindow, RunStatus,
-                                 StartupClock)
 from iguana_ros.ros.conversions import time_from_msg
 from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, resolve, tool_node
 from iguana_ros.ros.messages import state_from_cdr
+from iguana_ros.ros.run_events import EVENT_BODY_LOST, EVENT_CLIP
 from iguana_ros.ros.run_events import run_event_from_msg
 from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
+from iguana_ros.supervisor.progress_display import (active_goal, ProgressDisplay, RateWindow, RunStatus,
+                                                    StartupClock)
 
 MAX_TAKES = 500
 """Most messages one `poll` takes in (a burst after a stall is drained over a few polls)."""

@@ -308,7 +308,7 @@ class SceneRun:
 
     def start_monitor(self) -> None:
         """Join the graph as the progress monitor (the start-up phases and the progress come from its messages)."""
-        from iguana_ros.doctor import kernel_cache
+        from iguana_ros.jit import kernel_cache
         from iguana_ros.supervisor.progress_monitor import RunMonitor
         self.monitor = RunMonitor(NODE_KINDS, self.planned_s, self.display)
         self.monitor.clock.details['compiling'] = f'kernel cache {kernel_cache().state}'
@@ -329,7 +329,7 @@ class SceneRun:
                 or time.monotonic() - self.nodes_started < STARTUP_SILENCE_S):
             return
         self.silence_checked = True
-        from iguana_ros.supervisor.doctor_dds import check_loopback_now
+        from iguana_ros.supervisor.loopback import check_loopback_now
         check = check_loopback_now(SILENCE_LOOPBACK_S)
         if not check.ok:
             raise IguanaError(f'no node of the run was heard within {STARTUP_SILENCE_S:g} s; {check.one_line()}')

@@ -26,8 +26,8 @@ import math
 from pathlib import Path
 
 from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
-from iguana_ros.progress import startup_line
 from iguana_ros.supervisor.cpu import cpu_line
+from iguana_ros.supervisor.progress_display import startup_line
 from iguana_ros.supervisor.run_gait import RunGait
 
 STATE_TOPIC = '/iguana_state'
@@ -120,7 +120,7 @@ class RunSummary:
     bag_note: str = ''
     failed_node: str = ''
     phases: tuple = ()
-    """Start-up phases that finished (iguana_ros.progress.PhaseTime), from the node processes' run_events."""
+    """Start-up phases that finished (supervisor/progress_display.py PhaseTime), from the node processes' run_events."""
     cpu_ms_per_frame: dict = field(default_factory=dict)
     """CPU ms per simulated frame of each process of the run while it stepped (`supervisor/cpu.py`; {} off Linux)."""
 

@@ -18,7 +18,7 @@
 Python, the ROS environment (ROS_DOMAIN_ID, rclpy's log directory, the discovery range, static peers), rclpy and its
 RMW (probed in a child process), the compiled-kernel cache, the model cache, the bag folder, ffmpeg. Each gives a
 `Check`: a pass/fail line and, when it fails, the fix. The DDS checks (a loopback between two processes, other
-participants on the domain) are in `iguana_ros.supervisor.doctor_dds`; `iguana run` runs `quick_checks` before it starts
+participants on the domain) are in `doctor/dds.py`; `iguana run` runs `quick_checks` before it starts
 anything, and every command that uses ROS runs `require_ros` (the same environment checks and rclpy probe) before its
 first `rclpy.init`.
 
@@ -41,6 +41,7 @@ import subprocess
 import sys
 
 from iguana_ros.errors import IguanaError
+from iguana_ros.jit import kernel_cache, nearest_existing, write_error
 
 MIN_PYTHON = (3, 10)
 """Oldest Python the package supports (setup.py python_requires)."""
@@ -335,14 +336,7 @@ def _writable_dir(folder: Path) -> tuple[bool, Path]:
     The parent is tried when `folder` does not exist yet, and the test is for real: permission bits say nothing
     to root or on a read-only mount.
     """
-    from iguana_ros.jit import nearest_existing
     return not write_error(folder), nearest_existing(folder)
-
-
-def write_error(folder: Path) -> str:
-    """Return '' if a file can be created in `folder` (or where it would be created), else why not (see jit.py)."""
-    from iguana_ros.jit import write_error as jit_write_error
-    return jit_write_error(folder)
 
 
 def check_bag_folder(folder: Path = Path('bags')) -> Check:
@@ -357,73 +351,6 @@ def check_bag_folder(folder: Path = Path('bags')) -> Check:
         return Check('bag folder', False, f'{where}: only {free:.2f} GB free; a 25 s run records ~30 MB',
                      'free some disk space or record elsewhere: iguana run --record DIR')
     return Check('bag folder', True, f'{where} writable, {free:.1f} GB free')
-
-
-KERNEL_DECORATOR = re.compile(rb'^\s*@(\w+\.)?njit\b', re.MULTILINE)
-"""A line that decorates a compiled kernel."""
-
-
-def kernel_modules(package_dir: Path | None = None) -> list[Path]:
-    """Package modules that define compiled kernels, sorted."""
-    from iguana_ros.jit import PACKAGE_DIR
-    root = Path(package_dir or PACKAGE_DIR)
-    return sorted(p for p in root.rglob('*.py') if KERNEL_DECORATOR.search(p.read_bytes()))
-
-
-@dataclass(frozen=True)
-class KernelCache:
-    """
-    State of the compiled-kernel cache, where numba keeps it (see `jit.numba_cache_folder`).
-
-    The package's kernel modules, those without cached kernels for their current source (relative paths), those numba
-    cannot cache anywhere, where the package's cache is ('' if nowhere), and why NUMBA_CACHE_DIR is not used when it is
-    set but cannot be written ('' otherwise).
-    """
-
-    modules: tuple
-    cold: tuple
-    unwritable: tuple
-    where: str = ''
-    refused: str = ''
-
-    @property
-    def state(self) -> str:
-        """'warm', 'cold' or 'partly warm (7 of 10)'."""
-        if not self.cold:
-            return 'warm'
-        if len(self.cold) == len(self.modules):
-            return 'cold'
-        return f'partly warm ({len(self.modules) - len(self.cold)} of {len(self.modules)})'
-
-
-def _cache_place(root: Path, env: Mapping[str, str]) -> tuple[str, str]:
-    """Return (where numba caches `root`'s kernels for `env`, why a set NUMBA_CACHE_DIR is not used or '')."""
-    from iguana_ros.jit import numba_cache_folder
-    folder = numba_cache_folder(root, env)
-    wanted = env.get('NUMBA_CACHE_DIR', '')
-    if folder is None:
-        where = ''
-    elif wanted and folder.is_relative_to(Path(wanted)):
-        where = f'NUMBA_CACHE_DIR ({wanted})'
-    else:
-        where = "the package's __pycache__ folders" if folder == root / '__pycache__' else str(folder.parent)
-    refused = write_error(Path(wanted)) if wanted and not where.startswith('NUMBA_CACHE_DIR') else ''
-    return where, refused and f'NUMBA_CACHE_DIR={wanted} cannot be written ({refused})'
-
-
-def kernel_cache(package_dir: Path | None = None, env: Mapping[str, str] | None = None) -> KernelCache:
-    """`KernelCache` of the package (cold unless the cache's source stamp matches the sources, see jit.py)."""
-    from iguana_ros.jit import kernel_sources_digest, numba_cache_folder, PACKAGE_DIR, STAMP_NAME, stamp_folder
-    env = os.environ if env is None else env
-    root = Path(package_dir or PACKAGE_DIR)
-    modules = kernel_modules(root)
-    stamp = stamp_folder(root, env) / STAMP_NAME
-    fresh = stamp.is_file() and stamp.read_text(encoding='ascii', errors='replace').strip() == \
-        kernel_sources_digest(root)
-    folders = {m: numba_cache_folder(m.parent, env) for m in modules}
-    cached = [m for m in modules if folders[m] and any(folders[m].glob(f'{m.stem}.*.nbi'))] if fresh else []
-    return KernelCache(tuple(modules), tuple(str(m.relative_to(root)) for m in modules if m not in cached),
-                       tuple(m for m in modules if folders[m] is None), *_cache_place(root, env))
 
 
 def check_kernel_cache(package_dir: Path | None = None, env: Mapping[str, str] | None = None) -> Check:

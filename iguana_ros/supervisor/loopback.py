@@ -13,15 +13,11 @@
 # limitations under the License.
 
 """
-`iguana doctor`'s DDS checks.
+The DDS loopback, which asks whether two processes on this ROS_DOMAIN_ID reach each other.
 
-A publish/subscribe loopback with a second process on this ROS_DOMAIN_ID, and the other participants already on that
-domain (the rclpy graph after a discovery wait; other runs' processes from /proc, as `iguana run`'s own domain check
-finds them).
-
-The loopback is real DDS between two processes: this process publishes a token on doctor_ping every
-PING_PERIOD_S, the echo process (`python -m iguana_ros.supervisor.doctor_dds`, started as a NodeProcess so it dies
-with its parent) sends it back on doctor_pong.
+Real DDS between two processes: this process publishes a token on doctor_ping every PING_PERIOD_S, the echo process
+(`python -m iguana_ros.supervisor.loopback`, started as a NodeProcess so it dies with its parent) sends it back on
+doctor_pong. `iguana run` asks it when it hears none of its nodes; `iguana doctor` reports it (doctor/dds.py).
 """
 from __future__ import annotations
 
@@ -31,8 +27,8 @@ import sys
 import time
 import uuid
 
-from iguana_ros.doctor import Check
-from iguana_ros.supervisor.domain_check import current_domain_id, DomainReport, DomainWatch, other_runs
+from iguana_ros.doctor.checks import Check
+from iguana_ros.supervisor.domain_check import current_domain_id, DomainWatch
 from iguana_ros.supervisor.process import NodeProcess, stop_all
 
 DOCTOR_NODE_NAME = 'iguana_doctor'
@@ -46,9 +42,6 @@ PING_PERIOD_S = 0.2
 
 LOOPBACK_TIMEOUT_S = 15.0
 """Wall seconds the loopback may take: the echo process's start (Python, rclpy) plus DDS discovery."""
-
-DISCOVERY_WAIT_S = 3.0
-"""Wall seconds on the graph before other participants are listed (Fast DDS re-announces every 3 s)."""
 
 ECHO_LIFETIME_S = 60.0
 """Wall seconds after which the echo process leaves by itself (its parent stops it long before)."""
@@ -105,7 +98,7 @@ def loopback(watch: DomainWatch, timeout: float = LOOPBACK_TIMEOUT_S) -> Loopbac
     watch.node.create_subscription(cls, name, lambda msg: echoed.append(msg.data), qos)
     executor = SingleThreadedExecutor(context=watch.context)
     executor.add_node(watch.node)
-    echo = NodeProcess([sys.executable, '-m', 'iguana_ros.supervisor.doctor_dds'], 'doctor_echo')
+    echo = NodeProcess([sys.executable, '-m', 'iguana_ros.supervisor.loopback'], 'doctor_echo')
     start = time.monotonic()
     try:
         echo.start()
@@ -150,44 +143,6 @@ def check_loopback(result: LoopbackResult, domain: str) -> Check:
     scope = os.environ.get(DISCOVERY_RANGE_ENV, '') or 'unset'
     return Check(name, False, f'{result.why}: processes cannot reach each other over DDS '
                  f'({DISCOVERY_RANGE_ENV} {scope})', loopback_fix())
-
-
-def check_participants(others: list[str], domain: str, run_nodes: list[str], processes: list) -> Check:
-    """Return the 'other participants' Check line: foreign nodes on the graph and other runs' processes."""
-    name = f'other participants on ROS_DOMAIN_ID {domain}'
-    if not others and not processes:
-        return Check(name, True, f'none after {DISCOVERY_WAIT_S:g} s of discovery')
-    parts = []
-    if processes:
-        parts.append(DomainReport(domain, processes=processes).findings())
-    if others:
-        named = ', '.join(others[:8]) + (f' and {len(others) - 8} more' if len(others) > 8 else '')
-        parts.append(f'{len(others)} node{"s" * (len(others) != 1)}: {named}')
-    clash = " (named like a run's own: iguana run would refuse this domain)" if run_nodes else ''
-    pids = ' '.join(str(p.pid) for p in processes)
-    stop = f'stop them (kill {pids})' if pids else 'stop them'
-    return Check(name, False, '; '.join(parts) + clash + "; their traffic would mix with a run's",
-                 f'{stop}, or use a domain of your own: export ROS_DOMAIN_ID=<0-101, not {domain}>')
-
-
-def dds_checks(run_node_names: tuple[str, ...], timeout: float = LOOPBACK_TIMEOUT_S,
-               discovery_s: float = DISCOVERY_WAIT_S) -> list[Check]:
-    """
-    [loopback, other participants] on this process's ROS_DOMAIN_ID.
-
-    `run_node_names` are the names a run's nodes have (found on the graph, they make `iguana run` refuse the domain).
-    """
-    domain = current_domain_id()
-    watch = DomainWatch(run_node_names, DOCTOR_NODE_NAME)
-    joined = time.monotonic()
-    try:
-        result = loopback(watch, timeout)
-        time.sleep(max(0.0, discovery_s - (time.monotonic() - joined)))
-        others = watch.other_nodes(own=(ECHO_NODE_NAME,))
-    finally:
-        watch.close()
-    run_nodes = [n for n in others if n.rsplit('/', 1)[-1] in run_node_names]
-    return [check_loopback(result, domain), check_participants(others, domain, run_nodes, other_runs(domain))]
 
 
 def check_loopback_now(timeout: float = LOOPBACK_TIMEOUT_S) -> Check:

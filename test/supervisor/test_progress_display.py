@@ -25,8 +25,9 @@ import math
 
 import pytest
 
-from iguana_ros.progress import (active_goal, EVENT_LOADED, EVENT_UP, EVENTS_GRACE_S, PhaseTime, ProgressDisplay,
-                                 RateWindow, RunEvent, RunStatus, startup_line, StartupClock)
+from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
+from iguana_ros.supervisor.progress_display import (active_goal, EVENTS_GRACE_S, PhaseTime, ProgressDisplay,
+                                                    RateWindow, RunStatus, startup_line, StartupClock)
 
 NODES = ('planner_node', 'simulator_node')
 

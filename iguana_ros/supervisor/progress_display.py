@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-What `iguana run` shows while it runs (ROS-free).
+What `iguana run` shows while it runs.
 
 The start-up phases with their durations, and the run's progress — simulated time of the planned duration, realtime
 factor, distance to the current goal, current clip — as a live bar on a terminal or as a line every few seconds
@@ -33,21 +33,11 @@ import sys
 import time
 from typing import TextIO
 
+from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
+
 PHASES = (('launching', 'launching nodes'), ('loading', 'loading the model'), ('discovery', 'DDS discovery'),
           ('compiling', 'compiling kernels'))
 """Start-up phases in order: (key, what the user reads)."""
-
-EVENT_UP = 'up'
-"""Event a node sends once its process has started and its ROS node exists."""
-
-EVENT_LOADED = 'loaded'
-"""Event a node sends once it is built (model, motion graph, simulator: what it loads before it can work)."""
-
-EVENT_CLIP = 'clip'
-"""Event the planner sends when it starts a clip."""
-
-EVENT_BODY_LOST = 'body_lost'
-"""Event the simulator sends when the body left the terrain or fell (detail 'cause: what happened'); the run ends."""
 
 RATE_WINDOW_S = 5.0
 """Wall seconds over which the live realtime factor is measured."""
@@ -63,23 +53,6 @@ PHASE_TAG = '[start-up]'
 
 PROGRESS_TAG = '[progress]'
 """Head of a progress line (and of the bar)."""
-
-
-@dataclass(frozen=True)
-class RunEvent:
-    """
-    One message of `run_events`.
-
-    Which node, what happened (EVENT_*), its wall-clock time (s since the epoch), and for a clip its name and start
-    frame; `detail` says more (e.g. 'model from cache').
-    """
-
-    node: str
-    kind: str
-    wall_time: float
-    detail: str = ''
-    clip: str = ''
-    frame: int = -1
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,8 @@ import sys
 
 import pytest
 
-from iguana_ros import doctor
+from iguana_ros import jit
+from iguana_ros.doctor import checks as doctor
 from ros_harness import IGUANA, NodeProcess, REPO
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
@@ -137,7 +138,7 @@ def test_kernel_cache_cold_then_warm(tmp_path):
     (package / 'room').mkdir(parents=True)
     (package / 'room' / 'fast.py').write_text('import numba\n\n\n@numba.njit(cache=True)\ndef f(x):\n    return x\n')
     (package / 'plain.py').write_text('"""mentions njit in words only"""\n')
-    assert doctor.kernel_modules(package) == [package / 'room' / 'fast.py']
+    assert jit.kernel_modules(package) == [package / 'room' / 'fast.py']
     cold = doctor.check_kernel_cache(package, env={})
     assert cold.ok and cold.detail.startswith("cold in the package's __pycache__ folders, writable: room/fast.py "
                                               'compile at first use'), cold
@@ -166,7 +167,7 @@ def test_the_kernel_cache_check_looks_where_numba_caches(tmp_path):
     warm = doctor.check_kernel_cache(package, env={'NUMBA_CACHE_DIR': str(numba_dir)})
     assert warm.ok and warm.detail == f'warm (1 modules compiled and cached in NUMBA_CACHE_DIR ({numba_dir})), ' \
         'writable', warm
-    assert doctor.kernel_cache(package, env={}).state == 'cold'                   # nothing in __pycache__
+    assert jit.kernel_cache(package, env={}).state == 'cold'                   # nothing in __pycache__
     fresh = doctor.check_kernel_cache(package, env={'NUMBA_CACHE_DIR': str(tmp_path / 'fresh')})
     assert fresh.ok and fresh.detail.startswith(f'cold in NUMBA_CACHE_DIR ({tmp_path / "fresh"})'), fresh
     refused = doctor.check_kernel_cache(package, env={'NUMBA_CACHE_DIR': '/etc/hostname/numba'})
