@@ -20,7 +20,6 @@ record — and only what it names is built ("model only what a scene requires"; 
 """
 from __future__ import annotations
 
-import codecs
 import dataclasses
 from dataclasses import dataclass, field
 import math
@@ -30,11 +29,12 @@ import reprlib
 import types
 import typing
 
-import yaml
 
 from iguana_ros.config import config_path
 from iguana_ros.constants import FRAME_RATE, PUSH_DURATION
 from iguana_ros.errors import InputError
+from iguana_ros.yaml_files import field_error, read_yaml_file
+from iguana_ros.yaml_files import MAX_NESTING, MAX_SCENE_BYTES, MAX_YAML_NODES  # noqa: F401 - limits of a scene file
 
 if typing.TYPE_CHECKING:
     from iguana_ros.terrain.heightfield import HeightField
@@ -179,12 +179,6 @@ _POSITIVE = {'duration', 'goal_radius', 'goal_yaw_tolerance_deg', 'terrain.wavel
 _NON_NEGATIVE = {'goals.at', 'pushes.at', 'terrain.amplitude', 'terrain.step_min', 'terrain.step_max', 'terrain.seed'}
 
 # --- resource limits: everything a run allocates or loops over in proportion to a scene value is bounded here
-MAX_SCENE_BYTES = 64 * 1024
-"""Largest scene file read, bytes (the shipped scenes are under 1 kB); checked before parsing."""
-MAX_NESTING = 16
-"""Deepest nesting of YAML collections in a scene file (the schema needs 3); checked before composing."""
-MAX_YAML_NODES = 100_000
-"""Most YAML nodes a scene file may expand to, an alias counted at the size of what it names ('billion laughs')."""
 MAX_DURATION = 600.0
 """Longest run a scene may ask for, s (the trajectories of a fine-mesh run take ~30 kB per frame)."""
 MAX_GOALS = 100
@@ -227,9 +221,7 @@ MAY_BE_INFINITE = {'goal_yaw_tolerance_deg'}
 
 def _fail(source: str, path: str, message: str) -> typing.NoReturn:
     """Raise a SceneError naming file and field (a long field name shortened, so the message stays one line)."""
-    if len(path) > 80:
-        path = path[:77] + '...'
-    raise SceneError(f'{source}: field {path!r}: {message}')
+    field_error(SceneError, source, path, message)
 
 
 def _show(value) -> str:
@@ -550,124 +542,5 @@ def load_scene(name_or_path: str) -> Scene:
 
 
 def read_yaml(path: Path, what: str = 'scene'):
-    """
-    Return the parsed YAML of a `what` file (a scene, or a sweep spec) read as a scene file is.
-
-    At most MAX_SCENE_BYTES, its structure (nesting, alias expansion, duplicate keys) bounded before it is composed;
-    SceneError (one line) if it is unreadable.
-    """
-    text = _read_text(path, what)
-    try:
-        _check_structure(text, str(path))
-        return yaml.load(text, Loader=_LOADER)
-    except SceneError:
-        raise
-    except (yaml.YAMLError, ValueError, OverflowError, TypeError, RecursionError) as exc:
-        reason = ' '.join(str(exc).split())
-        reason = reason if len(reason) <= 240 else reason[:237] + '...'
-        raise SceneError(f'{path}: not a readable YAML {what}: {reason}') from None
-
-
-_LOADER = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
-"""The YAML loader of scene files (libyaml's when installed: the same safe types, faster)."""
-
-
-def _read_text(path: Path, what: str = 'scene') -> str:
-    """Return the text of a `what` file of at most MAX_SCENE_BYTES (UTF-8, or UTF-16 with a byte-order mark)."""
-    try:
-        with path.open('rb') as f:
-            data = f.read(MAX_SCENE_BYTES + 1)
-    except OSError as exc:
-        raise SceneError(f'{path}: cannot read the {what} file: {exc.strerror or exc}') from None
-    if len(data) > MAX_SCENE_BYTES:
-        raise SceneError(f'{path}: a {what} file may have at most {MAX_SCENE_BYTES} bytes, this one has '
-                         f'{max(len(data), path.stat().st_size)}')
-    encoding = 'utf-16' if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)) else 'utf-8-sig'
-    try:
-        return data.decode(encoding)
-    except UnicodeDecodeError as exc:
-        raise SceneError(f'{path}: not a readable YAML {what}: not {encoding.split("-sig")[0].upper()} text '
-                         f'(byte 0x{data[exc.start]:02x} at offset {exc.start})') from None
-
-
-_LONG_INTEGER = re.compile(r'[-+]?[0-9][0-9_]*(:[0-5]?[0-9])*')
-"""A plain scalar YAML reads as a decimal (or sexagesimal) integer; Python refuses to convert one of more than 4300
-digits, so one longer than 1000 characters is refused before it is constructed."""
-
-
-@dataclass
-class _Collection:
-    """An open YAML mapping or sequence while its events are read (see `_check_structure`)."""
-
-    mapping: bool
-    anchor: str | None
-    size: int = 1
-    height: int = 1
-    expect_key: bool = True
-    index: int = 0
-    key: str = ''
-    keys: dict = field(default_factory=dict)
-
-    def step(self) -> str:
-        """Return the path step to the child being read: '.key' or '[index]'."""
-        return f'.{self.key}' if self.mapping else f'[{self.index}]'
-
-
-def _check_structure(text: str, source: str) -> None:
-    """
-    From the parser's events, before anything is composed.
-
-    At most MAX_NESTING levels of collections, at most MAX_YAML_NODES nodes with every alias counted at its full size,
-    no key given twice in a mapping.
-    """
-    open_: list[_Collection] = [_Collection(mapping=False, anchor=None)]   # the document as a sequence
-    anchors: dict[str, tuple[int, int]] = {}            # anchor -> (size, height)
-
-    def where() -> str:
-        return ''.join(c.step() for c in open_[1:]).lstrip('.') or '<top level>'
-
-    def begin(event) -> None:
-        parent = open_[-1]
-        if parent.mapping and parent.expect_key:
-            key = str(event.value) if isinstance(event, yaml.ScalarEvent) else '?'
-            line = event.start_mark.line + 1
-            if key not in ('<<', '?') and key in parent.keys:   # a merge key may repeat; '?' = complex keys
-                parent.key = key
-                _fail(source, where(), f'duplicate key (line {line}; first given on line {parent.keys[key]})')
-            parent.keys[key] = line
-            parent.key = key
-
-    def finish(size: int, height: int) -> None:
-        parent = open_[-1]
-        parent.size += size
-        parent.height = max(parent.height, height + 1)
-        if parent.size > MAX_YAML_NODES:
-            _fail(source, where(), f'the scene expands to more than {MAX_YAML_NODES} YAML nodes (aliases counted '
-                                   f'at their full size)')
-        if parent.mapping:
-            parent.expect_key = not parent.expect_key
-        else:
-            parent.index += 1
-
-    for event in yaml.parse(text, Loader=_LOADER):
-        if isinstance(event, (yaml.ScalarEvent, yaml.AliasEvent)):
-            begin(event)
-            size, height = (1, 0) if isinstance(event, yaml.ScalarEvent) else anchors.get(event.anchor, (1, 0))
-            if len(open_) - 1 + height > MAX_NESTING:
-                _fail(source, where(), f'nested deeper than {MAX_NESTING} levels (through alias *{event.anchor})')
-            if isinstance(event, yaml.ScalarEvent):
-                if event.anchor:
-                    anchors[event.anchor] = (1, 0)
-                if event.implicit[0] and len(event.value) > 1000 and _LONG_INTEGER.fullmatch(event.value):
-                    _fail(source, where(), f'expected a number, got an integer of {len(event.value)} digits')
-            finish(size, height)
-        elif isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
-            begin(event)
-            if len(open_) > MAX_NESTING:
-                _fail(source, where(), f'nested deeper than {MAX_NESTING} levels')
-            open_.append(_Collection(isinstance(event, yaml.MappingStartEvent), event.anchor))
-        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-            done = open_.pop()
-            if done.anchor:
-                anchors[done.anchor] = (done.size, done.height)
-            finish(done.size, done.height)
+    """Return the parsed YAML of a `what` file read with the bounds of yaml_files.py; SceneError if unreadable."""
+    return read_yaml_file(path, what, SceneError)

@@ -51,9 +51,9 @@ def floors(*rows: tuple) -> tuple[Floor, ...]:
 
 
 FLOORS = floors(
-    ('base', 'constants errors config jit geometry topics parameters executables',
+    ('base', 'constants errors config jit geometry topics parameters executables yaml_files',
      'physical constants, error types, the kernel cache, the one rotation toolkit, the ROS-free tables of '
-     '`msg_configs/`, the one list of executables'),
+     '`msg_configs/`, the one list of executables, bounded reading of YAML files'),
     ('core rooms', 'body motion terrain physics metrics render visuals',
      "the paper's algorithms, numpy + numba, no ROS; headless drawing of a recorded run; the simulator's colours"),
     ('scene', 'scene validation',
