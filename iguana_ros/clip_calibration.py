@@ -31,14 +31,13 @@ import os
 
 import numpy as np
 
+from iguana_ros.body.feet import contact_offsets, foot_groups, foot_probe
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.geometry import planar_relative, yaw_of
 from iguana_ros.metrics import slip_per_foot
 from iguana_ros.motion.clips import load_clip_library
 from iguana_ros.motion.tracking import fit_tracking, save_tracking, StrideSample
-from iguana_ros.physics.simulator import contact_offsets
 from iguana_ros.pipeline import build_pipeline
-from iguana_ros.run_metrics import foot_groups, foot_probe
 from iguana_ros.scene import ModelSpec, Scene, TerrainSpec
 from iguana_ros.stages import PlannerStage
 

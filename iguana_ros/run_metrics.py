@@ -20,15 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from iguana_ros.body.feet import contact_offsets, foot_groups, foot_heights, foot_probe, group_centroids, skinned_meshes
 from iguana_ros.body.model import build_model
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.geometry import quat_from_yaw, quat_rotate, yaw_of
 from iguana_ros.metrics import (gait_metrics, GaitMetrics, goal_arrival, locomotion_metrics, LocomotionMetrics, N_FEET,
                                 rigid_fit_errors)
-from iguana_ros.physics.simulator import contact_offsets
 from iguana_ros.scene import terrain_from_spec
 
-FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 TRUNK = ('pelvis', 'spine_3', 'spine_5')
 LIMB_CHAINS = (('shoulder_fl', 'elbow_fl', 'wrist_fl'), ('shoulder_fr', 'elbow_fr', 'wrist_fr'),
                ('hip_hl', 'knee_hl', 'ankle_hl'), ('hip_hr', 'knee_hr', 'ankle_hr'), ('pelvis', 'spine_5'))
@@ -39,11 +38,6 @@ def bone_node_groups(model, bones: tuple) -> list[np.ndarray]:
     """Return indices of the nodes skinned mostly to each bone of `bones`."""
     dominant = model.skin_bones[np.arange(model.n_nodes), np.argmax(model.skin_weights, axis=1)]
     return [np.flatnonzero(dominant == model.skeleton.index(b)) for b in bones]
-
-
-def group_centroids(node_positions: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
-    """Centroids `(n_frames, n_groups, 3)` of node groups over node trajectories `(n_frames, n, 3)`."""
-    return np.stack([node_positions[:, g].mean(axis=1) for g in groups], axis=1)
 
 
 def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetrics:
@@ -81,79 +75,6 @@ def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetr
                                  scene_waypoints(scene))
     # slip over the walk only: strides spent standing at the goal would dilute it
     return dataclasses.replace(metrics, foot_slip_per_stride=float(np.sum(gait.slip_per_foot_per_stride)))
-
-
-def foot_groups(model) -> list[np.ndarray]:
-    """Sole node indices of each foot (fl, fr, hl, hr: the model's `foot_*` tags)."""
-    return [np.flatnonzero(model.node_tags[f]) for f in FEET]
-
-
-def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, offset: np.ndarray) -> np.ndarray:
-    """
-    Height (m) of each foot's lowest sole point (node minus its contact `offset (n_nodes,)`) above the terrain.
-
-    `(n_frames, n_feet)`.
-    """
-    idx = np.concatenate(feet)                       # every foot's sole nodes: one terrain query for all
-    sole = node_positions[:, idx]
-    ground = terrain.height(sole[..., :2].reshape(-1, 2)).reshape(sole.shape[:2])
-    return np.minimum.reduceat(sole[..., 2] - offset[idx] - ground, _group_starts(feet), axis=1)
-
-
-def _group_starts(groups: list[np.ndarray]) -> np.ndarray:
-    """Offsets `(n_groups,)` of each group in their concatenation (for `ufunc.reduceat`)."""
-    return np.cumsum([0] + [len(g) for g in groups[:-1]])
-
-
-def foot_probe(node_positions: np.ndarray, in_contact: np.ndarray, feet: list[np.ndarray], terrain,
-               offset: np.ndarray) -> tuple:
-    """
-    Return the foot probe of node trajectories `(n_frames, n, 3)` with contact flags `(n_frames, n)`.
-
-    Per frame and foot, the height of the lowest sole point above the terrain `(n_frames, n_feet)` m (`foot_heights`),
-    whether any sole node touches the ground `(n_frames, n_feet)` bool, and the sole centroid `(n_frames, n_feet, 3)` m.
-    """
-    contact = np.logical_or.reduceat(in_contact[:, np.concatenate(feet)], _group_starts(feet), axis=1)
-    return foot_heights(node_positions, feet, terrain, offset), contact, group_centroids(node_positions, feet)
-
-
-class FootProbe:
-    """
-    One frame's foot probe of a model on a terrain.
-
-    Of the simulated body (what `simulator_node` publishes on foot_state / foot_positions) and of the reference mesh
-    skinned to an adapted pose, the same figures `metrics_of_run` computes from a library run's trajectories.
-    """
-
-    def __init__(self, model, terrain) -> None:
-        """Probe the feet (`foot_groups`) of `model` on `terrain`."""
-        self.model = model
-        self.terrain = terrain
-        self.feet = foot_groups(model)
-        self.offset = contact_offsets(model)
-        self._skinning: SpringLengthComputer | None = None
-
-    def body(self, positions: np.ndarray, in_contact: np.ndarray) -> tuple:
-        """
-        (heights `(4,)` m, contact `(4,)` bool, sole centroids `(4, 3)` m) of nodes `(n, 3)` with contact flags `(n,)`.
-
-        (the simulator's `positions` and `in_contact`).
-        """
-        heights, contact, soles = foot_probe(np.asarray(positions, float)[None], np.asarray(in_contact, bool)[None],
-                                             self.feet, self.terrain, self.offset)
-        return heights[0], contact[0], soles[0]
-
-    def reference_heights(self, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
-        """
-        Return reference foot heights `(n_frames, 4)` m.
-
-        The reference mesh skinned (DQS) to adapted poses (joint positions `(n_frames, n_bones, 3)`, bone rotations
-        `(n_frames, n_bones, 4)`), by `foot_heights`.
-        """
-        if self._skinning is None:
-            self._skinning = SpringLengthComputer(self.model)
-        mesh = skinned_meshes(self._skinning, joints, rotations)
-        return foot_heights(mesh, self.feet, self.terrain, self.offset)
 
 
 @dataclass(frozen=True)
@@ -327,15 +248,3 @@ def run_gait_metrics(model, result, scene, reference: np.ndarray, heights: np.nd
 def reference_mesh(model, result) -> np.ndarray:
     """Return the reference mesh skinned (DQS) to each frame's adapted pose, `(n_frames, n_nodes, 3)`."""
     return skinned_meshes(SpringLengthComputer(model), result.reference_joints, result.reference_rotations)
-
-
-def skinned_meshes(computer: SpringLengthComputer, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
-    """
-    Return the reference mesh skinned by `computer` to each pose.
-
-    (joint positions `(n_frames, n_bones, 3)`, bone rotations `(n_frames, n_bones, 4)`), `(n_frames, n_nodes, 3)`.
-    """
-    out = np.empty((len(joints), len(computer.rest_positions), 3))
-    for f, (pos, rot) in enumerate(zip(joints, rotations)):
-        out[f] = computer.skin_bones_to(rot, pos)
-    return out

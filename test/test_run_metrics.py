@@ -21,9 +21,10 @@ import math
 
 import numpy as np
 
+from iguana_ros.body.feet import foot_groups, foot_probe, FootProbe
 from iguana_ros.body.model import build_model
 from iguana_ros.metrics import gait_metrics
-from iguana_ros.run_metrics import (foot_groups, foot_probe, FootProbe, GaitTracks, Stride, stride_progress,
+from iguana_ros.run_metrics import (GaitTracks, Stride, stride_progress,
                                     tracks_gait_metrics)
 from iguana_ros.terrain.heightfield import HeightField
 

@@ -36,6 +36,10 @@ from iguana_ros.geometry import quat_identity, quat_mul, quat_rotate
 ROOT_HEIGHT = 0.075
 """Height of the pelvis joint above flat ground in the rest pose, m."""
 
+FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
+"""The foot bones, in the order every per-foot figure and message uses (fl, fr, hl, hr); the model tags each foot's
+sole nodes with its name."""
+
 FOOT_PIVOTS = ('wrist_fl', 'wrist_fr', 'ankle_hl', 'ankle_hr')
 """The bone of each foot (order fl, fr, hl, hr) whose joint a planted foot pivots about and whose rotation
 sets the sole's orientation (the sole nodes are skinned to it and to the foot bone below it)."""

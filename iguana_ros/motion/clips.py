@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from iguana_ros.body.skeleton import forward_kinematics
+from iguana_ros.body.skeleton import FEET, forward_kinematics
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_yaw, quat_mul
@@ -45,7 +45,6 @@ REQUIRED_CLIPS = ('forward', 'turn_left', 'turn_right', 'idle')
 """Clips every library must hold."""
 ANY_GAIT = ''
 """The entry or exit gait of a clip that may follow or precede any clip (a library without gaits: a complete graph)."""
-FEET = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
 
 
 @dataclass(frozen=True)

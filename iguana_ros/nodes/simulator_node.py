@@ -27,6 +27,7 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from visualization_msgs.msg import Marker
 
+from iguana_ros.body.feet import FootProbe
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.base import IguanaNode, node_main, READER_HOLD_LIMIT_S, ReaderCount
@@ -37,7 +38,6 @@ from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
                                      goal_from_msg, lengths_from_cdr, push_from_msg, route_from_msg, state_to_cdr)
 from iguana_ros.ros.run_events import EVENT_BODY_LOST
-from iguana_ros.run_metrics import FootProbe
 from iguana_ros.stages import simulator_stage
 from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_STALE

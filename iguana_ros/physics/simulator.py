@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from iguana_ros.body.feet import contact_offsets
 from iguana_ros.constants import (
     CONTACT_DAMPING_RATIO, CONTACT_STIFFNESS, FRAME_RATE, FRICTION_COEFFICIENT, FRICTION_STIFFNESS, GRAVITY,
     MAX_NODE_SPEED, MAX_PENETRATION, RAYLEIGH_ALPHA, RAYLEIGH_BETA)
@@ -65,16 +66,6 @@ def friction_per_node(model, friction) -> np.ndarray:
     if not np.all(np.isfinite(mu)) or np.any(mu < 0):
         raise InputError('friction: every coefficient must be a finite number >= 0')
     return mu
-
-
-def contact_offsets(model) -> np.ndarray:
-    """Per-node contact offset `(n_nodes,)` m: the model's `contact_offset` (sole pads), zeros if it has none."""
-    n = len(model.rest_positions)
-    offset = getattr(model, 'contact_offset', None)
-    offset = np.zeros(n) if offset is None else np.asarray(offset, dtype=np.float64)
-    if offset.shape != (n,) or not np.all(np.isfinite(offset)) or np.any(offset < 0):
-        raise InputError('simulator: model.contact_offset must be (n_nodes,) finite offsets >= 0 m')
-    return np.ascontiguousarray(offset)
 
 
 def _springs_by_node(n_nodes: int, springs: np.ndarray) -> dict:

@@ -23,6 +23,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import numpy as np
 from std_msgs.msg import Header
 
+from iguana_ros.body.skeleton import FEET
 from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
@@ -34,7 +35,7 @@ from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_stat
                                         multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
                                         pose_array_to_numpy, pose_stamped_to_numpy, poses_from_msgs, stamp_frame,
                                         time_from_msg, time_to_msg, validate_array)
-from iguana_ros.run_metrics import FEET, Stride
+from iguana_ros.run_metrics import Stride
 from iguana_ros.scene import MAX_WAYPOINTS
 from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_root_pose,
                                    check_route, GoalRequest, PushRequest, RouteRequest)

@@ -26,10 +26,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from iguana_ros.body.feet import FootProbe
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError
 from iguana_ros.metrics import GaitMetrics, SWING_CLEARANCE
-from iguana_ros.run_metrics import FootProbe, GAIT_NEEDS, GaitTracks, scene_goal, tracks_gait_metrics, walk_frames
+from iguana_ros.run_metrics import GAIT_NEEDS, GaitTracks, scene_goal, tracks_gait_metrics, walk_frames
 
 GAIT_TOPICS = ('iguana_state', 'foot_state', 'foot_positions', 'reference_stance', 'reference_pose', 'motion_clip')
 """Topic-table keys the gait figures are read from."""

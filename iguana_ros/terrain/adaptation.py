@@ -42,16 +42,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from iguana_ros.body.skeleton import FOOT_PIVOTS, Skeleton
+from iguana_ros.body.skeleton import FEET, FOOT_PIVOTS, Skeleton
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.geometry import (matrix_to_quat, quat_conjugate, quat_from_rotvec, quat_mul, quat_normalize,
                                  quat_rotate, quat_to_matrix, quat_to_rotvec, quats_between, rigid_fit)
 from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.terrain.heightfield import HeightField
 from iguana_ros.terrain.ik_kernels import bounded_gauss_newton, fk_kernel, gauss_newton_system
-
-FOOT_BONES = ('foot_fl', 'foot_fr', 'foot_hl', 'foot_hr')
-"""Bones whose joints are the four foot points, in the clips' contact order (fl, fr, hl, hr)."""
 
 TAIL_TIP_BONE = 'tail_tip'
 """Bone whose joint is the tail point with a residual height."""
@@ -159,7 +156,7 @@ def residual_heights_of(skeleton: Skeleton, root_position: np.ndarray, local_rot
     (`motion.cleanup.TAIL_TIP_HEIGHT`), and the adapted tail is pressed as deep into the terrain.
     """
     positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
-    z = positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE]), 2]
+    z = positions[skeleton.indices(list(FEET) + [TAIL_TIP_BONE]), 2]
     return np.maximum(z[:4], 0.0), float(z[4])
 
 
@@ -169,7 +166,7 @@ def plane_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.ndarra
     root_position = np.asarray(root_position, dtype=float)
     local_rotations = np.asarray(local_rotations, dtype=float)
     positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
-    feet = positions[skeleton.indices(list(FOOT_BONES))]
+    feet = positions[skeleton.indices(list(FEET))]
     targets = terrain_targets(terrain, feet, np.maximum(foot_residual_heights, 0.0))
     # the fit of the targets onto the feet, transposed: the very rotation taking the feet onto the targets, in the
     # arithmetic the plane fit has always had (terrain runs keep their bits; they are chaotic in the last bit)
@@ -208,7 +205,7 @@ class _ResidualProblem:
         inv_scale2 = 1.0 / settings.length_scale ** 2
         self.args = (self.var_bones, self.var_of, np.asarray(root_position, dtype=float),
                      np.ascontiguousarray(quat_to_matrix(local_rotations)), skeleton.parents,
-                     np.ascontiguousarray(skeleton.offsets), skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE]),
+                     np.ascontiguousarray(skeleton.offsets), skeleton.indices(list(FEET) + [TAIL_TIP_BONE]),
                      targets, weights, self.x_ref, settings.pose_weight, settings.lift_weight, clearance,
                      settings.penetration_weight, inv_scale2, settings.length_scale, *terrain.kernel_args())
         """The compiled objective's problem arguments (between x and the joint positions it fills)."""
@@ -262,14 +259,14 @@ def residual_fit(skeleton: Skeleton, terrain: HeightField, root_position: np.nda
     state = state if state is not None else AdaptationState()
     local_rotations = np.asarray(local_rotations, dtype=float)
     positions = pose_kinematics(skeleton, root_position, local_rotations)[0]
-    points = positions[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE])]
+    points = positions[skeleton.indices(list(FEET) + [TAIL_TIP_BONE])]
     heights = np.append(np.maximum(foot_residual_heights, 0.0), max(tail_residual_height, -settings.max_tail_press))
     targets = terrain_targets(terrain, points, heights)
     stance = np.ones(4, dtype=bool) if stance is None else np.asarray(stance, dtype=bool)
     weights = np.append(np.where(stance, settings.stance_foot_weight, settings.swing_foot_weight),
                         settings.tail_weight)
     clearance = np.clip(positions[:, 2] - terrain.height(positions[:, :2]), 0.0, settings.clearance)
-    clearance[skeleton.indices(list(FOOT_BONES) + [TAIL_TIP_BONE])] = np.minimum(settings.clearance, heights)
+    clearance[skeleton.indices(list(FEET) + [TAIL_TIP_BONE])] = np.minimum(settings.clearance, heights)
     tail = np.array([name.startswith('tail_') for name in skeleton.names])
     clearance[tail] = np.minimum(clearance[tail], heights[4])   # a pressed tail may sink as deep as its tip
     problem = _ResidualProblem(skeleton, terrain, root_position, local_rotations, targets, weights,

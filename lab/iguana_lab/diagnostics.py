@@ -39,7 +39,7 @@ import numpy as np
 
 from iguana_ros.body.mesh import PART_LIMB0
 from iguana_ros.body.model import IguanaModel
-from iguana_ros.body.skeleton import rest_joint_positions
+from iguana_ros.body.skeleton import FEET, rest_joint_positions
 from iguana_ros.body.spring_lengths import SpringLengthComputer
 from iguana_ros.body.stiffness import spring_stiffness, stiffness_preset
 from iguana_ros.constants import FRAME_RATE, GRAVITY
@@ -47,7 +47,7 @@ from iguana_ros.errors import InputError
 from iguana_ros.motion.clips import Clip, load_clip_library
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.pipeline import build_pipeline, Pipeline
-from iguana_ros.run_metrics import bone_node_groups, FEET, TRUNK
+from iguana_ros.run_metrics import bone_node_groups, TRUNK
 from iguana_ros.scene import load_scene, ModelSpec, Scene
 from iguana_ros.stages import simulator_stage, spring_stage
 from iguana_ros.terrain.heightfield import HeightField

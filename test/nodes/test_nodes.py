@@ -153,7 +153,8 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
     from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics
     from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
     from iguana_ros.scene import load_scene, terrain_from_spec
-    from iguana_ros.terrain.adaptation import FOOT_BONES, AdaptationSettings, residual_heights_of
+    from iguana_ros.body.skeleton import FEET
+    from iguana_ros.terrain.adaptation import AdaptationSettings, residual_heights_of
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 12.0, 'direction_deg': 30.0})
     skeleton = iguana_skeleton()
     graph = motion_graph()
@@ -183,7 +184,7 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
     # nothing sinks in, but the pressed tail (at most max_tail_press) and the foot end sites in the soles
     depth = joints[:, 2] - terrain.height(joints[:, :2])
     tail = np.array([name.startswith('tail_') for name in skeleton.names])
-    foot = np.isin(np.arange(skeleton.n_bones), skeleton.indices(list(FOOT_BONES)))
+    foot = np.isin(np.arange(skeleton.n_bones), skeleton.indices(list(FEET)))
     assert np.all(depth[~tail & ~foot] > -1e-3)
     assert np.all(depth[tail] > -AdaptationSettings().max_tail_press - 2e-3) and np.all(depth[foot] > -3e-3)
 

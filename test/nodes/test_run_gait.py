@@ -32,13 +32,14 @@ from rclpy.serialization import serialize_message  # noqa: E402, I100
 from iguana_ros.bag.schema import message_definition  # noqa: E402
 from iguana_ros.bag.storage import BagWriter  # noqa: E402
 from iguana_ros.bag.trajectory import read_topics  # noqa: E402
+from iguana_ros.body.feet import FootProbe  # noqa: E402
 from iguana_ros.body.model import build_model  # noqa: E402
 from iguana_ros.body.root_tracking import RootTracker  # noqa: E402
 from iguana_ros.geometry import yaw_of  # noqa: E402
 from iguana_ros.pipeline import run as run_pipeline  # noqa: E402
 from iguana_ros.ros import messages as m  # noqa: E402
 from iguana_ros.ros.endpoints import resolve  # noqa: E402
-from iguana_ros.run_metrics import FootProbe, metrics_of_run  # noqa: E402
+from iguana_ros.run_metrics import metrics_of_run  # noqa: E402
 from iguana_ros.scene import load_scene, terrain_from_spec  # noqa: E402
 from iguana_ros.stages import motion_graph  # noqa: E402
 from iguana_ros.supervisor.run import RunSummary  # noqa: E402

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics, iguana_skeleton
+from iguana_ros.body.skeleton import FEET, FOOT_PIVOTS, forward_kinematics, iguana_skeleton
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_from_rotvec, quat_rotate, quat_to_matrix
 from iguana_ros.terrain import adaptation as ad
@@ -46,7 +46,7 @@ def _clip_pose(skel, frame, seed=0):
     local[0] = quat_from_rotvec(np.array([0.0, 0.0, 0.3]))
     root = skel.rest_pose()[0] + np.array([0.3 * t, 0.1 * t, 0.0])
     positions = forward_kinematics(skel, root, local)[0]
-    root[2] -= positions[skel.indices(list(ad.FOOT_BONES)), 2].min()
+    root[2] -= positions[skel.indices(list(FEET)), 2].min()
     return root, local
 
 
@@ -74,7 +74,7 @@ def _check_adapted(skel, terrain, clip, adapted, foot_tol=0.004, depth_tol=1e-4)
     tail = np.array([name.startswith('tail_') for name in skel.names])
     press = min(0.0, max(tail_h, -ad.AdaptationSettings().max_tail_press))
     depth = p[:, 2] - terrain.height(p[:, :2])
-    foot = np.isin(np.arange(skel.n_bones), skel.indices(list(ad.FOOT_BONES)))
+    foot = np.isin(np.arange(skel.n_bones), skel.indices(list(FEET)))
     assert np.min(depth[~tail & ~foot]) > -depth_tol
     assert np.min(depth[foot]) > -0.003
     assert np.min(depth[tail]) > press - 2e-3
@@ -129,7 +129,7 @@ def test_hills_feet_tail_and_no_penetration(skel):
         fit = ad.plane_fit(skel, terrain, *clip, feet_h)
         fitted = ad.residual_fit(skel, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h,
                                  stance=stance)
-        feet = fitted.joint_positions[skel.indices(list(ad.FOOT_BONES))]      # residual fitting's effectors
+        feet = fitted.joint_positions[skel.indices(list(FEET))]      # residual fitting's effectors
         np.testing.assert_allclose(feet[stance], fitted.foot_targets[stance], atol=0.002)
 
 
@@ -174,7 +174,7 @@ def test_objective_gradient_matches_finite_differences(skel):
     terrain = HeightField.hills(amplitude=0.05, wavelength=0.6, seed=2, extent=5.0)
     root, local = _clip_pose(skel, 3)
     targets = np.random.default_rng(0).normal(scale=0.02, size=(5, 3)) + \
-        forward_kinematics(skel, root, local)[0][skel.indices(list(ad.FOOT_BONES) + [ad.TAIL_TIP_BONE])]
+        forward_kinematics(skel, root, local)[0][skel.indices(list(FEET) + [ad.TAIL_TIP_BONE])]
     problem = ad._ResidualProblem(skel, terrain, root, local, targets, np.ones(5),
                                   np.full(skel.n_bones, 0.05), ad.AdaptationSettings())
     x = problem.x_ref + np.random.default_rng(1).normal(scale=0.1, size=problem.x_ref.shape)
@@ -227,7 +227,7 @@ def test_stance_soles_lie_parallel_to_the_terrain(skel, slope_deg):
     feet_h, tail_h = ad.residual_heights_of(skel, *clip)
     fit = ad.plane_fit(skel, terrain, *clip, feet_h)
     fitted = ad.residual_fit(skel, terrain, fit.root_position, fit.local_rotations, feet_h, tail_h, stance=stance)
-    others = np.setdiff1d(np.arange(skel.n_bones), skel.indices(list(ad.FOOT_BONES)))
+    others = np.setdiff1d(np.arange(skel.n_bones), skel.indices(list(FEET)))
     np.testing.assert_allclose(out.joint_positions[others], fitted.joint_positions[others], atol=1e-12)
 
 
@@ -236,7 +236,7 @@ def _random_problem(skel, seed):
     rng = np.random.default_rng(seed)
     terrain = HeightField.hills(amplitude=0.06, wavelength=0.5, seed=seed, extent=5.0)
     root, local = _clip_pose(skel, seed % 20, seed=seed)
-    points = forward_kinematics(skel, root, local)[0][skel.indices(list(ad.FOOT_BONES) + [ad.TAIL_TIP_BONE])]
+    points = forward_kinematics(skel, root, local)[0][skel.indices(list(FEET) + [ad.TAIL_TIP_BONE])]
     targets = points + rng.normal(scale=0.02, size=(5, 3))
     return ad._ResidualProblem(skel, terrain, root, local, targets, rng.uniform(0.3, 1.0, 5),
                                np.full(skel.n_bones, 0.003), ad.AdaptationSettings())

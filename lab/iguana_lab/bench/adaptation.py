@@ -45,6 +45,7 @@ def _terrain_figures(skeleton, terrain, poses, computer) -> dict:
 
     import numpy as np
 
+    from iguana_ros.body.skeleton import FEET
     from iguana_ros.terrain import adaptation as ad
 
     roots, locals_, contacts = poses
@@ -63,7 +64,7 @@ def _terrain_figures(skeleton, terrain, poses, computer) -> dict:
         computer.lengths_from_bones(aligned.joint_rotations, aligned.joint_positions)
         t4 = time.perf_counter()
         p = out.joint_positions
-        feet = p[skeleton.indices(list(ad.FOOT_BONES))]
+        feet = p[skeleton.indices(list(FEET))]
         foot_err = np.abs(feet[:, 2] - terrain.height(feet[:, :2]) - feet_h)[contacts[k]]
         rows.append((t1 - t0, t2 - t1, t3 - t2, t4 - t3, state.evaluations, foot_err.max(initial=0.0),
                      np.min(p[:, 2] - terrain.height(p[:, :2]))))
