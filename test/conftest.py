@@ -105,3 +105,19 @@ def executor(ros_context):
     ex = SingleThreadedExecutor(context=ros_context)
     yield ex
     ex.shutdown()
+
+
+@pytest.fixture
+def cli(capsys):
+    """
+    Yield a runner of the iguana CLI in this process: given ARGV, it returns (exit status, stdout, stderr).
+
+    The arguments are passed through `str`, so paths may be given as they are.
+    """
+    from iguana_ros.cli import main
+
+    def run(argv) -> tuple[int, str, str]:
+        status = main([str(arg) for arg in argv])
+        out, err = capsys.readouterr()
+        return status, out, err
+    return run
