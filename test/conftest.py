@@ -48,7 +48,7 @@ def pytest_configure(config) -> None:
 
 
 HEAVY_FIRST = ('test/view/test_view_browser.py', 'test/sweep/test_sweep_engine.py', 'test/test_paper_experiments.py',
-               'test/physics/test_determinism.py', 'test/nodes/test_end_to_end.py', 'test/faults/',
+               'test/physics/test_determinism.py', 'test/supervisor/test_end_to_end.py', 'test/faults/',
                'test/cli/test_goal.py', 'test/test_examples.py', 'test/nodes/', 'test/bag/')
 """Modules run first, the costliest first (worker seconds of a `make test`, 2 workers: browser 263, sweep engine 127,
 paper experiments 88, ...): `--dist loadscope` hands modules out in this order, so the long ones do not start last
@@ -105,3 +105,19 @@ def executor(ros_context):
     ex = SingleThreadedExecutor(context=ros_context)
     yield ex
     ex.shutdown()
+
+
+@pytest.fixture
+def cli(capsys):
+    """
+    Yield a runner of the iguana CLI in this process: given ARGV, it returns (exit status, stdout, stderr).
+
+    The arguments are passed through `str`, so paths may be given as they are.
+    """
+    from iguana_ros.cli import main
+
+    def run(argv) -> tuple[int, str, str]:
+        status = main([str(arg) for arg in argv])
+        out, err = capsys.readouterr()
+        return status, out, err
+    return run

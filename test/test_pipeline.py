@@ -116,6 +116,7 @@ def test_a_strides_first_frame_is_computed_by_the_caller_and_calls_never_overlap
 
     A restart while the worker computes the earlier stride waits for that frame: the adaptation's warm start is
     shared, so no two adaptation calls may run at once (each call here is slowed to 20 ms to make an overlap show).
+    The worker's frame 1 is held until the restart has begun, so the restart surely lands inside it.
     """
     import threading
     import time
@@ -129,25 +130,36 @@ def test_a_strides_first_frame_is_computed_by_the_caller_and_calls_never_overlap
     finally:
         pipe.close()
     calls = []
+    restarts = []
+    restarting = threading.Event()                   # set when a restart finds frames of the earlier stride pending
 
     class Slow(StrideLookahead):
         def compute(self, clip, index):
             begin = time.perf_counter()
+            if threading.current_thread().name.startswith('lookahead') and not calls[1:]:
+                assert restarting.wait(timeout=30), 'the restart never began'   # hold frame 1 until it does
             time.sleep(0.02)
             frame = super().compute(clip, index)
             calls.append((begin, time.perf_counter(), threading.current_thread().name))
             return frame
+
+        def _drop_pending(self):
+            if self._pending:
+                restarts.append(time.perf_counter())
+                restarting.set()
+            super()._drop_pending()
 
     ahead = Slow(pipe.adaptation, pipe.springs)
     try:
         ahead.start(clip, 0)
         assert ahead.ready(0) and ahead._pending[0].done()
         assert calls[0][2] == threading.current_thread().name
-        time.sleep(0.01)                             # the worker is inside frame 1
-        ahead.start(clip, 5)
+        ahead.start(clip, 5)                         # the worker is inside frame 1, held until this restart begins
         assert ahead.ready(5) and ahead.take(5).lengths.shape == (len(pipe.springs.springs),)
         ahead.take(6)
     finally:
         ahead.close()
     calls.sort()
+    worker_frame_1 = calls[1]
+    assert worker_frame_1[2].startswith('lookahead') and worker_frame_1[0] < restarts[0] < worker_frame_1[1], calls
     assert len(calls) >= 4 and all(a[1] <= b[0] for a, b in zip(calls, calls[1:])), calls

@@ -25,7 +25,6 @@ import pytest
 
 from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.storage import BagReader, BagWriter, summarize
-from iguana_ros.cli import main
 
 STRING_TYPE = 'std_msgs/msg/String'
 T0 = 1_000_000_000
@@ -80,42 +79,36 @@ def _recovered(path) -> tuple[list[tuple[str, bytes]], BagReader]:
     return [(m.topic, m.data) for m in reader.messages()], reader
 
 
-def _cli(argv, capsys):
-    rc = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return rc, out, err
-
-
-def _assert_refused(argv, capsys, *phrases):
+def _assert_refused(cli, argv, *phrases):
     """Exit 1 with one error line naming the damage, and exit 0 with --allow-damaged."""
-    rc, out, err = _cli(argv, capsys)
+    rc, out, err = cli(argv)
     assert rc == 1 and len(err.strip().splitlines()) == 1, (rc, out, err)
     assert '--allow-damaged' in err and all(p in err for p in phrases), err
     return out, err
 
 
-def test_sound_bag_is_verified_by_its_crcs_and_exits_0(bag, capsys):
+def test_sound_bag_is_verified_by_its_crcs_and_exits_0(bag, cli):
     summary = summarize(bag)
     assert summary.sound and summary.health.data_crc == 'verified' and summary.library.startswith('iguana_ros')
-    rc, out, err = _cli(['bag', 'info', bag], capsys)
+    rc, out, err = cli(['bag', 'info', bag])
     assert rc == 0 and out.startswith('Files:') and 'Library:           iguana_ros' in out and not err
     assert 'Messages:          60' in out
 
 
-def test_flipped_byte_in_a_chunk_is_reported_and_every_other_chunk_recovered(bag, capsys):
+def test_flipped_byte_in_a_chunk_is_reported_and_every_other_chunk_recovered(bag, cli):
     chunk = _chunks(bag)[30]
     _flip(bag, chunk.chunk_start_offset + chunk.chunk_length - 3)  # inside the compressed records
-    out, err = _assert_refused(['bag', 'info', bag], capsys, 'damaged')
+    out, err = _assert_refused(cli, ['bag', 'info', bag], 'damaged')
     first = out.splitlines()[0]
     assert first.startswith('damaged:') and 'recovered 59 of 60 messages' in first, first
     assert 'Messages:          59' in out
     got, reader = _recovered(bag)
     assert got == _expected([i for i in range(N) if i != 30]) and reader.damaged
-    rc, out, err = _cli(['bag', 'info', bag, '--allow-damaged'], capsys)
+    rc, out, err = cli(['bag', 'info', bag, '--allow-damaged'])
     assert rc == 0 and out.startswith('damaged:') and not err
 
 
-def test_64_random_bytes_mid_file_lose_only_the_chunks_they_hit(bag, capsys):
+def test_64_random_bytes_mid_file_lose_only_the_chunks_they_hit(bag, cli):
     chunks = _chunks(bag)
     start = chunks[20].chunk_start_offset + chunks[20].chunk_length - 40    # the end of chunk 20 and its index
     _overwrite(bag, start, random.Random(12).randbytes(64))
@@ -124,7 +117,7 @@ def test_64_random_bytes_mid_file_lose_only_the_chunks_they_hit(bag, capsys):
     assert hit == [20]
     got, reader = _recovered(bag)
     assert got == _expected([i for i in range(N) if i != 20]) and reader.damaged
-    out, _ = _assert_refused(['bag', 'info', bag], capsys, 'damaged', 'recovered 59 of 60 messages')
+    out, _ = _assert_refused(cli, ['bag', 'info', bag], 'damaged', 'recovered 59 of 60 messages')
 
 
 def test_damaged_chunk_length_resyncs_on_the_index(bag):
@@ -134,7 +127,7 @@ def test_damaged_chunk_length_resyncs_on_the_index(bag):
     assert got == _expected([i for i in range(N) if i != 10]) and reader.damaged
 
 
-def test_without_an_index_the_scan_finds_the_next_chunk(bag, capsys):
+def test_without_an_index_the_scan_finds_the_next_chunk(bag, cli):
     chunks = _chunks(bag)
     raw = bytearray(_mcap(bag).read_bytes()[:chunks[50].chunk_start_offset + 7])   # killed recorder: no summary
     raw[chunks[10].chunk_start_offset + 1:chunks[10].chunk_start_offset + 9] = struct.pack('<Q', 12345)
@@ -143,7 +136,7 @@ def test_without_an_index_the_scan_finds_the_next_chunk(bag, capsys):
     (bag / 'metadata.yaml').unlink()
     got, reader = _recovered(bag)
     assert got == _expected([i for i in range(50) if i not in (10, 20)])
-    out, err = _assert_refused(['bag', 'info', bag], capsys, 'damaged', 'truncated')
+    out, err = _assert_refused(cli, ['bag', 'info', bag], 'damaged', 'truncated')
     assert 'recovered 48 messages' in out.splitlines()[0]
 
 
@@ -156,18 +149,18 @@ def test_every_chunk_repeats_the_channels_so_later_chunks_keep_their_topics(bag)
     assert got == _expected(range(1, N - 1))
 
 
-def test_truncated_bag_is_reported_and_refused_without_allow_damaged(bag, capsys):
+def test_truncated_bag_is_reported_and_refused_without_allow_damaged(bag, cli):
     raw = _mcap(bag).read_bytes()
     cut = bag.parent / 'cut.mcap'
     cut.write_bytes(raw[:len(raw) // 2])
-    out, _ = _assert_refused(['bag', 'info', cut], capsys, 'truncated')
+    out, _ = _assert_refused(cli, ['bag', 'info', cut], 'truncated')
     assert out.startswith('truncated:')
-    rc, out, err = _cli(['bag', 'info', cut, '--allow-damaged'], capsys)
+    rc, out, err = cli(['bag', 'info', cut, '--allow-damaged'])
     assert rc == 0 and out.startswith('truncated:') and not err
 
 
 @pytest.mark.parametrize('where', ['header', 'message index', 'summary', 'footer', 'magic', 'end magic'])
-def test_damage_outside_the_chunks_is_reported_and_loses_nothing(bag, capsys, where):
+def test_damage_outside_the_chunks_is_reported_and_loses_nothing(bag, cli, where):
     raw = _mcap(bag).read_bytes()
     chunks = _chunks(bag)
     offset = {'header': 20,                                                       # the library string
@@ -179,13 +172,13 @@ def test_damage_outside_the_chunks_is_reported_and_loses_nothing(bag, capsys, wh
     _flip(bag, offset)
     got, reader = _recovered(bag)
     assert got == _expected(range(N)) and reader.damaged, reader.health.describe()
-    _assert_refused(['bag', 'info', bag], capsys, 'damaged')
+    _assert_refused(cli, ['bag', 'info', bag], 'damaged')
 
 
-def test_play_refuses_a_damaged_bag_before_publishing(bag, capsys):
+def test_play_refuses_a_damaged_bag_before_publishing(bag, cli):
     chunk = _chunks(bag)[30]
     _flip(bag, chunk.chunk_start_offset + chunk.chunk_length - 3)
-    _, err = _assert_refused(['bag', 'play', bag], capsys, 'damaged', 'recovered 59 of 60 messages')
+    _, err = _assert_refused(cli, ['bag', 'play', bag], 'damaged', 'recovered 59 of 60 messages')
 
 
 _DEEP = b'a: ' + b'[' * 100_000 + b']' * 100_000 + b'\n'
@@ -199,21 +192,21 @@ _DEEP = b'a: ' + b'[' * 100_000 + b']' * 100_000 + b'\n'
     (b'- just\n- a list\n', 'rosbag2_bagfile_information'),
     (None, 'no metadata.yaml'),
 ])
-def test_damaged_metadata_yaml_gives_one_line_and_the_mcap_still_reads(bag, capsys, content, phrase):
+def test_damaged_metadata_yaml_gives_one_line_and_the_mcap_still_reads(bag, cli, content, phrase):
     meta = bag / 'metadata.yaml'
     if content is None:
         meta.unlink()
     else:
         meta.write_bytes(content)
-    out, err = _assert_refused(['bag', 'info', bag], capsys, 'metadata.yaml', phrase)
+    out, err = _assert_refused(cli, ['bag', 'info', bag], 'metadata.yaml', phrase)
     assert 'Messages:          60' in out and 'Topic: /a | Type: std_msgs/msg/String | Count: 30' in out
-    rc, out, err = _cli(['bag', 'info', bag, '--allow-damaged'], capsys)
+    rc, out, err = cli(['bag', 'info', bag, '--allow-damaged'])
     assert rc == 0 and 'Messages:          60' in out
     got, reader = _recovered(bag)
     assert got == _expected(range(N))
 
 
-def test_metadata_yaml_that_contradicts_the_mcap_is_reported(bag, capsys):
+def test_metadata_yaml_that_contradicts_the_mcap_is_reported(bag, cli):
     meta = bag / 'metadata.yaml'
     meta.write_text(meta.read_text().replace('message_count: 60', 'message_count: 61'))
-    _assert_refused(['bag', 'info', bag], capsys, 'metadata.yaml', 'message_count 61', '60')
+    _assert_refused(cli, ['bag', 'info', bag], 'metadata.yaml', 'message_count 61', '60')

@@ -22,7 +22,6 @@ import yaml
 
 from iguana_ros.bag.schema import field_types, message_definition, SEPARATOR
 from iguana_ros.bag.storage import BagReader, BagWriter, parse_qos_profiles, qos_profiles_yaml, summarize
-from iguana_ros.cli import main
 from iguana_ros.errors import InputError
 
 STRING_TYPE = 'std_msgs/msg/String'
@@ -160,15 +159,9 @@ def test_a_damaged_message_index_length_loses_no_chunk(tmp_path, mask):
         assert got == [_cdr_string(f'msg {i}') for i in range(20)], (byte, len(got), reader.problem)
 
 
-def _cli(argv, capsys):
-    rc = main(argv)
-    out, err = capsys.readouterr()
-    return rc, out, err
-
-
-def test_info_prints_topics_and_counts(tmp_path, capsys):
+def test_info_prints_topics_and_counts(tmp_path, cli):
     _write_bag(tmp_path / 'ok')
-    rc, out, _ = _cli(['bag', 'info', str(tmp_path / 'ok')], capsys)
+    rc, out, _ = cli(['bag', 'info', str(tmp_path / 'ok')])
     assert rc == 0 and 'Messages:          30' in out and 'Duration:          0.290000000s' in out
     assert 'Topic: /a | Type: std_msgs/msg/String | Count: 20 | Serialization Format: cdr' in out
 
@@ -179,37 +172,37 @@ def test_info_prints_topics_and_counts(tmp_path, capsys):
     (b'', 'is not an MCAP file'),
     (b'\x89MCAP0\r\n\x01\xff\xff', 'is corrupt: no readable MCAP header'),
 ])
-def test_bad_bags_give_one_line_and_exit_1(tmp_path, capsys, content, message):
+def test_bad_bags_give_one_line_and_exit_1(tmp_path, cli, content, message):
     path = tmp_path / 'bad.mcap'
     if content is not None:
         path.write_bytes(content)
     for action in ('info', 'play'):
-        rc, out, err = _cli(['bag', action, str(path)], capsys)
+        rc, out, err = cli(['bag', action, str(path)])
         assert rc == 1 and message in err and len(err.strip().splitlines()) == 1, err
 
 
-def test_truncated_bag_info_says_so_in_its_first_line(tmp_path, capsys):
+def test_truncated_bag_info_says_so_in_its_first_line(tmp_path, cli):
     _write_bag(tmp_path / 'ok', n=40, chunk_age_s=0.0)
     data = (tmp_path / 'ok' / 'ok.mcap').read_bytes()
     (tmp_path / 'cut.mcap').write_bytes(data[:len(data) // 2])
-    rc, out, err = _cli(['bag', 'info', str(tmp_path / 'cut.mcap')], capsys)
+    rc, out, err = cli(['bag', 'info', str(tmp_path / 'cut.mcap')])
     first = out.splitlines()[0]
     assert rc == 1 and first.startswith('truncated:') and 'recovered' in first
     assert len(err.strip().splitlines()) == 1 and '--allow-damaged' in err
     n = int(first.split('recovered ')[1].split()[0])
     assert 0 < n < 40 and f'Messages:          {n}' in out
-    rc, out, err = _cli(['bag', 'info', str(tmp_path / 'cut.mcap'), '--allow-damaged'], capsys)
+    rc, out, err = cli(['bag', 'info', str(tmp_path / 'cut.mcap'), '--allow-damaged'])
     assert rc == 0 and out.splitlines()[0] == first and not err
 
 
-def test_play_unknown_topic_lists_what_the_bag_has(tmp_path, capsys):
+def test_play_unknown_topic_lists_what_the_bag_has(tmp_path, cli):
     _write_bag(tmp_path / 'ok')
-    rc, _, err = _cli(['bag', 'play', str(tmp_path / 'ok'), '--topics', '/nope'], capsys)
+    rc, _, err = cli(['bag', 'play', str(tmp_path / 'ok'), '--topics', '/nope'])
     assert rc == 1 and "['/nope'] not in bag" in err and "['/a', '/b']" in err
 
 
-def test_record_refuses_existing_output(tmp_path, capsys):
-    rc, _, err = _cli(['bag', 'record', '/a', '-o', str(tmp_path)], capsys)
+def test_record_refuses_existing_output(tmp_path, cli):
+    rc, _, err = cli(['bag', 'record', '/a', '-o', str(tmp_path)])
     assert rc == 1 and 'already exists' in err
 
 

@@ -76,8 +76,8 @@ def test_push_with_a_duration_moves_the_body_sideways(running):
     _, iguana = running
     calm = [iguana.state().linear_velocity[1] for _ in range(15)]
     sent = iguana.push('trunk_left', (0.0, -60.0, 0.0), duration=0.2)
-    while iguana.state().time < sent + 1.5:   # the states received while waiting for the ack are kept too
-        pass
+    # period 0, no sleep: each poll spins for the next state (those received while waiting for the ack are kept too)
+    assert wait_for(lambda: iguana.state().time >= sent + 1.5, 60.0, period=0.0), iguana.state().time
     lateral = iguana.states_since(sent)
     assert len(lateral) >= 45, [s.time for s in lateral]   # no state lost from the 1.5 s after the push
     pushed = min(s.linear_velocity[1] for s in lateral)

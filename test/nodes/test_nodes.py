@@ -309,7 +309,7 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
     incompatible and does not hold the start; a listed reader neither matched nor incompatible holds it for
     READER_HOLD_LIMIT_S only.
     """
-    import time
+    from types import SimpleNamespace
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy
     from iguana_ros.nodes import simulator_node
@@ -341,9 +341,13 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
         node.peers_listed_since = None
         assert node.lockstep_peers_ready()           # listed, reported incompatible: not waited for
         node.state_readers.incompatible = 0          # as if it had not been reported yet
-        monkeypatch.setattr(simulator_node, 'READER_HOLD_LIMIT_S', 0.5)
+        clock = [1000.0]                             # the hold's clock, moved by hand
+        monkeypatch.setattr(simulator_node, 'time', SimpleNamespace(monotonic=lambda: clock[0]))
+        node.peers_listed_since = None
         assert not node.lockstep_peers_ready()       # listed, neither matched nor incompatible: held ...
-        time.sleep(0.5)
+        clock[0] = 1000.0 + simulator_node.READER_HOLD_LIMIT_S - 2 ** -10
+        assert not node.lockstep_peers_ready()
+        clock[0] = 1000.0 + simulator_node.READER_HOLD_LIMIT_S
         assert node.lockstep_peers_ready()           # ... for READER_HOLD_LIMIT_S only
     finally:
         executor.remove_node(node)

@@ -15,29 +15,22 @@
 """`iguana render` of a bag with a damaged metadata.yaml or a damaged chunk: one line, exit 1 unless --allow-damaged."""
 import numpy as np
 
-from iguana_ros.cli import main
 from render_synthetic import write_synthetic_bag
 
 
-def _cli(argv, capsys):
-    rc = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return rc, out, err
-
-
-def test_render_with_a_binary_metadata_yaml_gives_one_line(tmp_path, capsys):
+def test_render_with_a_binary_metadata_yaml_gives_one_line(tmp_path, cli):
     bag = write_synthetic_bag(tmp_path / 'synthetic', duration=0.5)
     (bag / 'metadata.yaml').write_bytes(np.random.default_rng(4).bytes(3000))
     png = tmp_path / 'frame.png'
-    rc, out, err = _cli(['render', bag, '-o', png, '-q'], capsys)
+    rc, out, err = cli(['render', bag, '-o', png, '-q'])
     assert rc == 1 and len(err.strip().splitlines()) == 1 and 'metadata.yaml' in err and 'not UTF-8' in err, err
     assert '--allow-damaged' in err
     assert not png.exists()
-    rc, out, err = _cli(['render', bag, '-o', png, '-q', '--allow-damaged'], capsys)
+    rc, out, err = cli(['render', bag, '-o', png, '-q', '--allow-damaged'])
     assert rc == 0 and png.stat().st_size > 0 and 'metadata.yaml' in err
 
 
-def test_render_of_a_bag_with_a_damaged_chunk_is_refused_without_allow_damaged(tmp_path, capsys):
+def test_render_of_a_bag_with_a_damaged_chunk_is_refused_without_allow_damaged(tmp_path, cli):
     from mcap.reader import make_reader
 
     bag = write_synthetic_bag(tmp_path / 'synthetic', duration=1.0, chunk_bytes=4096)
@@ -48,8 +41,8 @@ def test_render_of_a_bag_with_a_damaged_chunk_is_refused_without_allow_damaged(t
     raw[chunk.chunk_start_offset + chunk.chunk_length - 3] ^= 0xFF
     path.write_bytes(bytes(raw))
     png = tmp_path / 'frame.png'
-    rc, out, err = _cli(['render', bag, '-o', png, '-q'], capsys)
+    rc, out, err = cli(['render', bag, '-o', png, '-q'])
     assert rc == 1 and len(err.strip().splitlines()) == 1 and 'damaged' in err and '--allow-damaged' in err, err
     assert not png.exists()
-    rc, out, err = _cli(['render', bag, '-o', png, '-q', '--allow-damaged'], capsys)
+    rc, out, err = cli(['render', bag, '-o', png, '-q', '--allow-damaged'])
     assert rc == 0 and png.stat().st_size > 0 and 'damaged' in err

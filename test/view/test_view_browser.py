@@ -24,13 +24,12 @@ IGUANA_UPDATE_SCREENSHOT=1 saves that bag-mode screenshot to docs/view_screensho
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 import math
 import os
 from pathlib import Path
 import re
 import signal
-import time
 
 import numpy as np
 import pytest
@@ -65,15 +64,31 @@ SCREENSHOT = REPO / 'docs' / 'view_screenshot.png'
 
 @dataclass
 class LiveRun:
-    """The run under test, its viewer's address, its bag, and what the tests sent."""
+    """The run under test, its viewer's address, its bag."""
 
     process: NodeProcess
     url: str
     bag: Path
     tmp: Path
-    goal: tuple | None = None
-    heading: float | None = None
-    sent: list = field(default_factory=list)
+
+
+@dataclass
+class ClickedGoal:
+    """What the page said the planner accepted after a click on the terrain and a shift-click beside it."""
+
+    accepted: re.Match | None
+    headed: re.Match | None
+    page: str
+
+    @property
+    def goal(self) -> tuple[float, float]:
+        """Return where the click put the goal, (x, y) m."""
+        return float(self.accepted.group(1)), float(self.accepted.group(2))
+
+    @property
+    def heading(self) -> float:
+        """Return the shift-click's heading, degrees."""
+        return float(self.headed.group(3))
 
 
 @pytest.fixture(scope='module')
@@ -133,31 +148,49 @@ def test_live_page_shows_the_iguana(browser, live_run):
     assert 'Connected' in text and 'realtime factor' in text and 'clip ' in text and 'speed ' in text
 
 
-def test_a_click_on_the_terrain_sends_a_goal_the_planner_accepts(browser, live_run):
+def _open_live_page(browser, live_run) -> None:
+    """Show the live run's page (once it shows a state), its notifications dismissed."""
     if live_run.url not in browser.current_url:
         browser.get(live_run.url)
         wait_until(lambda: _shows_simulated_time(browser), START_S)
     dismiss_notifications(browser)
+
+
+@pytest.fixture(scope='module')
+def clicked_goal(browser, live_run) -> ClickedGoal:
+    """Click the terrain, then shift-click beside the goal; return what the page said the planner accepted."""
+    _open_live_page(browser, live_run)
     click_canvas(browser, 0.35, 0.85)                                  # the ground in front of the camera
     accepted = wait_until(lambda: re.search(r'goal x (-?[\d.]+) m, y (-?[\d.]+) m accepted by the planner',
                                             page_text(browser)), 60.0)
-    assert accepted, page_text(browser)
-    live_run.goal = (float(accepted.group(1)), float(accepted.group(2)))
+    if not accepted:
+        return ClickedGoal(None, None, page_text(browser))
     click_canvas(browser, 0.2, 0.9, modifier='shift')          # toward another point (the panel is on the right)
     headed = wait_until(lambda: re.search(r'goal x (-?[\d.]+) m, y (-?[\d.]+) m heading (-?\d+) deg accepted by',
                                           page_text(browser)), 60.0)
-    assert headed and (float(headed.group(1)), float(headed.group(2))) == live_run.goal, page_text(browser)
-    live_run.heading = float(headed.group(3))
+    return ClickedGoal(accepted, headed, page_text(browser))
 
 
-def test_the_push_button_sends_a_push(browser, live_run):
-    if live_run.url not in browser.current_url:
-        browser.get(live_run.url)
-        wait_until(lambda: _shows_simulated_time(browser), START_S)
-    dismiss_notifications(browser)
+@pytest.fixture(scope='module')
+def pushed(browser, live_run) -> str | None:
+    """Press 'push left flank'; return the page's text once it says the push was sent, else None."""
+    _open_live_page(browser, live_run)
     click_button(browser, 'push left flank')
-    assert wait_until(lambda: 'push of 40 N sent on trunk_left' in page_text(browser), 60.0), page_text(browser)
-    live_run.sent.append('trunk_left')        # its arrow is checked on the bag's timeline, paused at the push
+
+    def said_sent():
+        text = page_text(browser)
+        return text if 'push of 40 N sent on trunk_left' in text else None
+    return wait_until(said_sent, 60.0)
+
+
+def test_a_click_on_the_terrain_sends_a_goal_the_planner_accepts(clicked_goal):
+    assert clicked_goal.accepted, clicked_goal.page
+    assert clicked_goal.headed, clicked_goal.page
+    assert (float(clicked_goal.headed.group(1)), float(clicked_goal.headed.group(2))) == clicked_goal.goal
+
+
+def test_the_push_button_sends_a_push(pushed, browser):
+    assert pushed, page_text(browser)          # its arrow is checked on the bag's timeline, paused at the push
 
 
 def _children(pid: int) -> dict[str, int]:
@@ -186,7 +219,8 @@ def _gone(pid: int) -> bool:
         return True
 
 
-def test_the_viewer_is_a_child_of_the_run_and_stops_with_it(browser, live_run):
+def test_the_viewer_is_a_child_of_the_run_and_stops_with_it(browser, live_run, clicked_goal, pushed):
+    # this test stops the run: the goal and the push its bag is checked for are sent first (`clicked_goal`, `pushed`)
     assert live_run.process.running, f'the run ended before it was stopped: {live_run.process.tail()}'
     children = _children(live_run.process.pid)
     assert set(children) == {'viewer', 'recorder'}, children
@@ -202,30 +236,28 @@ def test_the_viewer_is_a_child_of_the_run_and_stops_with_it(browser, live_run):
 
 
 @pytest.fixture(scope='module')
-def recorded_bag(live_run):
-    """Return the run's bag, once the run has stopped."""
+def recorded_bag(live_run, clicked_goal, pushed):
+    """Return the run's bag, once the run has stopped (after the goal clicks and the push were sent)."""
     if live_run.process.running:
         live_run.process.stop(timeout=60.0)
     assert (live_run.bag / 'metadata.yaml').exists(), live_run.process.tail()
     return live_run
 
 
-def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag):
+def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag, clicked_goal, pushed):
     from iguana_ros.bag.trajectory import read_topics
-    if recorded_bag.goal is None:
-        pytest.skip('the click test did not run')
+    assert clicked_goal.accepted and clicked_goal.headed and pushed, clicked_goal.page
     recorded = read_topics(recorded_bag.bag, ['accepted_goals', 'push', 'goal_pose'])
     accepted = recorded.messages['accepted_goals'][-1].poses
     poses = [(p.pose.position.x, p.pose.position.y) for p in accepted]
     assert len(poses) == 3 and poses[0] == (2.0, 0.0)            # the scene's, the click's, the shift-click's heading
-    assert np.allclose(poses[1], recorded_bag.goal, atol=0.006) and np.allclose(poses[2], recorded_bag.goal, atol=0.006)
+    assert np.allclose(poses[1], clicked_goal.goal, atol=0.006) and np.allclose(poses[2], clicked_goal.goal, atol=0.006)
     assert [p.pose.orientation.w for p in accepted[1:2]] == [0.0]           # the click: any heading
     q = accepted[2].pose.orientation
-    assert math.degrees(2 * math.atan2(q.z, q.w)) == pytest.approx(recorded_bag.heading, abs=0.6)
-    if recorded_bag.sent:
-        (push,) = recorded.messages['push']
-        force = push.wrench.force
-        assert push.header.frame_id == 'trunk_left' and math.isclose(math.hypot(force.x, force.y), 40.0)
+    assert math.degrees(2 * math.atan2(q.z, q.w)) == pytest.approx(clicked_goal.heading, abs=0.6)
+    (push,) = recorded.messages['push']
+    force = push.wrench.force
+    assert push.header.frame_id == 'trunk_left' and math.isclose(math.hypot(force.x, force.y), 40.0)
 
 
 def _scrub(browser, seconds: float) -> None:
@@ -237,9 +269,11 @@ def _scrub(browser, seconds: float) -> None:
     field_.send_keys(f'{seconds:.2f}', Keys.ENTER)
 
 
-def test_bag_mode_plays_the_run_on_a_timeline_and_draws_its_push(browser, recorded_bag, tmp_path):
+def test_bag_mode_plays_the_run_on_a_timeline_and_draws_its_push(browser, recorded_bag, pushed, tmp_path):
     from iguana_ros.view.bag_source import load_bag
-    pushes = load_bag(recorded_bag.bag).view.pushes
+    assert pushed, 'the live run was not pushed'
+    view = load_bag(recorded_bag.bag).view
+    pushes = view.pushes
     command = [*IGUANA, 'view', str(recorded_bag.bag), '--port', '0', '--speed', '0.2', '--rate', str(DRAW_RATE)]
     with NodeProcess(command, 'iguana_view', tmp_path).start(ready='iguana view: http', timeout=120.0) as viewer:
         browser.get(_url(viewer.output))
@@ -251,26 +285,30 @@ def test_bag_mode_plays_the_run_on_a_timeline_and_draws_its_push(browser, record
         assert wait_until(lambda: _green(browser, tmp_path / 'bag.png'), 60.0), f'no green pixels in {tmp_path}'
         click_button(browser, 'pause')
         assert wait_until(lambda: 'play' in page_text(browser).split(), 30.0)
-        paused = figure(browser, 'simulated time')
-        time.sleep(1.0)
-        assert figure(browser, 'simulated time') == paused
+        # Paused, the clock stands still. The positive sign, no sleep-and-look: scrubbed back to a time before the
+        # pause, the page shows that time exactly. A playing clock would never: it was past that time, and the redraw
+        # after the scrub moves it on by at least speed / rate = 0.04 s (the server's loop advances, then draws).
+        paused = wait_until(lambda: figure(browser, 'simulated time'), 30.0)     # past first + 0.02: not 0
+        back = round((view.start_time + paused) / 2, 2)
+        assert paused - back >= 0.01, (view.start_time, paused)
+        _scrub(browser, back)
+        assert wait_until(lambda: figure(browser, 'simulated time') == back, 30.0), page_text(browser)
         _scrub(browser, 1.5)
         assert wait_until(lambda: figure(browser, 'simulated time') == 1.5, 30.0), page_text(browser)
-        if recorded_bag.sent:                     # paused just after the push: its arrow is drawn
-            assert len(pushes) == 1
-            at = round(pushes[0].time + 0.5, 2)
-            _scrub(browser, at)
-            assert wait_until(lambda: figure(browser, 'simulated time') == at, 30.0), page_text(browser)
+        assert len(pushes) == 1                   # paused just after the push: its arrow is drawn
+        at = round(pushes[0].time + 0.5, 2)
+        _scrub(browser, at)
+        assert wait_until(lambda: figure(browser, 'simulated time') == at, 30.0), page_text(browser)
 
-            def arrow_shot():
-                png, pixels = screenshot(browser)
-                (tmp_path / 'push.png').write_bytes(png)
-                return (png, pixels) if red_pixels(pixels) >= MIN_RED and green_pixels(pixels) >= MIN_GREEN else None
-            shot = wait_until(arrow_shot, 60.0)
-            assert shot is not None, f'no red push arrow beside the iguana in {tmp_path / "push.png"}'
-            if os.environ.get('IGUANA_UPDATE_SCREENSHOT') == '1':
-                SCREENSHOT.write_bytes(shot[0])
-            _scrub(browser, max(pushes[0].time - 0.5, 0.0))      # before the push: no arrow
-            assert wait_until(lambda: red_pixels(screenshot(browser)[1]) < MIN_RED, 60.0)
+        def arrow_shot():
+            png, pixels = screenshot(browser)
+            (tmp_path / 'push.png').write_bytes(png)
+            return (png, pixels) if red_pixels(pixels) >= MIN_RED and green_pixels(pixels) >= MIN_GREEN else None
+        shot = wait_until(arrow_shot, 60.0)
+        assert shot is not None, f'no red push arrow beside the iguana in {tmp_path / "push.png"}'
+        if os.environ.get('IGUANA_UPDATE_SCREENSHOT') == '1':
+            SCREENSHOT.write_bytes(shot[0])
+        _scrub(browser, max(pushes[0].time - 0.5, 0.0))      # before the push: no arrow
+        assert wait_until(lambda: red_pixels(screenshot(browser)[1]) < MIN_RED, 60.0)
         assert viewer.running
     assert viewer.proc.returncode == 0, viewer.tail()
