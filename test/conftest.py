@@ -47,9 +47,10 @@ def pytest_configure(config) -> None:
     config.addinivalue_line('markers', 'timeout(seconds): pytest-timeout limit')
 
 
-HEAVY_FIRST = ('test/view/test_view_browser.py', 'test/sweep/test_sweep_engine.py', 'test/test_paper_experiments.py',
-               'test/physics/test_determinism.py', 'test/supervisor/test_end_to_end.py', 'test/faults/',
-               'test/cli/test_goal.py', 'test/test_examples.py', 'test/nodes/', 'test/bag/')
+HEAVY_FIRST = ('test/view/test_view_browser.py', 'test/lab/sweep/test_sweep_engine.py',
+               'test/lab/test_paper_experiments.py', 'test/physics/test_determinism.py',
+               'test/supervisor/test_end_to_end.py', 'test/lab/faults/', 'test/cli/test_goal.py',
+               'test/test_examples.py', 'test/nodes/', 'test/bag/')
 """Modules run first, the costliest first (worker seconds of a `make test`, 2 workers: browser 263, sweep engine 127,
 paper experiments 88, ...): `--dist loadscope` hands modules out in this order, so the long ones do not start last
 while the other worker has nothing left (the determinism test alone ran 55 s at the end of a 577 s run)."""

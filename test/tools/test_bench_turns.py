@@ -21,7 +21,7 @@ import pytest
 
 from ros_harness import tool_module
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope='module')
