@@ -24,7 +24,7 @@ PROBE_KEYS = {'foot_state', 'foot_positions', 'reference_stance'}
 CONFIRM_KEYS = {'accepted_goals', 'route', 'planner_status'}
 """The planner's latched echo of the goals it accepted (iguana goal and iguana run wait for it), the route it follows
 and where it is on it (the commander's feedback)."""
-EVENT_KEYS = {'run_events'}
+EVENT_KEYS = {'run_events', 'diagnostics'}
 """What the node processes report about themselves (start-up milestones, clips) for iguana run's progress."""
 DOCTOR_KEYS = {'doctor_ping', 'doctor_pong'}
 """`iguana doctor`'s loopback between two processes."""

@@ -28,6 +28,7 @@ from rclpy.node import Node
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.parameters import node_parameters, ParamSpec
+from iguana_ros.ros.diagnostics import diagnostics_msg, health_status, HealthSample, NodeHealth, REPORT_PERIOD_S
 from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.run_events import run_event_msg
@@ -71,6 +72,10 @@ class IguanaNode(Node):
         super().__init__(self.KIND, **kwargs)
         self._events = self.publisher('run_events')
         self.report(EVENT_UP)
+        self.health = NodeHealth()
+        self._diagnostics = self.publisher('diagnostics')
+        self._health_since = HealthSample.of(self.health, time.monotonic())
+        self.create_timer(REPORT_PERIOD_S, self.report_health, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._specs = node_parameters(self.KIND)
         for spec in self._specs.values():
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
@@ -80,6 +85,13 @@ class IguanaNode(Node):
     def report(self, kind: str, detail: str = '', clip: str = '', frame: int = -1) -> None:
         """Publish a run event (EVENT_UP, EVENT_LOADED, EVENT_CLIP) stamped with the wall clock on run_events."""
         self._events.publish(run_event_msg(RunEvent(self.get_name(), kind, time.time(), detail, clip, frame)))
+
+    def report_health(self) -> None:
+        """Publish the node's health since its last report on /diagnostics (a wall-clock timer calls it)."""
+        now = HealthSample.of(self.health, time.monotonic())
+        status = health_status(self.get_fully_qualified_name(), self.health, self._health_since, now)
+        self._health_since = now
+        self._diagnostics.publish(diagnostics_msg([status], time.time()))
 
     def _check_new_parameters(self, params: list) -> SetParametersResult:
         """Accept a change of dynamic parameters that fit their declaration; refuse the rest with the reason."""
@@ -129,6 +141,7 @@ class IguanaNode(Node):
             try:
                 callback(msg)
             except IguanaError as exc:
+                self.health.reject(f'{what}: {exc}')
                 self.get_logger().error(f'rejected {what}: {exc}')
         return wrapper
 
@@ -160,12 +173,18 @@ class FrameGate:
             return False
         order = check_frame(self.what, frame, self.last_frame)
         if order == FRAME_STALE:
+            self._health().late += 1
             self.node.get_logger().warning(f'ignored stale {self.what} for frame {frame} (at {self.last_frame})')
         return order == FRAME_NEW
+
+    def _health(self) -> NodeHealth:
+        """Return the node's health counters (a throwaway for a node that keeps none)."""
+        return getattr(self.node, 'health', None) or NodeHealth()
 
     def handled(self, frame: int, reply=None, publish: bool = True) -> None:
         """Mark `frame` handled; keep `reply` for a repeat of the frame and publish it (unless not `publish`)."""
         self.last_frame = frame
+        self._health().frames += 1
         if reply is not None:
             self.replies[frame] = reply
             while len(self.replies) > self.keep:

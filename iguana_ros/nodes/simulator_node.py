@@ -130,6 +130,7 @@ class SimulatorNode(IguanaNode):
             self.rejected_lengths = f'frame {frame_of_cdr(data)}: {exc}'
             raise
         if check_frame('spring_rest_lengths', frame, self.stage.frame) == FRAME_STALE:
+            self.health.late += 1
             if self.mode == 'lockstep':
                 self.get_logger().warning(f'ignored stale spring_rest_lengths for frame {frame} '
                                           f'(simulating frame {self.stage.frame})')
@@ -265,6 +266,8 @@ class SimulatorNode(IguanaNode):
             return
         self.timeouts = 0
         self.rejected_lengths = ''
+        self.health.frames += 1
+        self.health.sim_time = self.stage.time
         self.wait_since = time.monotonic()
         self.publish_state()
         if self.stage.lost is not None:

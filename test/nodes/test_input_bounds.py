@@ -48,6 +48,7 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
     probe = _lockstep_peers(make_node, executor)
     probe.listen('iguana_state')
     probe.listen('scene_markers')
+    probe.listen('diagnostics')
     lengths_pub, push_pub, goal_pub = probe.pub('spring_rest_lengths'), probe.pub('push'), probe.pub('goal_pose')
 
     def drawn():
@@ -71,6 +72,7 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
         lengths_pub.publish(lengths_to_msg(rest, 0))
         assert spin_until(executor, lambda: any(state_from_msg(s)[0] == 1 for s in probe.got['iguana_state']), 30)
         assert sim.running
+        assert spin_until(executor, lambda: _reported_frames(probe.got['diagnostics']) >= 1, 10)   # 1 Hz reports
     assert drawn() == [(0.5, 1.0)]  # the 1e9 goal was never drawn
     assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain (|x|, |y| <= 5 m)' in sim.output
     after = next(s for s in probe.got['iguana_state'] if state_from_msg(s)[0] == 1)
@@ -80,6 +82,31 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
     assert 'rejected push: push force 1e+06 N is above the 1000 N limit' in sim.output
     assert 'rejected spring_rest_lengths: spring_rest_lengths has' in sim.output
     assert 'x their rest length' in sim.output
+    _check_diagnostics(probe.got['diagnostics'])
+
+
+def _values(status) -> dict:
+    """Return the key/value pairs of a DiagnosticStatus."""
+    return {kv.key: kv.value for kv in status.values}
+
+
+def _reported_frames(messages: list) -> int:
+    """Return the frames the simulator's latest /diagnostics status counts (0 before any)."""
+    statuses = [s for msg in messages for s in msg.status if s.name == '/simulator_node']
+    return int(_values(statuses[-1])['frames']) if statuses else 0
+
+
+def _check_diagnostics(messages: list) -> None:
+    """/diagnostics named the three rejections (WARN, with the count and the last reason) and the frame simulated."""
+    from diagnostic_msgs.msg import DiagnosticStatus
+    statuses = [s for msg in messages for s in msg.status if s.name == '/simulator_node']
+    assert statuses and all(s.hardware_id == 'iguana_ros' for s in statuses)
+    warned = [s for s in statuses if s.level == DiagnosticStatus.WARN]
+    assert warned and 'rejected' in warned[0].message
+    last = _values(statuses[-1])
+    assert int(last['rejected_inputs']) == 3 and int(last['frames']) >= 1
+    assert 'push force 1e+06 N' in last['last_rejected'] or 'spring_rest_lengths' in last['last_rejected']
+    assert float(last['simulated_s']) == pytest.approx(1 / 30, abs=5e-4) and float(last['realtime_factor']) >= 0.0
 
 
 def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make_node, executor):
