@@ -60,7 +60,8 @@ class Recorder:
                  log: Callable[[str], None] = print,
                  error: Callable[[str], None] = lambda m: print(m, file=sys.stderr, flush=True)) -> None:
         self.node, self.writer = node, writer
-        self.wanted = None if topics is None else [absolute_name(t) for t in topics]
+        # a remap given to the recorder (`--ros-args -r a:=b`, as `iguana run` passes its nodes') renames what it wants
+        self.wanted = None if topics is None else [node.resolve_topic_name(absolute_name(t)) for t in topics]
         self.log, self.error = log, error
         self.subscriptions: dict[str, int] = {}
         self.failed: set[str] = set()
@@ -113,9 +114,11 @@ def _install_stop_handlers(stop: list[bool]) -> None:
 
 
 def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CHUNK_AGE_S,
-           duration_s: float | None = None) -> int:
+           duration_s: float | None = None, ros_args: tuple = ()) -> int:
     """
     Record `topics` (None = every discovered topic) into bag directory `output` until SIGINT/SIGTERM.
+
+    `ros_args` (`--ros-args ...`) apply to the recorder's node: a remap records the topic under its new name.
 
     Returns the number of messages written. The bag is finalised (summary, footer, metadata.yaml)
     on every exit path except SIGKILL, after which every completed chunk remains readable.
@@ -124,7 +127,7 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
     stop = [False]
     _install_stop_handlers(stop)
     context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.init(args=['iguana', *ros_args], context=context, signal_handler_options=SignalHandlerOptions.NO)
     loop = None
     try:
         node = tool_node(RECORDER_NODE_NAME, context)

@@ -77,9 +77,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `iguana` console script; returns the exit status."""
     command = 'iguana'
+    argv = sys.argv[1:] if argv is None else list(argv)
+    own, ros = split_ros_args(argv)
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser().parse_args(own)
         command = f'iguana {args.command}'
+        if ros and not getattr(args, 'takes_ros_args', False):
+            raise IguanaError('takes no --ros-args (iguana run passes them to every node)')
+        args.ros_args = tuple(ros)
         return int(args.func(args) or 0)
     except IguanaError as exc:
         print(f'{command}: error: {exc}', file=sys.stderr)
@@ -90,6 +95,14 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:                   # `iguana bag info BAG | head`: the reader left; say nothing more
         _silence_stdout()
         return 141
+
+
+def split_ros_args(argv: list[str]) -> tuple[list[str], list[str]]:
+    """Return (the command's own arguments, everything from `--ros-args` on) of a command line."""
+    if '--ros-args' not in argv:
+        return argv, []
+    at = argv.index('--ros-args')
+    return argv[:at], argv[at:]
 
 
 def _silence_stdout() -> None:

@@ -33,7 +33,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      help='close a chunk at least every S seconds (default 1)')
     rec.add_argument('--duration', type=float, default=None, metavar='S',
                      help='stop after S seconds (default: until Ctrl-C / SIGTERM)')
-    rec.set_defaults(func=run)
+    rec.set_defaults(func=run, takes_ros_args=True)
+    rec.epilog = '--ros-args ... at the end goes to the recorder node (e.g. the remaps a run gives its nodes)'
 
     play = actions.add_parser('play', help='republish a bag with its recorded timing and QoS')
     play.add_argument('bag', metavar='BAG', help='bag directory or .mcap file')
@@ -85,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
     topics = None if args.all else (args.topics or default_topic_names())
     from iguana_ros.bag.storage import BagWriteError, DISK_FULL_EXIT
     try:
-        record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration)
+        record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration,
+               ros_args=getattr(args, 'ros_args', ()))
     except BagWriteError as exc:                      # a full disk: one line, the bag finalised from what was written
         print(f'iguana bag record: error: {exc}', file=sys.stderr, flush=True)
         return DISK_FULL_EXIT

@@ -46,7 +46,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              '$IGUANA_VIEW_TOKEN, else none)')
     parser.add_argument('--view-rate', type=float, default=None, metavar='HZ',
                         help='redraws of the viewer page per second (default 20)')
-    parser.set_defaults(func=run)
+    parser.set_defaults(func=run, takes_ros_args=True)
+    parser.epilog = ("--ros-args ... at the end goes to every node after the run's own arguments: remaps (-r "
+                     'mesh_marker:=my_mesh), parameters (-p planner_node:goal_radius:=0.3), log levels '
+                     '(--log-level simulator_node:=debug)')
 
 
 def add_progress_option(parser: argparse.ArgumentParser) -> None:
@@ -115,4 +118,5 @@ def run(args: argparse.Namespace) -> int:
         view += [] if token is None else ['--token', token]
     return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
                                      single_process=args.single_process, timeout=args.timeout,
-                                     extra_params=extra, view=view), 'iguana run', display)[1]
+                                     extra_params=extra, view=view, ros_args=getattr(args, 'ros_args', ())),
+                          'iguana run', display)[1]

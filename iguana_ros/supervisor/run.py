@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+import dataclasses
 from dataclasses import dataclass, field
 from datetime import datetime
 import math
@@ -40,7 +41,7 @@ import numpy as np
 from iguana_ros.bag.storage import DISK_FULL_EXIT
 from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
-from iguana_ros.errors import IguanaError
+from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
 from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
 from iguana_ros.scene import load_scene, Scene, scene_path
@@ -109,6 +110,8 @@ class RunOptions:
     domain_check_s: float = GRAPH_LISTEN_S
     view: list[str] | None = None
     """Arguments of an `iguana view` (live) started as a child of the run, e.g. ['--port', '8080']; None: none."""
+    ros_args: tuple = ()
+    """ROS arguments every node gets after the run's own (`iguana run ... --ros-args -r a:=b --log-level ...`)."""
 
 
 class RunInterrupted(IguanaError):
@@ -187,6 +190,27 @@ def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -
     return args
 
 
+RESERVED_REMAPS = ('__node', '__name', '__ns')
+"""Remaps `iguana run` refuses: the run finds its nodes by name on the graph (one namespace per run: issue 33)."""
+
+
+def check_user_ros_args(args: tuple) -> tuple:
+    """
+    Return the user's ROS arguments for every node, without a leading `--ros-args` or a closing `--`.
+
+    InputError for a node-renaming remap (`-r __node:=...`, `__ns`), which would hide the nodes from the run.
+    """
+    items = list(args)
+    items = items[1:] if items[:1] == ['--ros-args'] else items
+    items = items[:-1] if items[-1:] == ['--'] else items
+    for flag, value in zip(items, items[1:]):
+        target = value.split(':=')[0].split(':')[-1]
+        if flag in ('-r', '--remap') and target in RESERVED_REMAPS:
+            raise InputError(f'--ros-args {flag} {value}: iguana run finds its nodes by name; renaming them or '
+                             'their namespace is not supported (remap topics instead)')
+    return tuple(items)
+
+
 def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, dict]:
     """Return this run's parameter values of every node, by node name (over the standard params file)."""
     common = {'scene': str(scene_file)}
@@ -200,13 +224,14 @@ def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[s
     """
     Command line of every child node process, by name.
 
-    The standard params file (as the launch file gives it: use_sim_time and the declared defaults), then this run's
-    values.
+    The standard params file (as the launch file gives it: use_sim_time and the declared defaults), this run's
+    values, then the user's ROS arguments (`RunOptions.ros_args`, checked by `check_user_ros_args`).
     """
     params, standard = node_params(options, scene, scene_file), params_file()
+    user = list(options.ros_args)
     if options.single_process:
-        return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard)]}
-    return {kind: [sys.executable, '-m', f'{NODE_PACKAGE}.{kind}', *ros_args({kind: params[kind]}, standard)]
+        return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard), *user]}
+    return {kind: [sys.executable, '-m', f'{NODE_PACKAGE}.{kind}', *ros_args({kind: params[kind]}, standard), *user]
             for kind in NODE_KINDS}
 
 
@@ -227,7 +252,7 @@ class SceneRun:
 
         `display` (a progress.ProgressDisplay, optional) shows the start-up phases and the run's progress.
         """
-        self.options = options
+        self.options = dataclasses.replace(options, ros_args=check_user_ros_args(options.ros_args))
         self.display = display
         self.monitor = None
         self.nodes_started = math.nan
@@ -344,6 +369,7 @@ class SceneRun:
     def start(self) -> None:
         """Start the recorder first (so it sees every topic), then the nodes."""
         recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '-o', str(self.bag)]
+        recorder += ['--ros-args', *self.options.ros_args] if self.options.ros_args else []   # remaps recorded as is
         if self.monitor is not None:
             self.monitor.launched()
         child = self._child('recorder', recorder)
