@@ -41,6 +41,8 @@ JAZZY_EXPORTS = {
                        'ResetLaunchConfigurations', 'SetEnvironmentVariable', 'SetLaunchConfiguration', 'Shutdown',
                        'TimerAction', 'UnregisterEventHandler', 'UnsetEnvironmentVariable',
                        'UnsetLaunchConfiguration'},
+    'launch.conditions': {'evaluate_condition_expression', 'IfCondition', 'LaunchConfigurationEquals',
+                          'LaunchConfigurationNotEquals', 'UnlessCondition'},
     'launch.substitutions': {'AllSubstitution', 'AndSubstitution', 'AnonName', 'AnySubstitution', 'Command',
                              'EnvironmentVariable', 'EqualsSubstitution', 'FileContent', 'FindExecutable',
                              'IfElseSubstitution', 'LaunchConfiguration', 'LaunchLogDir', 'LocalSubstitution',
@@ -99,6 +101,61 @@ class Shutdown(_Action):
     def __init__(self, *, reason='reason not given', **kwargs) -> None:
         super().__init__(**kwargs)
         self.reason = reason
+
+
+class ExecuteProcess(_Action):
+    """launch.actions.ExecuteProcess: a process to run (its command resolved by `command`)."""
+
+    created: list[ExecuteProcess] = []
+
+    def __init__(self, *, cmd, prefix=None, name=None, cwd=None, env=None, additional_env=None, shell=False,
+                 sigterm_timeout=None, sigkill_timeout=None, emulate_tty=False, output='log', output_format=None,
+                 cached_output=False, log_cmd=False, on_exit=None, respawn=False, respawn_delay=None,
+                 respawn_max_retries=-1, **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.cmd, self.on_exit = list(cmd), on_exit
+        ExecuteProcess.created.append(self)
+
+    def command(self, resolver: Resolver) -> list[str]:
+        """Return the command line, resolved."""
+        return [resolver.text(part) for part in self.cmd]
+
+    def runs(self, resolver: Resolver) -> bool:
+        """Return whether the process is started (its condition, if any, holds)."""
+        return self.condition is None or self.condition.evaluate(resolver)
+
+
+class IfCondition:
+    """launch.conditions.IfCondition(predicate_expression): true for 'true' / '1', false for 'false' / '0'."""
+
+    def __init__(self, predicate_expression) -> None:
+        self.predicate_expression = predicate_expression
+
+    def evaluate(self, resolver: Resolver) -> bool:
+        """Return the expression's truth as launch reads it (anything else is an error)."""
+        text = resolver.text(self.predicate_expression).strip().lower()
+        if text not in ('true', '1', 'false', '0'):
+            raise ValueError(f'{text!r} is not a condition expression')
+        return text in ('true', '1')
+
+
+class UnlessCondition(IfCondition):
+    """launch.conditions.UnlessCondition(predicate_expression): the negation of IfCondition."""
+
+    def evaluate(self, resolver: Resolver) -> bool:
+        """Return the negated truth of the expression."""
+        return not super().evaluate(resolver)
+
+
+class EqualsSubstitution:
+    """launch.substitutions.EqualsSubstitution(left, right): 'true' if both sides read alike, else 'false'."""
+
+    def __init__(self, left, right) -> None:
+        self.left, self.right = left, right
+
+    def perform(self, resolver: Resolver) -> str:
+        """Return 'true' or 'false'."""
+        return str(resolver.text(self.left) == resolver.text(self.right)).lower()
 
 
 class LaunchConfiguration:
@@ -162,7 +219,7 @@ class Node(_Action):
                  output_format=None, cached_output=False, log_cmd=False, on_exit=None, respawn=False,
                  respawn_delay=None, respawn_max_retries=-1, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.executable, self.package, self.name = executable, package, name
+        self.executable, self.package, self.name, self.namespace = executable, package, name, namespace
         self.parameters, self.arguments, self.on_exit = list(parameters or []), arguments, on_exit
         Node.created.append(self)
 
@@ -181,8 +238,9 @@ class Node(_Action):
 
 _CLASSES = {
     'launch': [LaunchDescription],
-    'launch.actions': [DeclareLaunchArgument, Shutdown],
-    'launch.substitutions': [LaunchConfiguration, PathJoinSubstitution],
+    'launch.actions': [DeclareLaunchArgument, ExecuteProcess, Shutdown],
+    'launch.conditions': [IfCondition, UnlessCondition],
+    'launch.substitutions': [EqualsSubstitution, LaunchConfiguration, PathJoinSubstitution],
     'launch_ros.actions': [Node],
     'launch_ros.parameter_descriptions': [ParameterValue],
     'launch_ros.substitutions': [FindPackageShare],
@@ -202,3 +260,4 @@ def install(monkeypatch) -> None:
         if parent:
             setattr(sys.modules[parent], child, module)
     monkeypatch.setattr(Node, 'created', [])
+    monkeypatch.setattr(ExecuteProcess, 'created', [])

@@ -60,13 +60,15 @@ def _launch(monkeypatch, share: Path, **arguments) -> tuple[list, launch_api.Res
     exec(compile(LAUNCH_FILE.read_text(), str(LAUNCH_FILE), 'exec'), namespace)
     description = namespace['generate_launch_description']()
     declared = {e.name: e for e in description.entities if isinstance(e, launch_api.DeclareLaunchArgument)}
-    assert set(declared) == {'scene', 'use_sim_time'}
+    assert set(declared) == {'scene', 'mode', 'namespace', 'use_sim_time', 'record', 'rviz'}
     for name, value in arguments.items():
         assert declared[name].choices is None or value in declared[name].choices
     values = {name: arg.default_value for name, arg in declared.items()} | arguments
     nodes = [e for e in description.entities if isinstance(e, launch_api.Node)]
     assert nodes == launch_api.Node.created  # every Node made is in the description
-    return nodes, launch_api.Resolver(values, {PACKAGE: share})
+    processes = [e for e in description.entities if isinstance(e, launch_api.ExecuteProcess)]
+    assert processes == launch_api.ExecuteProcess.created
+    return nodes + processes, launch_api.Resolver(values, {PACKAGE: share})
 
 
 def test_launch_file_imports_only_the_documented_jazzy_api():
@@ -82,20 +84,46 @@ def test_launch_file_imports_only_the_documented_jazzy_api():
     assert 'generate_launch_description' in {f.name for f in tree.body if isinstance(f, ast.FunctionDef)}
 
 
+def _nodes(actions: list) -> list:
+    """Return the Node actions of a launch."""
+    return [a for a in actions if isinstance(a, launch_api.Node)]
+
+
+def _processes(actions: list, resolver: launch_api.Resolver) -> list[list[str]]:
+    """Return the command lines of the processes (not nodes) a launch starts."""
+    return [a.command(resolver) for a in actions if isinstance(a, launch_api.ExecuteProcess) and a.runs(resolver)]
+
+
+def test_launch_file_takes_mode_namespace_record_and_rviz(monkeypatch):
+    actions, resolver = _launch(monkeypatch, REPO)
+    assert _processes(actions, resolver) == []                     # by default: the nodes only
+    assert {resolver.text(n.namespace) for n in _nodes(actions)} == {''}
+    actions, resolver = _launch(monkeypatch, REPO, mode='realtime', namespace='iguana1', record='bags/run1',
+                                rviz='true')
+    simulator = next(n for n in _nodes(actions) if n.name == 'simulator_node')
+    assert simulator.parameter_values(resolver) == {'scene': 'hills', 'mode': 'realtime'}
+    assert {resolver.text(n.namespace) for n in _nodes(actions)} == {'iguana1'}
+    assert _processes(actions, resolver) == [[CLI_EXECUTABLE, 'bag', 'record', '-o', 'bags/run1'],
+                                             ['rviz2', '-d', str(REPO / 'rviz' / 'iguana.rviz')]]
+
+
 def test_launch_file_starts_the_installed_node_executables_with_the_run_params_file(monkeypatch):
     nodes, resolver = _launch(monkeypatch, REPO)  # the source tree stands for share/iguana_ros
+    nodes = _nodes(nodes)
     assert [n.executable for n in nodes] == list(NODE_EXECUTABLES)
     assert {n.package for n in nodes} == {PACKAGE} and [n.name for n in nodes] == list(NODE_EXECUTABLES)
     for node in nodes:
         files = node.parameter_files(resolver)
         assert files == [REPO / params_file().relative_to(REPO)]  # the file `iguana run` gives every node
         clock = {'use_sim_time': True} if node.name in SIM_TIME_NODES else {}
-        assert node.parameter_values(resolver) == {'scene': 'hills', **clock}
+        mode = {'mode': 'lockstep'} if node.name == 'simulator_node' else {}
+        assert node.parameter_values(resolver) == {'scene': 'hills', **clock, **mode}
     assert [n.executable for n in nodes if n.on_exit is not None] == ['simulator_node']
     nodes, resolver = _launch(monkeypatch, REPO, scene='flat_walk', use_sim_time='false')
+    nodes = _nodes(nodes)
     assert nodes[0].name == 'planner_node'
     assert nodes[0].parameter_values(resolver) == {'scene': 'flat_walk', 'use_sim_time': False}
-    assert nodes[3].parameter_values(resolver) == {'scene': 'flat_walk'}
+    assert nodes[3].parameter_values(resolver) == {'scene': 'flat_walk', 'mode': 'lockstep'}
 
 
 def test_iguana_run_gives_each_node_the_params_file_then_its_own_values():
