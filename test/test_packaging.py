@@ -286,8 +286,9 @@ def test_colcon_build_puts_nodes_in_lib_and_the_cli_on_path(tmp_path, monkeypatc
     share = prefix / 'share' / PACKAGE
     assert (share / 'launch' / 'iguana.launch.py').is_file()
     assert (share / 'rviz' / 'iguana.rviz').is_file() and (share / 'foxglove' / 'iguana_layout.json').is_file()
-    nodes, resolver = _launch(monkeypatch, share)
-    for node in nodes:
+    actions, resolver = _launch(monkeypatch, share, rviz='true')
+    assert Path(_processes(actions, resolver)[-1][-1]).is_file()           # the installed RViz2 config
+    for node in _nodes(actions):
         assert all(f.is_file() for f in node.parameter_files(resolver))
         assert (prefix / 'lib' / node.package / node.executable).is_file()
     env = {k: v for k, v in os.environ.items() if k not in ('PYTHONPATH', 'AMENT_PREFIX_PATH')}
