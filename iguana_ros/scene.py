@@ -447,9 +447,9 @@ def _check_grid(extent: float, spacing: float, field_path: str, what: str, sourc
 
 def _check_heightmap(terrain: TerrainSpec, source: str) -> None:
     """
-    Check that a heightmap terrain names a file.
+    Check that a heightmap terrain names a file that exists.
 
-    that exists and whose header promises at most MAX_GRID_NODES values.
+    The file's header must promise at most MAX_GRID_NODES values.
     """
     from iguana_ros.terrain.heightfield import heightmap_shape
 
@@ -615,10 +615,10 @@ class _Collection:
 
 def _check_structure(text: str, source: str) -> None:
     """
-    From the parser's events, before anything is composed.
+    Check the structure of the YAML `text` from the parser's events, before anything is composed.
 
-    At most MAX_NESTING levels of collections, at most MAX_YAML_NODES nodes with every alias counted at its full size,
-    no key given twice in a mapping.
+    It allows at most MAX_NESTING levels of collections, at most MAX_YAML_NODES nodes with every alias counted at its
+    full size, and no key given twice in a mapping.
     """
     open_: list[_Collection] = [_Collection(mapping=False, anchor=None)]   # the document as a sequence
     anchors: dict[str, tuple[int, int]] = {}            # anchor -> (size, height)
