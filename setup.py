@@ -86,7 +86,8 @@ def _cli_on_path(scripts_dir: str) -> list:
     """
     Copy the CLI from the ROS executables folder <prefix>/lib/iguana_ros (setup.cfg) to <prefix>/bin.
 
-    which a colcon workspace's setup script puts on PATH; nothing for any other scripts folder (pip's bin/).
+    A colcon workspace's setup script puts <prefix>/bin on PATH; nothing is copied for any other scripts folder (pip's
+    bin/).
     """
     scripts = Path(scripts_dir)
     if scripts.parts[-2:] != ('lib', PACKAGE) or not (scripts / CLI).is_file():

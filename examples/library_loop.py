@@ -38,9 +38,9 @@ from iguana_ros.scene import load_scene, Scene, with_duration
 
 def scene_for(name: str, duration: float | None, mesh: str | None) -> Scene:
     """
-    Return the scene `name` (a shipped scene or a YAML path), shortened to `duration` s.
+    Return the scene `name`, shortened to `duration` s, on mesh resolution `mesh`.
 
-    on mesh resolution `mesh`.
+    `name` is a shipped scene or a YAML path.
     """
     scene = load_scene(name)
     if duration is not None:

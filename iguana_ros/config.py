@@ -39,8 +39,8 @@ def shared_path(*parts: str, hint: str = '') -> Path:
     """
     Return a file or folder the package installs under share/iguana_ros/.
 
-    (msg_configs/, rviz/iguana.rviz, foxglove/iguana_layout.json): from the source tree, <prefix>/share/iguana_ros
-    (pip), or the ament index (colcon); FileNotFoundError naming where it looked.
+    These are msg_configs/, rviz/iguana.rviz and foxglove/iguana_layout.json, found in the source tree, in
+    <prefix>/share/iguana_ros (pip), or through the ament index (colcon); FileNotFoundError names where it looked.
     """
     source = Path(__file__).resolve().parent.parent.joinpath(*parts)
     if source.exists():

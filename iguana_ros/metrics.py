@@ -213,8 +213,8 @@ def slip_per_foot(foot_xy: np.ndarray, foot_contact: np.ndarray, n_strides: int)
     """
     Return the horizontal travel `(n_feet,)` m per stride of each foot while it touches the ground.
 
-    Of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames in which it touches the ground
-    (`foot_contact (n_frames, n_feet)`).
+    The travel is that of each foot centroid `(n_frames, n_feet, 2)` between consecutive frames in which it touches the
+    ground (`foot_contact (n_frames, n_feet)`).
     """
     step = np.linalg.norm(np.diff(foot_xy, axis=0), axis=2)
     held = foot_contact[1:] & foot_contact[:-1]
@@ -228,9 +228,9 @@ def stance_fractions(foot_contact: np.ndarray) -> np.ndarray:
 
 def swing_intervals(reference_contact: np.ndarray) -> list[list[tuple[int, int]]]:
     """
-    Per foot, the (first, last) frame of every swing of `reference_contact (n_frames, n_feet)`.
+    Return per foot the (first, last) frame of every swing of `reference_contact (n_frames, n_feet)`.
 
-    (stance = True) that starts and ends inside the run.
+    Stance is True in `reference_contact`; only swings that start and end inside the run count.
     """
     out = []
     for foot in range(reference_contact.shape[1]):
@@ -259,9 +259,10 @@ def mid_swing_clearances(foot_height: np.ndarray, reference_contact: np.ndarray)
 
 def speed_fraction(progress: np.ndarray, reference: np.ndarray) -> float:
     """
-    Total progress `(n_strides,)` m of the body along each stride's clip displacement as a fraction.
+    Return the body's total progress along the strides' clip displacements as a fraction of those displacements.
 
-    of the clips' displacements `(n_strides,)` m (NaN when no stride moves).
+    `progress` `(n_strides,)` m is the body's progress along each stride's clip displacement and `reference`
+    `(n_strides,)` m the clips' displacements; NaN when no stride moves.
     """
     total = float(np.sum(reference))
     return float(np.sum(progress) / total) if total > 1e-9 else float('nan')
@@ -269,9 +270,10 @@ def speed_fraction(progress: np.ndarray, reference: np.ndarray) -> float:
 
 def rigid_fit_errors(nodes: np.ndarray, reference: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """
-    RMS distance `(n_frames,)` m between nodes `(n_frames, n, 3)` and the reference `(n_frames, n, 3)`.
+    Return the RMS distance `(n_frames,)` m between nodes and the reference after a rigid fit, frame by frame.
 
-    after the best rigid (weighted) fit of the reference onto the nodes, frame by frame.
+    Nodes and reference are `(n_frames, n, 3)`; in each frame the reference is fitted onto the nodes by the best rigid
+    (weighted) fit.
     """
     w = weights / weights.sum()
     out = np.empty(len(nodes))

@@ -42,9 +42,9 @@ def bone_node_groups(model, bones: tuple) -> list[np.ndarray]:
 
 def metrics_of_run(result, scene, library: dict | None = None) -> LocomotionMetrics:
     """
-    `LocomotionMetrics` of a RunResult for the last goal of `scene` (no goal: none reached, no distance).
+    Return the LocomotionMetrics of a RunResult for the last goal of `scene` (no goal: none reached, no distance).
 
-    with the gait figures against the reference (clips from `library`, default the shipped clip library); foot slip per
+    The gait figures are against the reference (clips from `library`, default the shipped clip library); foot slip per
     stride (four feet summed) is that of the walk, until the goal is reached.
     """
     model = build_model(scene.model.resolution, scene.model.stiffness)
@@ -228,9 +228,9 @@ def _unknown(value):
 def run_gait_metrics(model, result, scene, reference: np.ndarray, heights: np.ndarray, foot_xy: np.ndarray,
                      foot_contact: np.ndarray, goal: np.ndarray | None, library: dict | None, terrain) -> GaitMetrics:
     """
-    `GaitMetrics` of a run's walk (its frames until the goal is reached).
+    Return the `GaitMetrics` of a run's walk (its frames until the goal is reached).
 
-    per-foot contact, clearance, slip and height error, speed, shape error.
+    The figures are per-foot contact, clearance, slip and height error, speed and shape error.
     """
     if library is None:
         from iguana_ros.motion.clips import load_clip_library

@@ -439,9 +439,9 @@ def _check_grid(extent: float, spacing: float, field_path: str, what: str, sourc
 
 def _check_heightmap(terrain: TerrainSpec, source: str) -> None:
     """
-    Check that a heightmap terrain names a file.
+    Check that a heightmap terrain names a file that exists.
 
-    that exists and whose header promises at most MAX_GRID_NODES values.
+    The file's header must promise at most MAX_GRID_NODES values.
     """
     from iguana_ros.terrain.heightfield import heightmap_shape
 

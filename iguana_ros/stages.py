@@ -72,9 +72,9 @@ def scene_terrain(scene: Scene) -> HeightField:
 
 def stride_ended(clip_start: int, clip_points: int, frame: int) -> bool:
     """
-    Whether a clip of `clip_points` poses started at frame `clip_start` is used up at `frame`.
+    Return whether a clip of `clip_points` poses started at frame `clip_start` is used up at `frame`.
 
-    (its last pose is the next clip's first: a new clip is chosen there).
+    Its last pose is the next clip's first: a new clip is chosen there.
     """
     return frame >= clip_start + clip_points - 1
 
@@ -384,7 +384,7 @@ def motion_graph(library: dict | None = None, blend_frames: int | None = None) -
     """
     Return the motion graph over `library` (default: the shipped clip library).
 
-    blending `blend_frames` frames at each transition (default: the planner's declared `blend_frames` parameter).
+    It blends `blend_frames` frames at each transition (default: the planner's declared `blend_frames` parameter).
     """
     if library is None:
         from iguana_ros.motion.clips import load_clip_library
@@ -457,7 +457,8 @@ def adaptation_stage(scene: Scene, enabled: bool | None = None, skeleton=None,
     """
     Return the terrain adaptation of `scene` (on as the scene says unless `enabled` is given; never on flat ground).
 
-    for `skeleton` (default the iguana's); the terrain is built only when adaptation runs (or taken from `terrain`).
+    It is for `skeleton` (default the iguana's); the terrain is built only when adaptation runs (or taken from
+    `terrain`).
     """
     needed = (scene if enabled is None else dataclasses.replace(scene, adaptation=bool(enabled))).needs_adaptation
     if not needed:
@@ -485,10 +486,10 @@ class ReferenceFrame:
 
 class StrideLookahead:
     """
-    The reference frames of a placed clip's stride.
+    The reference frames of a placed clip's stride, computed in frame order.
 
-    computed in frame order, the first by the caller and the rest on one worker thread while the simulator steps (its
-    kernel releases the GIL), so the two cores work at once.
+    The first is computed by the caller and the rest on one worker thread while the simulator steps (its kernel releases
+    the GIL), so the two cores work at once.
 
     A frame's adapted pose depends only on the clip and the adaptation's warm start from the frame before, never
     on the simulated body, so computing a stride ahead gives the same numbers in the same order as computing each
@@ -497,10 +498,9 @@ class StrideLookahead:
 
     def __init__(self, adaptation: AdaptationStage, springs=None, threaded: bool = True) -> None:
         """
-        Look ahead with `adaptation`.
+        Look ahead with `adaptation` (and `springs`, a SpringLengthComputer) on a worker thread.
 
-        (and `springs`, a SpringLengthComputer) on a worker thread unless `threaded` is False (then each frame is
-        computed when asked for).
+        With `threaded` False each frame is computed when asked for instead.
         """
         self.adaptation = adaptation
         self.springs = springs
@@ -625,7 +625,7 @@ class SimulatorStage:
         """
         Build the simulator for `model` on `terrain`.
 
-        pushes are applied by simulated time. `options` are SoftBodySimulator keywords (fidelity fields such as `dt`,
+        Pushes are applied by simulated time. `options` are SoftBodySimulator keywords (fidelity fields such as `dt`,
         `friction`), none by default.
         """
         self.model = model

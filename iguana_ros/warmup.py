@@ -15,8 +15,8 @@
 """
 Compile every numba kernel and build the default body model once, ahead of the first run.
 
-(`iguana warm`, called by `make install`), so four node processes do not each spend tens of seconds compiling at
-start-up.
+It is run by `iguana warm`, which `make install` calls, so four node processes do not each spend tens of seconds
+compiling at start-up.
 
 numba compiles a kernel per argument-type signature; the warm-up drives the real code paths (the library frame
 loop over a terrain that needs adaptation, and one rendered frame) with the types a real run uses, so the
@@ -52,9 +52,9 @@ class WarmReport:
 
 def kernel_signatures() -> dict[str, list[str]]:
     """
-    {'module.kernel': [signature, ...]} of every numba kernel of the package.
+    Return {'module.kernel': [signature, ...]} of every numba kernel of the package.
 
-    that has been compiled or loaded in this process.
+    Only the kernels compiled or loaded in this process are listed.
     """
     import sys
 

@@ -113,10 +113,10 @@ class _Collection:
 
 def _check_structure(text: str, source: str, error: type[InputError]) -> None:
     """
-    Check a YAML text's structure from the parser's events, before anything is composed.
+    Check the structure of the YAML `text` from the parser's events, before anything is composed.
 
-    At most MAX_NESTING levels of collections, at most MAX_YAML_NODES nodes with every alias counted at its full size,
-    no key given twice in a mapping.
+    It allows at most MAX_NESTING levels of collections, at most MAX_YAML_NODES nodes with every alias counted at its
+    full size, and no key given twice in a mapping.
     """
     open_: list[_Collection] = [_Collection(mapping=False, anchor=None)]   # the document as a sequence
     anchors: dict[str, tuple[int, int]] = {}            # anchor -> (size, height)

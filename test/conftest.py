@@ -85,7 +85,7 @@ def make_node(ros_context):
     """
     Yield a factory `make_node` (call it with a node name) creating nodes on the test's context.
 
-    (destroyed afterwards).
+    The nodes are destroyed afterwards.
     """
     import rclpy
     nodes = []

@@ -94,9 +94,9 @@ def _rot_y(angle):
 
 def test_rigid_fit_recovers_a_rigid_transform_also_of_planar_sets():
     """
-    Exact data.
+    On exact data the fit is the transform itself, also for 3 and 4 coplanar points.
 
-    The fit is the transform itself, also for 3 and 4 coplanar points, whose cross-covariance is singular (det 0).
+    The cross-covariance of those coplanar sets is singular (det 0).
     """
     rng = np.random.default_rng(0)
     rot = Rotation.random(random_state=1).as_matrix()
@@ -128,10 +128,10 @@ def test_rigid_fit_never_reflects_and_weights_select_points():
 
 def test_rigid_fit_of_degenerate_sets():
     """
-    Collinear points.
+    The rigid fit of degenerate sets: collinear points, coincident points, no positive weight.
 
-    The smallest rotation taking the line onto the target line (here 0.2 rad about y, no roll); coincident points: the
-    identity and the offset; no positive weight: an error.
+    Collinear points give the smallest rotation taking the line onto the target line (here 0.2 rad about y, no roll);
+    coincident points give the identity and the offset; no positive weight gives an error.
     """
     line = np.outer([0.0, 0.1, 0.2, 0.3], [1.0, 0.0, 0.0])
     target = np.outer([0.0, 0.1, 0.2, 0.3], [np.cos(0.2), 0.0, np.sin(0.2)]) + [0.5, 0.0, 0.0]

@@ -54,10 +54,9 @@ def test_unwritable_cache_is_not_an_error(tmp_path):
 
 def test_invalidation_gives_every_kernel_module_a_new_stamp(tmp_path):
     """
-    After a source change every kernel module gets a newer mtime.
+    After a source change every kernel module gets a newer mtime; unchanged sources are left alone.
 
-    (so numba refuses cache entries a racing process records later with the old stamps); unchanged sources are left
-    alone.
+    Then numba refuses cache entries a racing process records later with the old stamps.
     """
     pkg = _package(tmp_path)
     invalidate_stale_kernels(pkg)

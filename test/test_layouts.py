@@ -13,10 +13,10 @@
 # limitations under the License.
 
 """
-The shipped RViz2 config and Foxglove layout parse, name only topics.
+The shipped RViz2 config and Foxglove layout parse, agree with msg_configs/topics.yaml and are installed.
 
-types and QoS that msg_configs/topics.yaml declares (every plotted field exists in its message type), send goals the
-planner accepts, and are installed under share/iguana_ros/.
+They name only topics, types and QoS that msg_configs/topics.yaml declares (every plotted field exists in its message
+type), send goals the planner accepts, and are installed under share/iguana_ros/.
 """
 from __future__ import annotations
 

@@ -63,7 +63,7 @@ def test_stance_feet_hold(flat_run):
     """
     Foot slip per stride (4 feet summed) stays well under the 0.155 m a stride covers.
 
-    (measured 0.32 m for 4 feet, ~0.08 m per foot).
+    Measured: 0.32 m for 4 feet, ~0.08 m per foot.
     """
     _, result, metrics = flat_run
     assert metrics.foot_slip_per_stride < 0.5

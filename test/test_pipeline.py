@@ -87,10 +87,10 @@ def test_scene_goal_schedule(coarse_scene):
 
 def test_stride_lookahead_on_a_thread_equals_frames_computed_on_demand():
     """
-    Adapted poses of a stride computed ahead on the worker thread.
+    Adapted poses of a stride computed ahead on the worker thread are the numbers the loop computes frame by frame.
 
-    (while the body steps) are the numbers the loop computes frame by frame without it: the same warm-start chain, over
-    three strides with adaptation on.
+    The thread computes them while the body steps; the loop without it gives the same numbers: the same warm-start
+    chain, over three strides with adaptation on.
     """
     scene = parse_scene({'terrain': {'kind': 'hills', 'amplitude': 0.08}, 'model': {'resolution': 'coarse'},
                          'goals': [{'x': 1.0, 'y': 0.3}], 'duration': 2.5}, 'test')

@@ -15,7 +15,7 @@
 """
 The foot probe and the gait figures of per-frame tracks.
 
-(the pieces a node run's summary shares with `metrics_of_run`).
+They are the pieces a node run's summary shares with `metrics_of_run`.
 """
 import math
 

@@ -13,10 +13,10 @@
 # limitations under the License.
 
 """
-The shared checks of what a node accepts from a topic.
+The shared checks of what a node accepts from a topic (iguana_ros.validation) and the per-topic decoders.
 
-(iguana_ros.validation) and the per-topic decoders of iguana_ros.ros.messages that call them: bounds derived from the
-model and the scene, one line per rejection.
+The decoders of iguana_ros.ros.messages call the checks; the bounds are derived from the model and the scene, one line
+per rejection.
 """
 from __future__ import annotations
 

@@ -73,9 +73,9 @@ def load_metadata(directory: str | Path) -> tuple[dict | None, str]:
 
 def _too_deep(text: str) -> bool:
     """
-    Whether brackets nest deeper than MAX_FLOW_DEPTH or a line is indented more than MAX_INDENT.
+    Return whether brackets nest deeper than MAX_FLOW_DEPTH or a line is indented more than MAX_INDENT.
 
-    (quoted text counts too: a bag description has no such strings).
+    Quoted text counts too: a bag description has no such strings.
     """
     depth = 0
     for bracket in _BRACKETS.findall(text):
@@ -110,7 +110,7 @@ def check_metadata(info: dict, mcap_name: str, topic_counts: dict[str, int] | No
     """
     Return what in a loaded metadata mapping is malformed or contradicts the MCAP file `mcap_name`.
 
-    whose full per-topic and total message counts are given when known (None for a damaged MCAP without a trusted
+    The MCAP's full per-topic and total message counts are given when known (None for a damaged MCAP without a trusted
     summary: then the counts are not compared).
     """
     problems = []

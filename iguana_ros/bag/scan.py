@@ -145,9 +145,9 @@ class Health:
 
     def recovered(self) -> str:
         """
-        'recovered 59 of 60 messages (59 of 60 chunks)' or, without a trusted summary.
+        Return what was recovered: 'recovered 59 of 60 messages (59 of 60 chunks)'.
 
-        'recovered 48 messages in 48 chunks'.
+        Without a trusted summary it is 'recovered 48 messages in 48 chunks'.
         """
         if self.expected_messages is None:
             return f'recovered {self.messages} messages in {self.chunks} chunks'
@@ -165,7 +165,8 @@ class _File:
     """
     Positioned reads of a file.
 
-    (no shared file position, no memory map: a file shrinking under the reader gives short reads, not a crash).
+    There is no shared file position and no memory map: a file shrinking under the reader gives short reads, not a
+    crash.
     """
 
     def __init__(self, path: Path) -> None:
@@ -219,8 +220,8 @@ def _chunk_fields(body: bytes | memoryview, at: int = 0, length: int | None = No
     """
     Return the fields of the chunk record body at `at` in `body`, or None if it is not shaped like one.
 
-    (start_ns, end_ns, uncompressed_size, crc, compression, records_offset, records_length) of a record whose length is
-    `length` (default: the rest of `body`).
+    The fields are (start_ns, end_ns, uncompressed_size, crc, compression, records_offset, records_length) of a record
+    whose length is `length` (default: the rest of `body`).
     """
     length = len(body) - at if length is None else length
     if length < CHUNK_FIXED or len(body) < at + 32:

@@ -44,9 +44,9 @@ def foot_groups(model) -> list[np.ndarray]:
 
 def foot_heights(node_positions: np.ndarray, feet: list[np.ndarray], terrain, offset: np.ndarray) -> np.ndarray:
     """
-    Height (m) of each foot's lowest sole point (node minus its contact `offset (n_nodes,)`) above the terrain.
+    Return the height (m) `(n_frames, n_feet)` of each foot's lowest sole point above the terrain.
 
-    `(n_frames, n_feet)`.
+    A sole point's height is that of its node minus its contact `offset (n_nodes,)`.
     """
     idx = np.concatenate(feet)                       # every foot's sole nodes: one terrain query for all
     sole = node_positions[:, idx]
@@ -78,9 +78,9 @@ def group_centroids(node_positions: np.ndarray, groups: list[np.ndarray]) -> np.
 
 def skinned_meshes(computer: SpringLengthComputer, joints: np.ndarray, rotations: np.ndarray) -> np.ndarray:
     """
-    Return the reference mesh skinned by `computer` to each pose.
+    Return the reference mesh skinned by `computer` to each pose, `(n_frames, n_nodes, 3)`.
 
-    (joint positions `(n_frames, n_bones, 3)`, bone rotations `(n_frames, n_bones, 4)`), `(n_frames, n_nodes, 3)`.
+    The poses are joint positions `(n_frames, n_bones, 3)` and bone rotations `(n_frames, n_bones, 4)`.
     """
     out = np.empty((len(joints), len(computer.rest_positions), 3))
     for f, (pos, rot) in enumerate(zip(joints, rotations)):
@@ -106,9 +106,9 @@ class FootProbe:
 
     def body(self, positions: np.ndarray, in_contact: np.ndarray) -> tuple:
         """
-        (heights `(4,)` m, contact `(4,)` bool, sole centroids `(4, 3)` m) of nodes `(n, 3)` with contact flags `(n,)`.
+        Return (heights `(4,)` m, contact `(4,)` bool, sole centroids `(4, 3)` m) of the simulated body.
 
-        (the simulator's `positions` and `in_contact`).
+        It reads nodes `(n, 3)` with contact flags `(n,)`: the simulator's `positions` and `in_contact`.
         """
         heights, contact, soles = foot_probe(np.asarray(positions, float)[None], np.asarray(in_contact, bool)[None],
                                              self.feet, self.terrain, self.offset)

@@ -495,7 +495,7 @@ def smooth_bad_nodes(shape: BodyShape, points: np.ndarray, tets: np.ndarray, sli
                      threshold: float, rng: np.random.Generator, n_trials: int = 32,
                      step: float = 0.25) -> tuple:
     """
-    (points, nodes moved).
+    Return (points, nodes moved) after moving the nodes of the tets below `threshold` rad.
 
     Each node of a tet below `threshold` rad goes to the best of `n_trials` random positions (~`step` x its shortest
     edge away) if that raises the worst quality of its tets.

@@ -78,8 +78,8 @@ class RootTracker:
         """
         Return the root region's (linear `(3,)` m/s, angular `(3,)` rad/s) velocity for node positions and velocities.
 
-        Both `(n_nodes, 3)`: the region's centre-of-mass velocity, and the angular velocity of its momentum about that
-        centre.
+        Positions and velocities are `(n_nodes, 3)`. The linear velocity is that of the region's centre of mass, the
+        angular one that of its momentum about that centre.
         """
         return rigid_velocity(np.asarray(positions, float)[self.nodes], np.asarray(velocities, float)[self.nodes],
                               self.weights)

@@ -73,11 +73,11 @@ def progress_display(every_s: float):
 
 def run_and_report(options, prog: str, display=None) -> tuple:
     """
-    Run a scene (RunOptions `options`) after `iguana doctor`'s quick checks (CheckFailed: the failed check's line).
+    Run a scene (RunOptions `options`) after `iguana doctor`'s quick checks and print its summary.
 
-    print its summary and, unless it completed, one line on stderr headed `prog`; returns (the RunSummary or None if
-    nothing was started, the exit status: 0 completed, 1 failed, 128 + n stopped by signal n, e.g. 143 for SIGTERM);
-    `display` shows the phases and progress meanwhile.
+    A failed check raises CheckFailed (the failed check's line). Unless the run completed, one line headed `prog` goes
+    to stderr. Returns (the RunSummary or None if nothing was started, the exit status: 0 completed, 1 failed, 128 + n
+    stopped by signal n, e.g. 143 for SIGTERM); `display` shows the phases and progress meanwhile.
     """
     import sys
 

@@ -355,9 +355,10 @@ def check_bag_folder(folder: Path = Path('bags')) -> Check:
 
 def check_kernel_cache(package_dir: Path | None = None, env: Mapping[str, str] | None = None) -> Check:
     """
-    Whether the compiled kernels are cached where numba looks for them (NUMBA_CACHE_DIR honoured).
+    Check whether the compiled kernels are cached where numba looks for them (NUMBA_CACHE_DIR honoured).
 
-    (warm: a run starts at once; cold: the first run compiles them) and whether they can be cached at all.
+    Warm: a run starts at once; cold: the first run compiles them. The check also says whether they can be cached at
+    all.
     """
     cache = kernel_cache(package_dir, env)
     if cache.unwritable:

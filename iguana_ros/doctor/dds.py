@@ -52,7 +52,7 @@ def check_participants(others: list[str], domain: str, run_nodes: list[str], pro
 def dds_checks(run_node_names: tuple[str, ...], timeout: float = LOOPBACK_TIMEOUT_S,
                discovery_s: float = DISCOVERY_WAIT_S) -> list[Check]:
     """
-    [loopback, other participants] on this process's ROS_DOMAIN_ID.
+    Return the checks [loopback, other participants] on this process's ROS_DOMAIN_ID.
 
     `run_node_names` are the names a run's nodes have (found on the graph, they make `iguana run` refuse the domain).
     """

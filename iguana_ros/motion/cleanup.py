@@ -13,11 +13,11 @@
 # limitations under the License.
 
 """
-Footskate cleanup of a stride clip.
+Footskate cleanup of a stride clip, after Kovar, Schreiner and Gleicher 2002.
 
-(after Kovar, Schreiner and Gleicher 2002, "Footskate cleanup for motion capture editing"): every stance foot planted at
-one place on the capture floor with its sole flat, swings re-joined to the planted ends and lifted to a minimum
-clearance, legs re-solved by IK.
+As in "Footskate cleanup for motion capture editing", every stance foot is planted at one place on the capture floor
+with its sole flat, swings are re-joined to the planted ends and lifted to a minimum clearance, and the legs are
+re-solved by IK.
 
 Planting works on the foot's pivot, the wrist or ankle joint: the leg IK (three DOFs per leg) puts the pivot
 on its planted target, and `flat_soles` then turns the wrist/ankle bone so the sole lies flat with one fixed
@@ -113,10 +113,11 @@ def _smoothstep(s: np.ndarray) -> np.ndarray:
 def planted_foot_targets(feet: np.ndarray, contacts: np.ndarray, floor: np.ndarray, stride: StrideTransform | None,
                          min_clearance: float = MIN_SWING_CLEARANCE) -> np.ndarray:
     """
-    Return cleaned foot-marker targets `(N+1, n_feet, 3)` of a clip from its foot markers `(N+1, n_feet, 3)`.
+    Return cleaned foot-marker targets `(N+1, n_feet, 3)` of a clip from its markers, stance flags and floor heights.
 
-    stance flags `(N+1, n_feet)` and each foot's marker height on the floor `(n_feet,)` m; `stride` is the motion of a
-    cyclic clip (None: a window of a take, whose first and last stance and swing are cut by its ends).
+    The inputs are the foot markers `(N+1, n_feet, 3)`, the stance flags `(N+1, n_feet)` and each foot's marker height
+    on the floor `(n_feet,)` m; `stride` is the motion of a cyclic clip (None: a window of a take, whose first and last
+    stance and swing are cut by its ends).
 
     Each stance is planted at its mean horizontal position, at floor height; each swing keeps its shape,
     offset smoothly from the correction at lift-off to the one at touch-down, kept above the floor, and raised
@@ -177,11 +178,11 @@ def floor_pivot_heights(model: BodyModel) -> np.ndarray:
 def clean_footskate(theta: np.ndarray, contacts: np.ndarray, model: BodyModel,
                     min_clearance: float = MIN_SWING_CLEARANCE, cyclic: bool = True) -> tuple:
     """
-    (poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the clip `theta (N+1, n_dof)`.
+    Return (poses `(N+1, n_dof)`, stance flags `(N+1, 4)`) of the clip `theta (N+1, n_dof)` with its legs re-solved.
 
-    with its legs re-solved so that the foot pivots follow `planted_foot_targets` of `contacts (N+1, 4)`; trunk
-    unchanged. A cyclic clip (frame N = frame 0 moved by the stride) is cleaned across its seam; otherwise
-    (`cyclic` False) the poses are a window of a take whose ends the caller crops off.
+    The legs are re-solved so that the foot pivots follow `planted_foot_targets` of `contacts (N+1, 4)`; the trunk is
+    unchanged. A cyclic clip (frame N = frame 0 moved by the stride) is cleaned across its seam; otherwise (`cyclic`
+    False) the poses are a window of a take whose ends the caller crops off.
 
     A stance frame at the start or end of a stance in which the leg cannot reach the planted point (a leg
     stretched to lift-off: the captured foot rolled there) becomes a swing frame, up to TRIM_ROUNDS times.
@@ -221,9 +222,9 @@ def _stance_ends(contacts: np.ndarray, cyclic: bool = True) -> np.ndarray:
 def support_tail(theta: np.ndarray, model: BodyModel, tip_height: float = TAIL_TIP_HEIGHT,
                  iterations: int = 8) -> np.ndarray:
     """
-    Poses `(F, n_dof)` with `tail_pitch_base` set per frame so the tail-tip joint is at `tip_height` m.
+    Return poses `(F, n_dof)` with `tail_pitch_base` set per frame so the tail-tip joint is at `tip_height` m.
 
-    (secant iterations on the one DOF; the tail's sway and the rest of the pose are unchanged).
+    Secant iterations on the one DOF find it; the tail's sway and the rest of the pose are unchanged.
     """
     theta = np.array(theta, dtype=float, copy=True)
     dof, tip = model.dofs.index('tail_pitch_base'), model.skeleton.index('tail_tip')
@@ -286,9 +287,9 @@ def flat_sole_rotations(world: np.ndarray, contacts: np.ndarray, turn: float | N
 def flat_soles(skeleton: Skeleton, root_positions: np.ndarray, local_rotations: np.ndarray,
                contacts: np.ndarray, turn: float | None) -> np.ndarray:
     """
-    Local rotations `(N+1, n_bones, 4)` of a clip with every stance sole flat on the floor.
+    Return local rotations `(N+1, n_bones, 4)` of a clip with every stance sole flat on the floor.
 
-    (see `flat_sole_rotations`; `turn` None for a clip that is not cyclic); only the FOOT_PIVOTS bones change, so no
+    See `flat_sole_rotations` (`turn` None for a clip that is not cyclic). Only the FOOT_PIVOTS bones change, so no
     joint position moves but the feet's.
     """
     local = np.array(local_rotations, dtype=float, copy=True)

@@ -103,10 +103,10 @@ def planar_transform(theta: np.ndarray, origin: np.ndarray, target: np.ndarray, 
 
 def make_cyclic(theta: np.ndarray, start: int, end: int, dofs, blend: int | None = None) -> np.ndarray:
     """
-    Poses `(end-start+1, n_dof)` of take frames start..end.
+    Return poses `(end-start+1, n_dof)` of take frames start..end with the last `blend` frames bent to close the stride.
 
-    with the last `blend` frames bent so that frame `end` is frame `start` moved by the stride and frame `end-1` is
-    frame `start-1` moved likewise.
+    The last `blend` frames are bent so that frame `end` is frame `start` moved by the stride and frame `end-1` is frame
+    `start-1` moved likewise.
     """
     segment = np.array(theta[start:end + 1], dtype=float, copy=True)
     n = end - start
@@ -201,9 +201,9 @@ def _transition_segment(theta: np.ndarray, contacts: np.ndarray, start: int, end
 
 def repeated_clip(clip: Clip, repeat: int) -> tuple:
     """
-    (root positions `(n*N+1, 3)`, local rotations `(n*N+1, n_bones, 4)`) of `clip` played `repeat` = n times in a row.
+    Return (root positions `(n*N+1, 3)`, local rotations `(n*N+1, n_bones, 4)`) of `clip` played `repeat` = n times.
 
-    each stride moved by the clip's own stride motion (the poses the planner would play).
+    The strides follow each other, each moved by the clip's own stride motion (the poses the planner would play).
     """
     dofs = iguana_body_model().dofs
     stride = stride_transform(clip.theta, dofs)

@@ -164,9 +164,10 @@ def root_positions(dofs: ActiveDofs, theta: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class KinematicState:
     """
-    World joint positions `(F, n_bones, 3)`, rotations `(F, n_bones, 3, 3)` and the world axes `(F, n_bones, 3, 3)`.
+    World joint positions, rotations and elementary-rotation axes of every bone in every frame.
 
-    (last axis xyz) of each bone's z, y and x elementary rotations.
+    The positions are `(F, n_bones, 3)` and the rotations `(F, n_bones, 3, 3)`; the world axes `(F, n_bones, 3, 3)`
+    (last axis xyz) are those of each bone's z, y and x elementary rotations.
     """
 
     positions: np.ndarray

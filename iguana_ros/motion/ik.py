@@ -172,9 +172,9 @@ def fill_unobserved(model: BodyModel, theta: np.ndarray, visible: np.ndarray) ->
 def fit_frames(model: BodyModel, target: np.ndarray, weight: np.ndarray, theta: np.ndarray,
                settings: IKSettings) -> np.ndarray:
     """
-    Per-frame bounded Levenberg-Marquardt fit `(F, n_dof)` of marker targets `(F, n_markers, 3)`.
+    Return the per-frame bounded Levenberg-Marquardt fit `(F, n_dof)` of marker targets `(F, n_markers, 3)`.
 
-    with weights `(F, n_markers)` (see `observation_weights`).
+    The targets have weights `(F, n_markers)` (see `observation_weights`).
     """
     d = model.dofs
     visible = weight > 0

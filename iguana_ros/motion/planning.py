@@ -497,8 +497,8 @@ class MotionPlanner:
         """
         Return the time (s) `(m, V)` from travelling in each travelling gait to resting at a final target.
 
-        (0 at a waypoint): change gait to one that turns, turn by `yaw_error (m,)` rad if a heading is asked (`has_yaw
-        (m,)`), change to a resting gait.
+        It is 0 at a waypoint. At a final target the body changes gait to one that turns, turns by `yaw_error (m,)` rad
+        if a heading is asked (`has_yaw (m,)`), and changes to a resting gait.
         """
         c = self._cost_to_go
         with np.errstate(invalid='ignore'):

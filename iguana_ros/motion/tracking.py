@@ -172,8 +172,8 @@ def save_tracking(path: str | Path, tracking: LibraryTracking, conditions: dict)
     """
     Write a LibraryTracking measured at the fidelity preset `conditions['fidelity']` into a tracking file.
 
-    (with the conditions it was measured in: scene settings, tour); the figures of the other presets already in the file
-    are kept. Returns the path.
+    The conditions it was measured in (scene settings, tour) go with it; the figures of the other presets already in the
+    file are kept. Returns the path.
     """
     path = Path(path)
     presets = _read(path).get('presets', {}) if path.is_file() else {}

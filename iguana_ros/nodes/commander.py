@@ -167,8 +167,8 @@ class IguanaCommander:
         """
         Send a route through `waypoints` ((x, y) m, passed in order), arriving at the last heading `yaw` rad.
 
-        (None: any heading); returns once the planner accepted it. `feedback().waypoint` is the index of the waypoint it
-        heads for.
+        `yaw` None means any heading; returns once the planner accepted it. `feedback().waypoint` is the index of the
+        waypoint it heads for.
         """
         points = [(float(x), float(y)) for x, y in waypoints]
         if not points or not all(math.isfinite(v) for p in points for v in p) or \
@@ -246,7 +246,8 @@ class IguanaCommander:
         """
         Push the node group `region` (e.g. 'trunk_left') with `force` `(3,)` N in the world frame for `duration` s.
 
-        (default: the simulator's push_duration), from the simulator's next frame after it arrives.
+        `duration` defaults to the simulator's push_duration; the push acts from the simulator's next frame after it
+        arrives.
 
         Returns once the simulator acknowledged it (Fast DDS may take its heartbeat period, ~3 s wall, while
         the run goes on): the simulated time s of the newest state when it was sent, for `states_since`.

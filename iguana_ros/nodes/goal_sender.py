@@ -121,11 +121,11 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
     """
     Publish PoseStamped `goals` (or, with `topic_key` 'route', Path routes) once `min_subscribers` listen.
 
-    (and, with `confirm`, the planner's accepted_goals list has arrived and every goal_pose subscription on the graph is
-    matched, and as many as the planner sees on planner_status), and the nodes named in `readers` have subscriptions
-    on the graph; wait until the subscribers acknowledge them and (with `confirm`) until the planner lists them as
-    accepted.
-    Returns the topic name and how many subscriptions acknowledged the goals.
+    With `confirm`, it also waits until the planner's accepted_goals list has arrived and every goal_pose subscription
+    on the graph is matched, and as many as the planner sees on planner_status; and it waits until the nodes named in
+    `readers` have subscriptions on the graph. Then it waits until the subscribers acknowledge the goals and (with
+    `confirm`) until the planner lists them as accepted. Returns the topic name and how many subscriptions acknowledged
+    the goals.
 
     IguanaError in one line when a step does not happen within `timeout` s (each step has the whole timeout).
     `keep_going()` is called while waiting (it may raise to give up early).

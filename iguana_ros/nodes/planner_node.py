@@ -15,8 +15,8 @@
 """
 Planner node (Section IV).
 
-goal_pose, route and iguana_state in; one motion_clip per stride and the clip's stance flags per frame
-(reference_stance) out; the goals and route waypoints it accepted on accepted_goals (latched, for their senders);
+Its inputs are goal_pose, route and iguana_state; its outputs are one motion_clip per stride and the clip's stance flags
+per frame (reference_stance), the goals and route waypoints it accepted on accepted_goals (latched, for their senders),
 where it is on planner_status (latched: state, waypoint, distance, heading error, recovery) and what it noticed
 (waypoints passed, arrival, no progress and the recovery taken) on run_events.
 """
@@ -78,9 +78,9 @@ class PlannerNode(IguanaNode):
 
     def on_goal(self, msg) -> None:
         """
-        Schedule a goal.
+        Schedule a goal and add it to accepted_goals.
 
-        (applied at its stamp in simulated time; stamp 0 = at the next stride) and add it to accepted_goals.
+        The goal is applied at its stamp in simulated time; stamp 0 = at the next stride.
         """
         goal = goal_from_msg(msg, self.half_extent)
         at = self.stage.accept_goal(goal.xy, goal.at, goal.yaw)

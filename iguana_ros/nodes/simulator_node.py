@@ -15,9 +15,9 @@
 """
 Simulator node (Section V).
 
-spring_rest_lengths + push in; mesh_marker, scene_markers, iguana_state, foot_state, foot_positions, /clock out.
-`lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the wall clock with the latest
-lengths.
+Its inputs are spring_rest_lengths and push; its outputs are mesh_marker, scene_markers, iguana_state, foot_state,
+foot_positions and /clock. `lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the
+wall clock with the latest lengths.
 """
 from __future__ import annotations
 

@@ -71,9 +71,9 @@ class BlockPattern:
 
     def to_scipy(self, blocks: np.ndarray):
         """
-        Return the full symmetric matrix as `scipy.sparse.csc_matrix (3 n_nodes, 3 n_nodes)`.
+        Return the full symmetric matrix as `scipy.sparse.csc_matrix (3 n_nodes, 3 n_nodes)` from the stored blocks.
 
-        from the stored `blocks (n_blocks, 3, 3)`.
+        The stored `blocks` are `(n_blocks, 3, 3)`.
         """
         from scipy.sparse import bsr_matrix
 

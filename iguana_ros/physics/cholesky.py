@@ -95,9 +95,9 @@ class CholeskyPattern:
     @classmethod
     def build(cls, row_ptr: np.ndarray, cols: np.ndarray) -> 'CholeskyPattern':
         """
-        Ordering and symbolic factor of the upper-triangle block-CSR pattern `(row_ptr (n + 1,), cols (n_blocks,))`.
+        Return the ordering and symbolic factor of the upper-triangle block-CSR pattern of a symmetric matrix.
 
-        of a symmetric matrix.
+        The pattern is `(row_ptr (n + 1,), cols (n_blocks,))`.
         """
         n = len(row_ptr) - 1
         full_ptr, full_cols = _symmetric_pattern(row_ptr, cols)

@@ -75,9 +75,9 @@ def _quat_rotation(qx, qy, qz, qw):
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
 def _rotation_step(q, f):
     """
-    One Müller et al. (2016) iteration towards the rotation maximising tr(Rᵀf) from the quaternion `q`.
+    Run one Müller et al. (2016) iteration towards the rotation maximising tr(Rᵀf) from the quaternion `q`.
 
-    (4-tuple, x y z w) for the 3×3 `f` (9-tuple, row-major); returns (new quaternion, squared step angle).
+    `q` is a 4-tuple (x y z w) and the 3×3 `f` a 9-tuple (row-major); returns (new quaternion, squared step angle).
     """
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = _quat_rotation(q[0], q[1], q[2], q[3])
     f00, f01, f02, f10, f11, f12, f20, f21, f22 = f

@@ -67,9 +67,9 @@ STATUS_SOLVER = 4
 @numba.njit(cache=True)
 def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info):
     """
-    Return forces, (maybe) the system matrix, and the right-hand side of one step.
+    Compute the forces, (maybe) the system matrix, and the right-hand side of one step.
 
-    (`model` a KernelModel, `state` a KernelState); returns (status, refreshed).
+    `model` is a KernelModel and `state` a KernelState; returns (status, refreshed).
     """
     mass, terrain = model.mass, model.terrain_grid
     x, v, forces, blocks = state.positions, state.velocities, state.forces, state.matrix_blocks
@@ -136,8 +136,8 @@ def _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, has_ground):
     """
     Finish a matrix-free step's system: `node_matrix` = M(1 + hα) + h C_c + h² K_c, rhs = h f − K v − h² K_c v.
 
-    and the warm start's product cg_work[3] = A Δv, from the springs' part `spring_forces_operator` left in rhs
-    (h f_s − K v; `state.forces` holds every other force) and cg_work[3] (K Δv).
+    It also computes the warm start's product cg_work[3] = A Δv, from the springs' part `spring_forces_operator` left in
+    rhs (h f_s − K v; `state.forces` holds every other force) and cg_work[3] (K Δv).
     """
     v, dv, forces, rhs = state.velocities, state.delta_v, state.forces, state.rhs
     warm, node_matrix = state.cg_work[3], state.node_matrix

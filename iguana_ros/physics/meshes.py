@@ -107,9 +107,9 @@ def mesh_from_tets(positions: np.ndarray, tets: np.ndarray, total_mass: float = 
                    youngs_modulus: float = DEFAULT_YOUNGS_MODULUS, poisson_ratio: float = DEFAULT_POISSON_RATIO,
                    spring_stiffness: float = DEFAULT_SPRING_STIFFNESS, node_tags: dict | None = None) -> SoftBodyMesh:
     """
-    Return a `SoftBodyMesh` from nodes `(n, 3)` and tets `(m, 4)`.
+    Return a `SoftBodyMesh` with uniform material from nodes `(n, 3)` and tets `(m, 4)`.
 
-    (reoriented to positive volume) with uniform material.
+    The tets are reoriented to positive volume.
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     tets = np.array(tets, dtype=np.int64)

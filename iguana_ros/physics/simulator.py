@@ -79,9 +79,9 @@ def _springs_by_node(n_nodes: int, springs: np.ndarray) -> dict:
 
 def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
     """
-    Each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along.
+    Return each tet's nodes `(n_tets, 4)` in ascending order with their shape gradients `(n_tets, 4, 3)` moved along.
 
-    (the FEM force is invariant to relabelling): every (a < b) stiffness block then lands untransposed in the
+    The FEM force is invariant to relabelling. Every (a < b) stiffness block then lands untransposed in the
     upper-triangle storage, so the assembly branch is always predicted.
     """
     order = np.argsort(tets, axis=1, kind='stable')
@@ -348,8 +348,8 @@ class SoftBodySimulator:
         """
         Advance `n_steps` (default one 1/30 s frame) with spring desired lengths `(n_springs,)` m.
 
-        (reached at the last step, see `length_hold`) and constant external forces `(n_nodes, 3)` N (None = none);
-        raises SimulationDiverged on failure.
+        The lengths are reached at the last step (see `length_hold`); the external forces `(n_nodes, 3)` N are constant
+        (None = none). Raises SimulationDiverged on failure.
         """
         if self._diverged is not None:
             raise self._diverged

@@ -52,9 +52,9 @@ def _precondition(pinv, r, z):
 @numba.njit(cache=True)
 def _ssor(row_ptr, cols, blocks, pinv, r, z):
     """
-    `z` = M⁻¹ r for the symmetric block Gauss–Seidel preconditioner M = (D + L) D⁻¹ (D + U).
+    Compute `z` = M⁻¹ r for the symmetric block Gauss–Seidel preconditioner M = (D + L) D⁻¹ (D + U).
 
-    with A stored as its upper block triangle (L = Uᵀ).
+    A is stored as its upper block triangle (L = Uᵀ).
     """
     n = r.shape[0]
     z[:] = r

@@ -163,9 +163,9 @@ def orbit_cameras(times: np.ndarray, positions: np.ndarray, yaws: np.ndarray | N
 
 def travel_direction(positions: np.ndarray, heading: float = 0.0) -> np.ndarray:
     """
-    Return unit xy direction `(2,)` of the track's principal axis, oriented start to end.
+    Return the unit xy direction `(2,)` of the track's principal axis, oriented start to end.
 
-    `heading` if it barely moves.
+    It is `heading` if the track barely moves.
     """
     xy = positions[:, :2]
     if len(xy) < 2 or np.ptp(xy, axis=0).max() < 0.05:
@@ -205,9 +205,10 @@ def top_camera(positions: np.ndarray, extent_points: np.ndarray, aspect: float, 
 def preset_cameras(preset: str, times: np.ndarray, positions: np.ndarray, yaws: np.ndarray | None,
                    extent_points: np.ndarray, aspect: float) -> list[Camera]:
     """
-    One camera per frame time `(n,)` for `preset`, from root positions `(n, 3)`, yaws `(n,)` or None.
+    Return one camera per frame time `(n,)` for `preset`.
 
-    and the points `(m, 3)` a static view must show; static presets return the same Camera object n times.
+    They are made from root positions `(n, 3)`, yaws `(n,)` or None, and the points `(m, 3)` a static view must show;
+    static presets return the same Camera object n times.
     """
     if preset not in PRESETS:
         raise InputError(f'unknown camera {preset!r}; expected one of: {", ".join(PRESETS)}')

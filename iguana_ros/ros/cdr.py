@@ -444,9 +444,10 @@ def triangle_list_marker_cdr(vertices, triangles, colors, stamp: float | Time = 
                              frame_id: str = WORLD_FRAME, ns: str = 'iguana',
                              marker_id: int = 0) -> bytes:
     """
-    Return serialized bytes of exactly the Marker `conversions.triangle_list_marker` builds from vertices `(n_v, 3)`.
+    Return the serialized bytes of exactly the Marker `conversions.triangle_list_marker` builds.
 
-    triangles `(n_t, 3)` and RGBA `(n_v, 4)` (in a frame loop, a `TriangleListMarkerWriter` lays the message out once).
+    The Marker is built from vertices `(n_v, 3)`, triangles `(n_t, 3)` and RGBA `(n_v, 4)`; in a frame loop, a
+    `TriangleListMarkerWriter` lays the message out once.
     """
     from iguana_ros.validation import validate_array
 

@@ -161,9 +161,10 @@ def odometry_to_numpy(msg: Odometry) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 def push_msg(force, region: str, stamp: float | Time = 0.0) -> WrenchStamped:
     """
-    geometry_msgs/WrenchStamped of a push.
+    Return the geometry_msgs/WrenchStamped of a push.
 
-    force `(3,)` N in the world frame on the node group `region` (header.frame_id, e.g. 'trunk_left'), no torque.
+    The force `(3,)` N acts in the world frame on the node group `region` (header.frame_id, e.g. 'trunk_left'); there is
+    no torque.
     """
     f = validate_array('force', force, (3,))
     return WrenchStamped(header=_header(stamp, region), wrench=Wrench(force=Vector3(x=f[0], y=f[1], z=f[2])))
@@ -175,9 +176,10 @@ def multi_dof_trajectory_msg(times, joint_names: Sequence[str], translations, ro
                              stamp: float | Time = 0.0,
                              frame_id: str = WORLD_FRAME) -> MultiDOFJointTrajectory:
     """
-    `MultiDOFJointTrajectory` from times `(n_frames,)` s, names.
+    Return a MultiDOFJointTrajectory from times, names, translations and rotations.
 
-    translations `(n_frames, n_joints, 3)` and rotations `(n_frames, n_joints, 4)` xyzw.
+    The times are `(n_frames,)` s, the translations `(n_frames, n_joints, 3)` and the rotations
+    `(n_frames, n_joints, 4)` xyzw.
     """
     t = validate_array('times', times, (None,))
     n_joints = len(joint_names)

@@ -361,7 +361,7 @@ def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):
     """
     Return the foot_state message: a JointState named FEET, stamped with `frame` (the state after `frame` frames).
 
-    position = sole heights above the terrain `(4,)` m, effort = contact flags `(4,)` as 1.0 / 0.0.
+    Its position holds the sole heights above the terrain `(4,)` m, its effort the contact flags `(4,)` as 1.0 / 0.0.
     """
     return _feet_msg(heights, contact, frame)
 

@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-Is the ROS domain free for a run? Other runs' processes on this machine (from /proc) and, on the DDS graph.
+Whether the ROS domain is free for a run.
 
-nodes with the run's node names or publishers of the topics the run's nodes publish.
+The check looks at other runs' processes on this machine (from /proc) and, on the DDS graph, at nodes with the run's
+node names or publishers of the topics the run's nodes publish.
 
 A second run on a busy domain would mix its messages with the other run's (lockstep stalls, two simulators on
 iguana_state, an old recorder recording both, goals acknowledged by the wrong planner), so `iguana run` refuses
@@ -73,9 +74,9 @@ class DomainReport:
 
     def findings(self) -> str:
         """
-        Return what is on the domain, e.g. 'processes of another iguana run.
+        Return what is on the domain as one line.
 
-        4711 (bag record); nodes planner_node'.
+        For example 'processes of another iguana run: 4711 (bag record); nodes planner_node'.
         """
         parts = []
         if self.processes:
@@ -102,9 +103,9 @@ def current_domain_id() -> str:
 
 def output_topics(node_names: tuple[str, ...]) -> dict[str, int]:
     """
-    {absolute name: how many of `node_names` publish it} for the topics of msg_configs/topics.yaml.
+    Return {absolute name: how many of `node_names` publish it} for the topics of msg_configs/topics.yaml.
 
-    that one of `node_names` publishes.
+    Only the topics that one of `node_names` publishes are listed.
     """
     counts = {}
     for spec in default_topics().values():
@@ -129,7 +130,7 @@ class DomainWatch:
     """
     A DDS participant on this process's domain.
 
-    that looks for nodes named `node_names` and publishers of the topics those nodes publish (`iguana doctor` also lists
+    It looks for nodes named `node_names` and publishers of the topics those nodes publish (`iguana doctor` also lists
     every other node); `close()` leaves the graph.
     """
 
@@ -201,10 +202,11 @@ class DomainWatch:
 def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LISTEN_S,
                        keep_open: bool = True) -> DomainWatch | None:
     """
-    Raise DomainInUse (one line) if other runs' processes are on this domain (from /proc, at once) or.
+    Raise DomainInUse (one line) if other runs' processes or the run's node names or topics are on this domain.
 
-    within `listen_s`, nodes named `node_names` or publishers of their topics (DDS). Returns the watch, still on the
-    graph for `check_while_starting` (None when `listen_s` is 0 or not `keep_open`).
+    Processes are found from /proc, at once; nodes named `node_names` or publishers of their topics on the DDS graph,
+    within `listen_s`. Returns the watch, still on the graph for `check_while_starting` (None when `listen_s` is 0 or
+    not `keep_open`).
     """
     domain = current_domain_id()
     processes = other_runs(domain)
@@ -227,9 +229,10 @@ def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LIST
 
 def check_while_starting(watch: DomainWatch) -> None:
     """
-    Raise DomainInUse if the graph now holds a second node of one of the run's names or more publishers.
+    Raise DomainInUse if a peer discovered late shows on the graph.
 
-    of an output topic than the run's own nodes (a peer discovered late).
+    That is, if the graph now holds a second node of one of the run's names or more publishers of an output topic than
+    the run's own nodes.
     """
     nodes, publishers = watch.foreign(True)
     if nodes or publishers:

@@ -296,10 +296,10 @@ class SceneRun:
 
     def watch_domain(self, may_close: bool = False, force: bool = False) -> None:
         """
-        While the run starts (at most every WATCH_PERIOD_S unless `force`).
+        Watch the domain while the run starts (at most every WATCH_PERIOD_S unless `force`).
 
-        DomainInUse if a foreign node or publisher has been discovered late. With `may_close`, leave the graph once
-        DOMAIN_WATCH_S have passed.
+        DomainInUse is raised if a foreign node or publisher has been discovered late. With `may_close`, leave the graph
+        once DOMAIN_WATCH_S have passed.
         """
         from iguana_ros.supervisor.domain_check import check_while_starting
         if self.watch is None:
@@ -426,10 +426,10 @@ class SceneRun:
 
     def alive_or_raise(self, simulator_may_end: bool = False) -> None:
         """
-        `ChildExited` naming the first child that has exited early, with its last lines.
+        Raise `ChildExited` naming the first child that has exited early, with its last lines.
 
-        (the simulator may end once the run is under way, `simulator_may_end`: with status 0, or with the body lost,
-        BODY_LOST_EXIT_CODES).
+        Once the run is under way the simulator may end (`simulator_may_end`): with status 0, or with the body lost
+        (BODY_LOST_EXIT_CODES).
         """
         for name, child in self.children.items():
             if child.proc is None or child.running:
@@ -584,10 +584,11 @@ def goal_outcome(bag: Path, scene: Scene) -> tuple[bool, float, float]:
 def goal_outcome_of(times: np.ndarray, positions: np.ndarray, scene: Scene,
                     orientations: np.ndarray | None = None) -> tuple[bool, float, float]:
     """
-    (reached, time, final distance) of the scene's last goal or route end (its waypoints passed in order first).
+    Return (reached, time, final distance) of the scene's last goal or route end from a recorded root trajectory.
 
-    times `(n,)` s, positions `(n, 3)` m, orientations `(n, 4)` xyzw (needed for a goal's heading, which then counts
-    within the scene's yaw tolerance, as in the library run's metrics).
+    A route's waypoints must be passed in order first. The trajectory is times `(n,)` s, positions `(n, 3)` m and
+    orientations `(n, 4)` xyzw (needed for a goal's heading, which then counts within the scene's yaw tolerance, as in
+    the library run's metrics).
     """
     from iguana_ros.geometry import yaw_of
     from iguana_ros.metrics import route_arrival

@@ -116,7 +116,7 @@ def _percent(fraction: float) -> str:
 
 def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
     """
-    `RunGait` of a run of `scene` from its RecordedTopics (`bag.trajectory.read_topics(bag, GAIT_TOPICS)`).
+    Return the `RunGait` of a run of `scene` from its RecordedTopics (`bag.trajectory.read_topics(bag, GAIT_TOPICS)`).
 
     `model` and `terrain` default to the scene's.
     """
@@ -171,9 +171,9 @@ def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
 
 def _frames(recorded, key: str, decode, notes: list[str]) -> dict[int, tuple]:
     """
-    {frame: decoded message} of topic `key` (a re-sent frame counts once, its last message).
+    Return {frame: decoded message} of topic `key` (a re-sent frame counts once, its last message).
 
-    messages that do not decode are counted in a note.
+    Messages that do not decode are counted in a note.
     """
     out, bad = {}, recorded.rejected.get(key, 0)
     for msg in recorded.messages.get(key, []):

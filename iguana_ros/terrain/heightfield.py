@@ -330,9 +330,9 @@ def _grid_axis(extent: float, spacing: float) -> np.ndarray:
 
 def heightmap_shape(path) -> tuple[int, int]:
     """
-    Grid shape `(nx, ny)` of a height-map file (.npy or PNG) read from its header only.
+    Return the grid shape `(nx, ny)` of a height-map file (.npy or PNG) read from its header only.
 
-    after checking that the file exists, is at most MAX_HEIGHTMAP_BYTES and holds at most MAX_GRID_NODES values;
+    The file is checked first: it must exist, be at most MAX_HEIGHTMAP_BYTES and hold at most MAX_GRID_NODES values;
     InputError otherwise.
     """
     path = Path(path)

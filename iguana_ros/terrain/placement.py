@@ -23,10 +23,10 @@ from iguana_ros.geometry import quat_from_yaw, quat_rotate
 def place_on_terrain(positions: np.ndarray, terrain, clearance: float = 0.0, xy: tuple = (0.0, 0.0),
                      yaw: float = 0.0, lift_only: bool = False) -> np.ndarray:
     """
-    Nodes `(n, 3)` turned by `yaw` rad about +z, moved by `xy` (m).
+    Return nodes `(n, 3)` turned by `yaw` rad about +z, moved by `xy` (m) and set `clearance` m above `terrain`.
 
-    then shifted vertically so the node lowest relative to `terrain` (a HeightField) is `clearance` m above it; with
-    `lift_only`, never shifted down.
+    The nodes are shifted vertically so the node lowest relative to `terrain` (a HeightField) is `clearance` m above it;
+    with `lift_only`, they are never shifted down.
     """
     moved = quat_rotate(quat_from_yaw(yaw), np.asarray(positions, dtype=float))
     moved[:, :2] += np.asarray(xy, dtype=float)

@@ -118,8 +118,8 @@ class Series:
     """
     Rows stamped with non-decreasing times.
 
-    `times (n,)` s and `values (n, *shape)`; a row at the last time replaces it (a re-sent message), an older one is
-    dropped.
+    The rows are `times (n,)` s and `values (n, *shape)`; a row at the last time replaces it (a re-sent message), an
+    older one is dropped.
     """
 
     def __init__(self, shape: tuple, capacity: int = 256) -> None:
@@ -236,7 +236,7 @@ class RunView:
         """
         Take the root's position `(3,)` m, heading (rad) and horizontal speed (m/s) at `time` s.
 
-        received at wall time `wall` s.
+        `wall` s is the wall time it was received at.
         """
         with self.lock:
             self.states.append(time, [*np.asarray(position, float)[:3], yaw, speed, wall])
@@ -359,10 +359,10 @@ def panel_lines(frame: ViewFrame) -> list[str]:
 
 def terrain_hit(origin, direction, corners: np.ndarray) -> np.ndarray | None:
     """
-    Return the nearest point `(3,)`.
+    Return the nearest point `(3,)` where a ray meets a triangle of the TRIANGLE_LIST `corners (3*m, 3)`.
 
-    where the ray from `origin (3,)` along `direction (3,)` meets a triangle of the TRIANGLE_LIST `corners (3*m, 3)`
-    (Moller-Trumbore), None if it misses them all.
+    The ray goes from `origin (3,)` along `direction (3,)`; the test is Moller-Trumbore. Returns None if the ray misses
+    them all.
     """
     o, d = np.asarray(origin, float), np.asarray(direction, float)
     n = len(corners) - len(corners) % 3
@@ -387,11 +387,10 @@ def terrain_hit(origin, direction, corners: np.ndarray) -> np.ndarray | None:
 
 def identify_clip(rotations: np.ndarray, library: dict) -> str:
     """
-    Name of the library clip.
+    Return the name of the library clip a placed clip's rotations `(n_frames, n_bones, 4)` play; '' if none.
 
-    (name -> clip with `local_rotations (n_frames, n_bones, 4)`) that a placed clip's rotations `(n_frames, n_bones, 4)`
-    play: same length, same bone rotations in the last frame (the root's heading and the first frames' blend differ); ''
-    if none matches.
+    The library maps name -> clip with `local_rotations (n_frames, n_bones, 4)`. A match has the same length and the
+    same bone rotations in the last frame (the root's heading and the first frames' blend differ).
     """
     rot = np.asarray(rotations, float)
     best, best_error = '', CLIP_MATCH_TOLERANCE
@@ -411,10 +410,10 @@ PUSH_SIDES = {'left': 'trunk_left', 'right': 'trunk_right'}
 
 def flank_push(yaw: float, newtons: float, side: str) -> tuple[np.ndarray, str]:
     """
-    (force `(3,)` N, region) of a sideways push of `newtons` N on the trunk's `side` flank.
+    Return (force `(3,)` N, region) of a sideways push of `newtons` N on the trunk's `side` flank.
 
-    ('left' or 'right') of a body heading `yaw` rad (the left flank is pushed towards the body's right, as in Section
-    VIII-D).
+    `side` is 'left' or 'right' and the body heads `yaw` rad; the left flank is pushed towards the body's right, as in
+    Section VIII-D.
     """
     towards_right = np.array([math.sin(yaw), -math.cos(yaw), 0.0])
     return (1.0 if side == 'left' else -1.0) * float(newtons) * towards_right, PUSH_SIDES[side]

@@ -71,7 +71,7 @@ def _rgb(rgba: np.ndarray) -> tuple[int, int, int]:
 
 def _quiet():
     """
-    Context in which stdout is swallowed.
+    Return a context in which stdout is swallowed.
 
     viser prints a banner of its own at start and a line at stop (the CLI prints one line with the address).
     """

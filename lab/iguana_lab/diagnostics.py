@@ -92,9 +92,9 @@ def model_variant(model: IguanaModel, spring_scale: float = 1.0, leg_factor: flo
 
 def stiffness_summary(model: IguanaModel) -> dict:
     """
-    Resolution, preset and the effective spring scale A at L_REF (N/m) and leg factor of `model`.
+    Return the resolution, preset, effective spring scale A at L_REF (N/m) and leg factor of `model`.
 
-    read back from its spring stiffness (so a `model_variant` reports its own values).
+    They are read back from its spring stiffness, so a `model_variant` reports its own values.
     """
     preset = stiffness_preset(model.stiffness)
     legs = model.node_part >= PART_LIMB0
@@ -114,9 +114,10 @@ def stiffness_summary(model: IguanaModel) -> dict:
 
 def line_margin(point_xy: np.ndarray, a_xy: np.ndarray, b_xy: np.ndarray, side_xy: np.ndarray) -> dict:
     """
-    Signed horizontal distance (m) of `point_xy (2,)` from the line through `a_xy`, `b_xy (2,)`.
+    Return the signed horizontal distance (m) of `point_xy (2,)` from the line through `a_xy`, `b_xy (2,)`.
 
-    positive on the side of `side_xy (2,)`; with the line's angle from +x (rad, in [-pi/2, pi/2]) and that unit normal.
+    It is positive on the side of `side_xy (2,)`. The line's angle from +x (rad, in [-pi/2, pi/2]) and that unit normal
+    come with it.
     """
     a, b = np.asarray(a_xy, float)[:2], np.asarray(b_xy, float)[:2]
     direction = (b - a) / np.linalg.norm(b - a)
@@ -144,10 +145,10 @@ def inside_triangle(point_xy: np.ndarray, a_xy: np.ndarray, b_xy: np.ndarray, c_
 
 def support_margins(model: IguanaModel, clip: Clip) -> dict:
     """
-    Centre of mass against the diagonal support lines of `clip`.
+    Measure the centre of mass against the diagonal support lines of `clip` on `model`'s reference mesh.
 
-    (a `motion.clips.Clip`: `root_positions (N+1, 3)`, `local_rotations (N+1, n_bones, 4)`, `contacts (N+1, 4)`), on
-    `model`'s reference mesh.
+    `clip` is a `motion.clips.Clip`: `root_positions (N+1, 3)`, `local_rotations (N+1, n_bones, 4)`,
+    `contacts (N+1, 4)`.
 
     In every frame whose stance flags are exactly one diagonal pair (fl+hr or fr+hl): the signed horizontal
     distance of the mass-weighted COM from the line through the two stance feet's sole centroids, positive
@@ -234,10 +235,10 @@ def place_by_feet(positions: np.ndarray, feet: np.ndarray, terrain: HeightField)
 def static_sag(model: IguanaModel, seconds: float = 2.0, fidelity: str = 'balanced', clip: Clip | None = None,
                frame: int = 0) -> dict:
     """
-    Return the body standing on flat ground for `seconds`, its desired lengths held at pose `frame` of `clip`.
+    Simulate the body standing on flat ground for `seconds`, its desired lengths held at pose `frame` of `clip`.
 
-    (a `motion.clips.Clip`; default the idle clip, whose first pose stands on all four feet; a frame of a diagonal phase
-    of `forward` holds the trot's two-foot support with the swing feet lifted).
+    `clip` is a `motion.clips.Clip`; the default is the idle clip, whose first pose stands on all four feet. A frame of
+    a diagonal phase of `forward` holds the trot's two-foot support with the swing feet lifted.
 
     Starts from that pose's reference mesh placed on the ground (`terrain.placement.place_on_terrain`: no node below
     it). The reference the offsets are measured from is the same mesh standing on its feet (its lowest sole
@@ -416,7 +417,7 @@ def mid_diagonal_frame(clip: Clip, stance: str = 'fl+hr') -> int:
     """
     Return the middle frame of the first run of `clip`'s frames whose stance flags are exactly the diagonal `stance`.
 
-    ('fl+hr' or 'fr+hl'); InputError if the clip has none.
+    `stance` is 'fl+hr' or 'fr+hl'; InputError if the clip has none.
     """
     frames = [i for i, flags in enumerate(np.asarray(clip.contacts, bool))
               if DIAGONALS.get(tuple(bool(f) for f in flags), ('',))[0] == stance]

@@ -47,7 +47,7 @@ def _random_terrain(kind: str, rng: np.random.Generator) -> TerrainSpec:
     """
     Return a TerrainSpec of `kind` with parameters drawn from the benchmark's ranges.
 
-    (lengths in m, angles in deg).
+    Lengths are in m, angles in deg.
     """
     seed = int(rng.integers(0, 1_000_000))
     if kind == 'hills':

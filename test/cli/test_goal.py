@@ -89,12 +89,12 @@ def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_
 @pytest.mark.timeout(150)
 def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path, make_node, executor):
     """
-    The defect.
+    `iguana goal` waits for a planner that starts after another subscriber on goal_pose.
 
-    With a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner (not yet listening) never
-    got the goal. Now it waits until the planner lists the goal as accepted; a goal the planner rejects is reported
-    (exit 1). The planner starts once the listener has matched the sender's publisher: a subscriber the sender has not
-    discovered yet cannot be waited for (CI once saw the planner's process discovered before this one's).
+    The defect: with a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner (not yet
+    listening) never got the goal. Now it waits until the planner lists the goal as accepted; a goal the planner rejects
+    is reported (exit 1). The planner starts once the listener has matched the sender's publisher: a subscriber the
+    sender has not discovered yet cannot be waited for (CI once saw the planner's process discovered before this one's).
     """
     from iguana_ros.ros.conversions import pose_stamped_to_numpy
     received, sub = _listener(make_node, executor)

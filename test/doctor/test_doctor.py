@@ -13,9 +13,10 @@
 # limitations under the License.
 
 """
-`iguana doctor` passes on this machine, and fails with a named fix when the RMW is missing, when discovery is off.
+`iguana doctor` passes on this machine, and fails with a named fix on a machine that is not ready.
 
-or when another participant is on the domain; `iguana run` stops at once with the doctor's line.
+It fails when the RMW is missing, when discovery is off, or when another participant is on the domain; `iguana run`
+stops at once with the doctor's line.
 """
 from __future__ import annotations
 
@@ -178,7 +179,7 @@ def test_the_kernel_cache_check_looks_where_numba_caches(tmp_path):
 
 def test_iguana_run_that_hears_none_of_its_nodes_stops_with_the_loopback_line(tmp_path, monkeypatch):
     """
-    Discovery off.
+    With discovery off, `iguana run` hears none of its nodes and stops with the loopback line.
 
     No node is ever heard; the run asks the doctor's loopback and stops with its line instead of waiting for a lockstep
     or goal time-out (the silence and loopback limits shortened for the test).

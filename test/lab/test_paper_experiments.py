@@ -43,10 +43,10 @@ def hills_runs():
 
 def test_figure_11_adaptation_gets_over_the_hills_without_slipping(hills_runs):
     """
-    Measured.
+    With terrain adaptation the iguana gets over the hills without slipping (Figure 11).
 
-    With adaptation the goal at 14.2 s, slip 0.079 m per stride (4 feet), 91 % of swings clear; without it the iguana
-    gets stuck 1.6 m short, slip 0.31 m per stride, its hind feet dragged or hanging.
+    Measured: with adaptation the goal at 14.2 s, slip 0.079 m per stride (4 feet), 91 % of swings clear; without it the
+    iguana gets stuck 1.6 m short, slip 0.31 m per stride, its hind feet dragged or hanging.
     """
     adapted, plain = hills_runs[True], hills_runs[False]
     assert adapted.reached_goal and not adapted.fell
@@ -63,9 +63,9 @@ def pushes():
 
 def test_pushes_displace_both_models_and_both_walk_on(pushes):
     """
-    Every 40 N, 0.1 s push moves the trunk sideways by more than 1 cm, nobody falls, and the body walks on at.
+    Every 40 N, 0.1 s push moves the trunk sideways by more than 1 cm, and nobody falls.
 
-    (nearly) its unpushed speed (docs/RESULTS.md "Pushes" gives the measured figures).
+    The body walks on at (nearly) its unpushed speed; docs/RESULTS.md "Pushes" gives the measured figures.
     """
     for name, model in pushes.items():
         assert model['fell'] == 0, name
@@ -78,8 +78,9 @@ def test_pushes_the_response_depends_on_the_stride_phase(pushes):
     """
     Which feet are in stance when the push lands decides how far it moves the trunk.
 
-    (measured: normal 1.7-5.1 cm, softer 1.5-4.5 cm over six phases), more than the model's stiffness does (medians 2.9
-    and 3.1 cm): the paper's "softer model is pushed less" (Figure 12) is not reproduced, see docs/RESULTS.md "Pushes".
+    The stance decides more than the model's stiffness does: measured normal 1.7-5.1 cm, softer 1.5-4.5 cm over six
+    phases (medians 2.9 and 3.1 cm). The paper's "softer model is pushed less" (Figure 12) is not reproduced, see
+    docs/RESULTS.md "Pushes".
     """
     for name, model in pushes.items():
         assert model['peak_lateral_max_m'] > 1.5 * model['peak_lateral_min_m'], name

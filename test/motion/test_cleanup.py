@@ -167,10 +167,10 @@ def library():
 
 def _one_cycle(clip, skeleton):
     """
-    Foot pivots `(N, 4, 3)`, their bones' world rotations `(N, 4, 4)` and stance flags `(N, 4)` of the clip as played.
+    Return foot pivots `(N, 4, 3)`, their bones' world rotations `(N, 4, 4)` and stance flags `(N, 4)` of a played clip.
 
-    (its local rotations, flat soles included) unrolled into the next stride, per foot from its first lift-off (so no
-    stance or swing is cut by the window).
+    The clip is played with its local rotations (flat soles included) and unrolled into the next stride, per foot from
+    its first lift-off (so no stance or swing is cut by the window).
     """
     n = clip.n_frames
     roots, rotations = repeated_clip(clip, 2)
@@ -195,8 +195,8 @@ def test_shipped_clips_plant_their_stance_feet_flat_on_the_floor(library, name):
     """
     Each stance foot's pivot (wrist/ankle joint) stands still at its floor height and its sole is flat.
 
-    (the pivot bone's up axis is the world's). Measured after the cleanup: pivot travel per stance <= 0.6 mm (idle: its
-    never-lifting feet follow its 0.3 mm stride at the seam, <= 1.9 mm), heights within 0.53 mm (turn_left hl at its
+    Flat: the pivot bone's up axis is the world's. Measured after the cleanup: pivot travel per stance <= 0.6 mm (idle:
+    its never-lifting feet follow its 0.3 mm stride at the seam, <= 1.9 mm), heights within 0.53 mm (turn_left hl at its
     last stance frame, the leg at its reach), tilt 0. Before the cleanup the foot markers travelled 3.9-29.9 mm per
     stance, heights -6.7..+7.0 mm.
     """
@@ -217,8 +217,8 @@ def test_shipped_walking_clips_lift_every_swing(library, name):
     """
     Every swing of a walking clip peaks at least MIN_SWING_CLEARANCE above the floor.
 
-    (the sine bump is scaled so the peak frame reaches it) and hardly dips below it: at a lift-off where the leg is
-    stretched to its reach the pivot stays up to 3.2 mm low for a frame (turn_left fr; forward fl 0.6 mm).
+    The sine bump is scaled so the peak frame reaches it, and a swing hardly dips below it: at a lift-off where the leg
+    is stretched to its reach the pivot stays up to 3.2 mm low for a frame (turn_left fr; forward fl 0.6 mm).
     """
     model = iguana_body_model()
     floor = floor_pivot_heights(model)

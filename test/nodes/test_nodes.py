@@ -273,8 +273,8 @@ def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_
     """
     A matched reader is not enough while the spring-length node (reference_pose's declared reader) is not in the graph.
 
-    (a run's recorder matched first, the poses went out, and the spring-length node missed frame 0: a 10 s lockstep
-    timeout). Once it is listed and matched, poses go out.
+    In a run, the recorder matched first, the poses went out, and the spring-length node missed frame 0: a 10 s lockstep
+    timeout. Once it is listed and matched, poses go out.
     """
     from rclpy.parameter import Parameter
     from iguana_ros.nodes.terrain_adaptation_node import TerrainAdaptationNode
@@ -359,8 +359,8 @@ def test_spring_node_holds_lengths_until_the_simulator_reader_matches(tmp_path, 
     """
     Lengths wait for spring_rest_lengths' declared reader (the simulator node), not just any matched reader.
 
-    (CI: the spring-length node published frame 0 before its writer had matched the simulator's reader, and the
-    simulator waited a 10 s lockstep timeout.) Once it is listed and matched, the held lengths go out in frame order.
+    On CI the spring-length node published frame 0 before its writer had matched the simulator's reader, and the
+    simulator waited a 10 s lockstep timeout. Once it is listed and matched, the held lengths go out in frame order.
     """
     from rclpy.parameter import Parameter
     from iguana_ros.nodes import base

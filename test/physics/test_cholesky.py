@@ -71,7 +71,7 @@ def _drop_bent_bar(bar, **kwargs) -> SoftBodySimulator:
     """
     Return the bar dropped 5 cm onto hills with its springs shortened 3 %, run for 0.3 s.
 
-    (fall, touch-down, friction).
+    The run covers the fall, touch-down and friction.
     """
     terrain = HeightField.hills(amplitude=0.02, wavelength=0.3, seed=1, extent=1.0)
     sim = SoftBodySimulator(bar, terrain, 'balanced', **kwargs)

@@ -77,10 +77,9 @@ def _weightless(block, hold):
 
 def test_first_order_hold_ramps_the_desired_lengths_within_a_call(block):
     """
-    With the linear hold.
+    With the linear hold, one call of n steps toward new lengths ends exactly where n one-step calls along the ramp end.
 
-    one call of n steps toward new lengths ends exactly where n one-step calls along the linear ramp end; the zero hold
-    applies the new lengths from the first step and ends elsewhere.
+    The zero hold applies the new lengths from the first step and ends elsewhere.
     """
     rest, n = block.spring_rest_lengths, 8
     target = rest * 1.1

@@ -45,12 +45,12 @@ print(json.dumps({'end': digest,
 @pytest.mark.long
 def test_first_run_after_install_equals_later_runs(tmp_path):
     """
-    The whole frame loop over hills (terrain adaptation's compiled IK and height-field kernels included).
+    The whole frame loop over hills runs bitwise the same first with empty numba and model caches, then warm.
 
-    first with empty numba and model caches -- as after `make install` -- then warm, bitwise. Issue 12 reported a
-    2.5e-14 m difference from frame 1 between such runs; it did not reproduce at the commit it was filed against
-    (bea95f5) nor since, with the package's own cache or NUMBA_CACHE_DIR, for 1 s or the whole 25 s `hills` run; this
-    test keeps it so.
+    Terrain adaptation's compiled IK and height-field kernels are included; empty caches are as after `make install`.
+    Issue 12 reported a 2.5e-14 m difference from frame 1 between such runs; it did not reproduce at the commit it was
+    filed against (bea95f5) nor since, with the package's own cache or NUMBA_CACHE_DIR, for 1 s or the whole 25 s
+    `hills` run; this test keeps it so.
     """
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / 'numba'), IGUANA_CACHE_DIR=str(tmp_path / 'models'))
 

@@ -47,7 +47,7 @@ def _full_marker(rng, n_points: int) -> tuple[Marker, dict]:
     """
     Return a Marker with every field set to something other than its default.
 
-    and the same values as a layout dict.
+    It also returns the same values as a layout dict.
     """
     points = rng.normal(size=(n_points, 3))
     colors = rng.uniform(size=(n_points, 4)).astype(np.float32)

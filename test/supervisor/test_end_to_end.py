@@ -76,9 +76,9 @@ def walk_file(tmp_path_factory):
 @pytest.fixture(scope='module')
 def shared_run(walk_file, tmp_path_factory):
     """
-    One recorded lockstep run of the four node processes (`iguana run`).
+    Return one recorded lockstep run of the four node processes (`iguana run`) as (summary, bag path).
 
-    shared by the tests that only read its summary and its bag: (summary, bag path).
+    It is shared by the tests that only read its summary and its bag.
     """
     bag = tmp_path_factory.mktemp('run') / 'run'
     return run_scene(RunOptions(scene=str(walk_file), record=bag, timeout=240)), bag
@@ -93,7 +93,7 @@ def _assert_roots_equal_library(bag, frames, library_run):
     """
     Assert that the bag's iguana_state roots are the library run's, bit for bit.
 
-    (state k = the root after k frames).
+    State k is the root after k frames.
     """
     times, roots = read_root_trajectory(bag)
     assert np.allclose(times, np.arange(frames + 1) / FRAME_RATE)

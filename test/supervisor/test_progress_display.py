@@ -15,8 +15,8 @@
 """
 The progress display's parts without ROS.
 
-start-up milestones into phases, the active goal, the windowed realtime factor, the progress line, and the display on a
-pipe (lines) and on a terminal (a tqdm bar).
+The tests cover start-up milestones into phases, the active goal, the windowed realtime factor, the progress line, and
+the display on a pipe (lines) and on a terminal (a tqdm bar).
 """
 from __future__ import annotations
 

@@ -145,10 +145,10 @@ def test_playback_plays_pauses_scrubs_loops_and_stops_at_the_end():
 
 def test_a_long_path_is_thinned_and_only_grows_between_doublings_of_its_stride():
     """
-    The defect.
+    A long path is thinned and only grows between doublings of its stride.
 
-    The path was thinned evenly to 2000 points, so past 2000 states (67 s) its length stayed 2000 and the page, which
-    redrew it when its length changed, froze it; thinned evenly it also changed everywhere at each state.
+    The defect: the path was thinned evenly to 2000 points, so past 2000 states (67 s) its length stayed 2000 and the
+    page, which redrew it when its length changed, froze it; thinned evenly it also changed everywhere at each state.
     """
     view = RunView()
     for k in range(PATH_MAX_POINTS * 2 + 500):

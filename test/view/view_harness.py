@@ -121,9 +121,9 @@ GIZMO_PX = 110
 
 def green_pixels(pixels: np.ndarray, margin: int = 40) -> int:
     """
-    How many pixels have green at least `margin` above red and blue (the iguana's skin).
+    Return how many pixels have green at least `margin` above red and blue (the iguana's skin).
 
-    outside the axes gizmo's corner.
+    Pixels in the axes gizmo's corner are not counted.
     """
     p = pixels.astype(int)
     p[-GIZMO_PX:, :GIZMO_PX] = 0

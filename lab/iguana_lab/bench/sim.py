@@ -199,9 +199,9 @@ def _ten_iterations(fp: np.ndarray, ip: np.ndarray) -> tuple:
 
 def _step_on_a_copy(sim):
     """
-    Return a call that advances a copy of the simulator's state by one frame of steps (its lengths held).
+    Return a call that advances a copy of the simulator's state by one frame of steps, and the copy's counters.
 
-    and the copy's counters (integrator.C_*), which count what those steps did.
+    The lengths are held; the counters (integrator.C_*) count what those steps did.
     """
     from iguana_ros.physics import integrator as itg
 
@@ -318,9 +318,10 @@ def tradeoff_runs(resolution: str = 'medium', meshes: tuple = TRADEOFF_MESHES,
 
 def gait_run(resolution: str, seconds: float, settings: dict) -> dict:
     """
-    One gait-scene run.
+    Run one gait scene and return its outcome.
 
-    Final node positions `(n, 3)` and centre of mass `(3,)` as lists (JSON), speed, or the divergence.
+    The outcome is the final node positions `(n, 3)` and centre of mass `(3,)` as lists (JSON) and the speed, or the
+    divergence.
     """
     settings = dict(settings)
     preset = settings.pop('preset', 'balanced')
@@ -344,8 +345,9 @@ def tradeoff_rows(runs: list[TradeoffRun], results: list) -> list[dict]:
     """
     Return the table rows of the non-reference runs among the first len(`results`) `runs`.
 
-    (results of `gait_run` in run order, or error rows): speed and error (node RMS, COM difference) against the run's
-    reference. Raises SimulationDiverged if a reference diverged, IguanaError if it failed.
+    `results` are the results of `gait_run` in run order, or error rows; a row gives the speed and the error (node RMS,
+    COM difference) against the run's reference. Raises SimulationDiverged if a reference diverged, IguanaError if it
+    failed.
     """
     rows = []
     for run, result in zip(runs, results):

@@ -81,7 +81,7 @@ def faults_group(sub: argparse._SubParsersAction) -> argparse._SubParsersAction:
     """
     Return the sub-command action of `iguana bench faults` under the bench sub-commands `sub`, created on first use.
 
-    (an existing `faults` group is reused, so suites registered from elsewhere join it).
+    An existing `faults` group is reused, so suites registered from elsewhere join it.
     """
     parser = sub.choices.get('faults')
     if parser is None:

@@ -218,10 +218,10 @@ class Fault:
 
 def corruption_faults(ref: Reference, truncations: int, corruptions: int, seed: int) -> list[Fault]:
     """
-    Seeded random faults of the MCAP.
+    Return seeded random faults of the MCAP.
 
-    `truncations` cuts anywhere in the file, `corruptions` alternating 64-byte overwrites and flipped bytes (every
-    STRUCTURAL_SHARE-th aimed at a region outside the chunks).
+    There are `truncations` cuts anywhere in the file and `corruptions` alternating 64-byte overwrites and flipped bytes
+    (every STRUCTURAL_SHARE-th aimed at a region outside the chunks).
     """
     rng = random.Random(seed)
     faults = [Fault('truncate', rng.randrange(ref.size)) for _ in range(truncations)]

@@ -170,11 +170,11 @@ def trial_folder(workdir: Path, index: int, scene: dict) -> tuple[Path, Path, Pa
 def run_trial(index: int, target: str, sig: int, moment_s: float, workdir: Path, domain_id: str | None = None,
               under_way: bool = False, before_fault: Callable[[Path], None] | None = None) -> Trial:
     """
-    Launch `iguana run` on the trial scene, send `sig` to `target` `moment_s` wall seconds after launch.
+    Launch `iguana run` on the trial scene, send `sig` to `target` and check the aftermath.
 
-    (or, `under_way`, after the bag holds the iguana_state of a simulated frame, not only the initial one), and check
-    the aftermath. A target that is not alive at that moment is killed as soon as it is. `before_fault(trial folder)` is
-    called just before the fault.
+    The signal goes `moment_s` wall seconds after launch or, with `under_way`, once the bag holds the iguana_state of a
+    simulated frame, not only the initial one. A target that is not alive at that moment is killed as soon as it is.
+    `before_fault(trial folder)` is called just before the fault.
     """
     domain_id = domain_id or os.environ.get('ROS_DOMAIN_ID', '0')
     trial = Trial(index, target, signal.Signals(sig).name, moment_s, 'under way' if under_way else 'start-up')

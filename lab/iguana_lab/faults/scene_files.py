@@ -409,7 +409,7 @@ def _npy(array=None, shape=None, descr: str = '<f8', cut: int = 0) -> bytes:
     """
     Return the bytes of a .npy file of `array`, or a header alone promising `shape` of `descr`.
 
-    `cut` bytes dropped.
+    `cut` bytes are dropped.
     """
     import io
 
@@ -601,8 +601,8 @@ def cli_trial(trial: Trial, timeout: float = CLI_TIMEOUT, memory_limit: int = CL
     """
     Run `iguana simulate FILE --duration 0.1 --json` on a trial's file in a subprocess.
 
-    (own process group, RLIMIT_AS `memory_limit`, killed with its group after `timeout` s); {exit code, stderr lines,
-    peak RSS, wall s, problems}.
+    The subprocess has its own process group and RLIMIT_AS `memory_limit`, and is killed with its group after `timeout`
+    s. Returns {exit code, stderr lines, peak RSS, wall s, problems}.
     """
     command = [sys.executable, '-m', 'iguana_ros.cli', 'simulate', trial.file, '--duration', str(CLI_DURATION),
                '--json']

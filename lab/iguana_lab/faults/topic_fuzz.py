@@ -249,9 +249,9 @@ FRAME_STAMPED = ('motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana
 
 def prepared_fault(key: str, kind: str, ctx: FuzzContext, rng: np.random.Generator) -> tuple[bytes, int | None]:
     """
-    Return (serialized bytes, stamp offset in frames from the frame it goes out at, or None to keep its stamp).
+    Return one fault built ahead, so that publishing it during the run costs a byte copy (see `restamped`).
 
-    of one fault: built ahead, so that publishing it during the run costs a byte copy (see `restamped`).
+    It is (serialized bytes, stamp offset in frames from the frame it goes out at, or None to keep its stamp).
     """
     from rclpy.serialization import serialize_message
     at = ctx.frame
@@ -304,8 +304,8 @@ class TopicFuzzer:
     """
     Publishes the faults of a plan as the run advances.
 
-    `before` faults once its publishers are matched with every node that reads them (and the recorder) and the
-    simulator's /clock is heard, then `per_frame` more for each frame /clock reports, each stamped relative to that
+    It publishes `before` faults once its publishers are matched with every node that reads them (and the recorder) and
+    the simulator's /clock is heard, then `per_frame` more for each frame /clock reports, each stamped relative to that
     frame. Run in a process of its own (`main`), as a foreign publisher would be; it keeps the serialized bytes of
     everything it sent.
     """
@@ -425,9 +425,9 @@ def read_fuzz_dump(path: Path) -> tuple[list[tuple[str, bytes]], Counter]:
 
 def count_non_finite(msg) -> int:
     """
-    Return number of non-finite float values anywhere in a deserialized ROS message.
+    Return the number of non-finite float values anywhere in a deserialized ROS message.
 
-    (nested messages, sequences, arrays).
+    Nested messages, sequences and arrays count too.
     """
     if isinstance(msg, float):
         return 0 if math.isfinite(msg) else 1

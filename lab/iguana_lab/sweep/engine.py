@@ -56,11 +56,11 @@ overloaded machine) before they fail as NoWorkerError rows instead of the sweep 
 
 class Task(NamedTuple):
     """
-    One task.
+    One task: `fn(*args)` on a worker, returning a JSON-able row.
 
-    `fn(*args)` on a worker, returning a JSON-able row. `key` identifies the inputs (the same inputs always give the
-    same key: resume and Dask keys), `identity` the row fields that say what ran (kept in an error row), `label` a short
-    name (shown by the progress bar for the last finished task).
+    `key` identifies the inputs (the same inputs always give the same key: resume and Dask keys), `identity` the row
+    fields that say what ran (kept in an error row), `label` a short name (shown by the progress bar for the last
+    finished task).
     """
 
     key: str
@@ -94,8 +94,8 @@ class Cluster:
     """
     Where tasks run.
 
-    `scheduler` address ('tcp://host:8786'; None = a local cluster of `workers` processes, default one per core) and
-    each local worker's `memory_limit` (bytes, '3GiB', or 0 = none).
+    Tasks run at the `scheduler` address ('tcp://host:8786'; None = a local cluster of `workers` processes, default one
+    per core); `memory_limit` is each local worker's limit (bytes, '3GiB', or 0 = none).
     """
 
     workers: int | None = None
@@ -258,7 +258,7 @@ def row_stream(plan: Plan, show: Callable[[dict], None]) -> Callable[[int, Any],
     """
     Return an `on_result` that calls `show(row)` for each table row of `plan`, in table order.
 
-    as soon as the results it needs (those of every earlier task) are in.
+    Each row is shown as soon as the results it needs (those of every earlier task) are in.
     """
     results: list = []
     shown = {'n': 0}
@@ -289,9 +289,9 @@ def parallel_map(fn: Callable, arguments: list[tuple], workers: int | None = Non
 def run_local(tasks: list[Task], workers: int | None = None,
               progress: Callable[[Any, int, int], None] | None = None) -> list:
     """
-    `run_tasks` on a local cluster of `workers` processes (default one per core).
+    Run `run_tasks` on a local cluster of `workers` processes (default one per core); results in task order.
 
-    with `progress(result, n_done, n_total)` called as each task finishes (in finishing order); results in task order.
+    `progress(result, n_done, n_total)` is called as each task finishes (in finishing order).
     """
     done = {'n': 0}
 

@@ -31,7 +31,8 @@ def warm_kernels() -> float:
     """
     Compile or load the kernels of every sweep task (the frame loop of `iguana warm`, direct solver included).
 
-    holding the kernel-cache lock; the seconds it took (done once per process, later calls return the first figure).
+    It holds the kernel-cache lock and returns the seconds it took (done once per process, later calls return the first
+    figure).
     """
     from iguana_ros.warmup import warm_loop
 

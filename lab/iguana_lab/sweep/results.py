@@ -128,9 +128,9 @@ def write_table(out_dir: Path, rows: list[dict], meta: dict) -> list[Path]:
 
 def _series(rows: list[dict], plot) -> Iterator[tuple[Any, list, list]]:
     """
-    (group value, x values, y values) per value of `plot.by` over the rows with a numeric y.
+    Return (group value, x values, y values) per value of `plot.by` over the rows with a numeric y.
 
-    (failed rows and missing values left out), groups in first-seen order.
+    Failed rows and missing values are left out; groups come in first-seen order.
     """
     groups: dict = {}
     for row in rows:
@@ -169,9 +169,9 @@ def plot_path(out_dir: Path, plot) -> Path:
 
 def plot_columns(rows: list[dict], plot, path: Path, title: str = '') -> Path:
     """
-    Column `plot.y` against `plot.x`, one line per `plot.by` value.
+    Plot column `plot.y` against `plot.x`, one line per `plot.by` value, and save it as PNG at `path`.
 
-    (numeric x sorted; other x as categories in first-seen order), saved as PNG at `path`.
+    Numeric x is sorted; other x are categories in first-seen order.
     """
     import matplotlib
 

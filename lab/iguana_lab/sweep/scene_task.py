@@ -60,8 +60,8 @@ def scene_identity(scene: Scene, adaptation: bool | None = None) -> dict:
     """
     Return the row fields that say what ran.
 
-    scene, terrain kind and its parameters, last goal, mesh, duration and adaptation (`adaptation` or the scene's) with
-    its mode name.
+    They are the scene, terrain kind and its parameters, last goal, mesh, duration and adaptation (`adaptation` or the
+    scene's) with its mode name.
     """
     adapt = scene.adaptation if adaptation is None else bool(adaptation)
     return {'scene': scene.name, 'kind': scene.terrain.kind,

@@ -268,7 +268,7 @@ def _named_scenes(entries: tuple, base_dir: Path) -> list[Scene]:
     """
     Return the scenes named by the spec.
 
-    (a relative path from the spec's folder first, then as load_scene finds it).
+    A name is tried as a relative path from the spec's folder first, then as load_scene finds it.
     """
     from iguana_ros.scene import load_scene
 
@@ -281,9 +281,9 @@ def _named_scenes(entries: tuple, base_dir: Path) -> list[Scene]:
 
 def _random_terrains(raw, source: str) -> dict:
     """
-    Return the arguments of the locomotion benchmark's generator.
+    Return the arguments of the locomotion benchmark's generator (random_scenes).
 
-    (random_scenes) from {count, seed, kinds, duration, mesh}.
+    They are taken from {count, seed, kinds, duration, mesh}.
     """
     from iguana_lab.random_scenes import BENCH_KINDS
 

@@ -50,9 +50,10 @@ def scene_file(tmp_path_factory):
 
 def _refused(key: str, msg, ctx: FuzzContext, model) -> bool:
     """
-    Whether the nodes reading topic `key` refuse `msg` at frame ctx.frame.
+    Return whether the nodes reading topic `key` refuse `msg` at frame ctx.frame.
 
-    (an InputError, or a frame they do not use: stale, or not the one the lockstep simulator waits for).
+    They refuse it with an InputError, or by not using its frame: stale, or not the one the lockstep simulator waits
+    for.
     """
     bound = world_bound(2 * ctx.half_extent)
     skeleton = ctx.skeleton

@@ -58,9 +58,9 @@ DASK = str(Path(sys.executable).with_name('dask'))
 
 def _children() -> set:
     """
-    Pids of this process's living descendants.
+    Return the pids of this process's living descendants except multiprocessing's resource tracker.
 
-    (but multiprocessing's resource tracker, which lives as long as this process by design).
+    The tracker lives as long as this process by design.
     """
     pids = set()
     for p in psutil.Process().children(recursive=True):
@@ -211,9 +211,9 @@ def _hold_memory(megabytes: int, seconds: float) -> int:
 
 def test_out_of_memory_worker_gives_an_error_row():
     """
-    A task that outgrows its worker's 1 GiB is stopped by Dask.
+    A task that outgrows its worker's 1 GiB is stopped by Dask and becomes a KilledWorker row.
 
-    (the worker restarted, the task retried once) and becomes a KilledWorker row; the next task runs.
+    The worker is restarted and the task retried once; the next task runs.
     """
     cloudpickle.register_pickle_by_value(sys.modules[__name__])          # _hold_memory runs on the workers
     before = _children()
