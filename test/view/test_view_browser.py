@@ -211,11 +211,16 @@ def recorded_bag(live_run):
 
 
 def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag):
+    from rclpy.serialization import deserialize_message
+
     from iguana_ros.bag.trajectory import read_topics
+    from iguana_ros.ros.endpoints import resolve
     if recorded_bag.goal is None:
         pytest.skip('the click test did not run')
-    recorded = read_topics(recorded_bag.bag, ['accepted_goals', 'push', 'goal_pose'])
-    accepted = recorded.messages['accepted_goals'][-1].poses
+    keys = ['accepted_goals', 'push', 'goal_pose']
+    recorded = {key: [deserialize_message(data, resolve(key)[1]) for data in messages]
+                for key, messages in read_topics(recorded_bag.bag, keys).messages.items()}
+    accepted = recorded['accepted_goals'][-1].poses
     poses = [(p.pose.position.x, p.pose.position.y) for p in accepted]
     assert len(poses) == 3 and poses[0] == (2.0, 0.0)            # the scene's, the click's, the shift-click's heading
     assert np.allclose(poses[1], recorded_bag.goal, atol=0.006) and np.allclose(poses[2], recorded_bag.goal, atol=0.006)
@@ -223,7 +228,7 @@ def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag):
     q = accepted[2].pose.orientation
     assert math.degrees(2 * math.atan2(q.z, q.w)) == pytest.approx(recorded_bag.heading, abs=0.6)
     if recorded_bag.sent:
-        (push,) = recorded.messages['push']
+        (push,) = recorded['push']
         force = push.wrench.force
         assert push.header.frame_id == 'trunk_left' and math.isclose(math.hypot(force.x, force.y), 40.0)
 
