@@ -82,10 +82,10 @@ def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
     one[7] = 1e6
     with pytest.raises(InputError, match=r'1 of \d+ lengths outside .*\(spring 7: 1e\+06 m'):
         v.check_desired_lengths(one, rest)
-    msg = m.lengths_to_msg(np.full(len(rest), 1e6), 0)
-    assert m.lengths_from_msg(msg, len(rest))[1][0] == 1e6       # the format alone (a recorded bag) is fine
+    data = m.lengths_to_cdr(np.full(len(rest), 1e6), 0)
+    assert m.lengths_from_cdr(data, len(rest))[1][0] == 1e6      # the format alone (a recorded bag) is fine
     with pytest.raises(InputError, match='outside'):
-        m.lengths_from_msg(msg, len(rest), rest)                  # the simulator's check: rejected
+        m.lengths_from_cdr(data, len(rest), rest)                 # the simulator's check: rejected
 
 
 def test_push_force_velocity_change_torque_and_region_are_bounded(model):
@@ -121,33 +121,39 @@ def test_a_push_acts_over_whole_frames():
 
 
 def test_poses_and_clips_must_fit_the_skeleton_and_the_world():
+    from nav_msgs.msg import Odometry
+    from rclpy.serialization import deserialize_message, serialize_message
+    from trajectory_msgs.msg import MultiDOFJointTrajectory
+
     skeleton = iguana_skeleton()
     clip = motion_graph().align('forward', np.array([0.5, 0.2]), 0.4)
     joints, rotations = pose_kinematics(skeleton, clip.root_positions[3], clip.local_rotations[3])
-    msg = m.reference_pose_to_msg(joints, rotations, 3)
-    assert m.reference_pose_from_msg(msg, skeleton.n_bones, skeleton, 15.0)[0] == 3
+    data = m.reference_pose_to_cdr(joints, rotations, 3)
+    assert m.reference_pose_from_cdr(data, skeleton.n_bones, skeleton, 15.0)[0] == 3
     far = joints.copy()
     far[5] += 1e9
     with pytest.raises(InputError, match='magnitude 1e\\+09 m; expected within 15 m'):
-        m.reference_pose_from_msg(m.reference_pose_to_msg(far, rotations, 3), skeleton.n_bones, skeleton, 15.0)
+        m.reference_pose_from_cdr(m.reference_pose_to_cdr(far, rotations, 3), skeleton.n_bones, skeleton, 15.0)
     bent = joints.copy()
     bent[5, 2] += 0.01
     with pytest.raises(InputError, match='does not fit the skeleton: bone '):
-        m.reference_pose_from_msg(m.reference_pose_to_msg(bent, rotations, 3), skeleton.n_bones, skeleton, 15.0)
-    clip_msg = m.clip_to_msg(clip, skeleton, 40)
-    assert m.clip_from_msg(clip_msg, skeleton, 15.0)[0] == 40
+        m.reference_pose_from_cdr(m.reference_pose_to_cdr(bent, rotations, 3), skeleton.n_bones, skeleton, 15.0)
+    clip_data = m.clip_to_cdr(clip, skeleton, 40)
+    assert m.clip_from_cdr(clip_data, skeleton, 15.0)[0] == 40
+    clip_msg = deserialize_message(clip_data, MultiDOFJointTrajectory)
     clip_msg.points[2].transforms[4].translation.y = 1e9
     with pytest.raises(InputError, match='differ from the skeleton offsets'):
-        m.clip_from_msg(clip_msg, skeleton, 15.0)
-    clip_msg = m.clip_to_msg(clip, skeleton, 40)
+        m.clip_from_cdr(serialize_message(clip_msg), skeleton, 15.0)
+    clip_msg = deserialize_message(clip_data, MultiDOFJointTrajectory)
     clip_msg.points[2].transforms = clip_msg.points[2].transforms[:-1]   # a ragged trajectory: one line
     with pytest.raises(InputError, match='trajectory points hold'):
-        m.clip_from_msg(clip_msg, skeleton, 15.0)
-    state = m.state_to_msg(np.array([0.3, 0.1, 0.07]), quat_from_yaw(0.2), np.zeros(3), np.zeros(3), 9)
-    assert m.state_from_msg(state, 15.0)[0] == 9
+        m.clip_from_cdr(serialize_message(clip_msg), skeleton, 15.0)
+    data = m.state_to_cdr(np.array([0.3, 0.1, 0.07]), quat_from_yaw(0.2), np.zeros(3), np.zeros(3), 9)
+    assert m.state_from_cdr(data, 15.0)[0] == 9
+    state = deserialize_message(data, Odometry)
     state.pose.pose.orientation.w *= 2.0
     with pytest.raises(InputError, match='expected unit quaternions'):
-        m.state_from_msg(state, 15.0)
+        m.state_from_cdr(serialize_message(state), 15.0)
 
 
 def test_frames_far_ahead_are_rejected_stale_and_repeated_ones_classified():

@@ -17,7 +17,9 @@ Bag -> `RecordedRun`: per-frame iguana surface triangles, root poses, terrain an
 
 Reads the topics `mesh_marker` (Marker TRIANGLE_LIST, fast CDR path), `iguana_state` (Odometry, optional) and
 `scene_markers` (MarkerArray: namespace 'terrain' TRIANGLE_LIST, namespace 'goal' spheres; optional) of
-msg_configs/topics.yaml, recorded under their absolute name or inside a namespace.
+msg_configs/topics.yaml, recorded under their absolute name or inside a namespace. The bytes are decoded with the CDR
+codec and, for iguana_state, with the nodes' own `state_from_cdr` and its checks; a message that does not decode (a
+damaged payload, another type's bytes) is skipped and counted in a note, never raised.
 
 Times are seconds from the first mesh frame, taken from the header stamps (simulated time), or from the
 receive times when the stamps do not advance (an unstamped publisher). Frames are subsampled while reading
@@ -38,6 +40,7 @@ from iguana_ros.errors import InputError
 from iguana_ros.geometry import quat_normalize, quat_rotate, yaw_of
 from iguana_ros.render.run import GoalSet, RecordedRun
 from iguana_ros.ros.cdr import header_stamp_ns, marker_array_from_cdr, MarkerData, triangle_list_from_cdr
+from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.topics import topic
 
 NS = 1_000_000_000
@@ -95,7 +98,7 @@ class _Collector:
     """Accumulates the messages of one pass over the bag."""
 
     selection: _Selection
-    stamps: list = field(default_factory=list)          # (stamp_ns, log_ns, data) of the first mesh message
+    stamps: list = field(default_factory=list)          # (stamp_ns, log_ns, (points, colors)) of the first mesh
     base: str | None = None                              # 'stamp' or 'log'
     t0_ns: int = 0
     times: list = field(default_factory=list)
@@ -104,41 +107,51 @@ class _Collector:
     centroid_times: list = field(default_factory=list)
     centroid_logs: list = field(default_factory=list)    # receive time (ns) of each centroid's frame
     centroids: list = field(default_factory=list)
-    odometry: list = field(default_factory=list)        # (stamp_ns, log_ns, data)
+    odometry: list = field(default_factory=list)        # (log_ns, data)
     scenes: list = field(default_factory=list)          # (log_ns, data)
     last_t: float = -math.inf
     mesh_count: int = 0
     non_finite: int = 0
+    undecodable: dict = field(default_factory=dict)     # topic key -> [count, first reason]
+
+    def skip(self, key: str, exc: Exception) -> None:
+        """Count a message of topic `key` that did not decode (the first one's reason is kept)."""
+        self.undecodable.setdefault(key, [0, str(exc)])[0] += 1
 
     def add_mesh(self, data: bytes, log_ns: int) -> None:
         """Take one serialized mesh Marker; the time base is fixed by the first two messages."""
+        try:
+            mesh = triangle_list_from_cdr(data)
+            stamp = header_stamp_ns(data)
+        except InputError as exc:
+            self.skip('mesh_marker', exc)
+            return
         self.mesh_count += 1
-        stamp = header_stamp_ns(data)
         if self.base is None:
             if not self.stamps:
-                self.stamps.append((stamp, log_ns, data))
+                self.stamps.append((stamp, log_ns, mesh))
                 return
             first = self.stamps.pop()
             self.base = 'stamp' if stamp != first[0] else 'log'
             self.t0_ns = first[0] if self.base == 'stamp' else first[1]
             self._accept(first[0] if self.base == 'stamp' else first[1], first[1], first[2])
-        self._accept(stamp if self.base == 'stamp' else log_ns, log_ns, data)
+        self._accept(stamp if self.base == 'stamp' else log_ns, log_ns, mesh)
 
     def finish(self) -> None:
         """Flush a lone first mesh message (a one-frame bag)."""
         if self.base is None and self.stamps:
-            stamp, log_ns, data = self.stamps.pop()
+            stamp, log_ns, mesh = self.stamps.pop()
             self.base, self.t0_ns = 'stamp', stamp
-            self._accept(stamp, log_ns, data)
+            self._accept(stamp, log_ns, mesh)
 
-    def _accept(self, time_ns: int, log_ns: int, data: bytes) -> None:
-        """Record the centroid of a mesh frame and keep its arrays if the selection wants it."""
+    def _accept(self, time_ns: int, log_ns: int, mesh: tuple) -> None:
+        """Record the centroid of a mesh frame (points, colours) and keep its arrays if the selection wants it."""
         t = (time_ns - self.t0_ns) / NS
         self.last_t = max(self.last_t, t)
         sel = self.selection
         if sel.at is None and t > sel.end:
             return
-        points, colors = triangle_list_from_cdr(data)
+        points, colors = mesh
         if len(points) < 3 or not np.isfinite(points).all():
             self.non_finite += int(len(points) >= 3)
             return
@@ -206,7 +219,7 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
         if role == 'mesh_marker':
             collector.add_mesh(msg.data, msg.log_time)
         elif role == 'iguana_state':
-            collector.odometry.append((header_stamp_ns(msg.data), msg.log_time, msg.data))
+            collector.odometry.append((msg.log_time, msg.data))
         elif role == 'scene_markers':
             collector.scenes.append((msg.log_time, msg.data))
         if progress is not None and k % 64 == 63:
@@ -224,12 +237,17 @@ def read_run(path: str | Path, fps: float | None = None, start: float = 0.0, end
         run.notes.append(f'{run.damage}; rendered the recovered frames')
     if collector.non_finite:
         run.notes.append(f'skipped {collector.non_finite} mesh frame(s) with NaN or Inf coordinates')
+    run.notes += [f'skipped {n} {key} message(s) that did not decode (first: {why})'
+                  for key, (n, why) in collector.undecodable.items()]
     return run
 
 
 def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:
     """`RecordedRun` from a finished collector; InputError when no frame was selected."""
     sel = c.selection
+    if c.mesh_count == 0 and 'mesh_marker' in c.undecodable:
+        n, why = c.undecodable['mesh_marker']
+        raise InputError(f'bag {path}: none of its {n} {mesh_topic} messages decodes (first: {why}); nothing to render')
     if c.mesh_count == 0:
         raise InputError(f'bag {path} has no {mesh_topic} messages; nothing to render')
     if c.non_finite == c.mesh_count:
@@ -254,19 +272,21 @@ def _assemble(c: _Collector, path: str | Path, mesh_topic: str) -> RecordedRun:
 
 
 def _odometry(c: _Collector) -> tuple:
-    """Return (times, positions (k, 3), times, yaws (k,)) of the recorded odometry, or four Nones without any."""
+    """
+    Return (times, positions (k, 3), times, yaws (k,)) of the recorded odometry, or four Nones without any.
+
+    Each message is read with the nodes' `state_from_cdr`; one that does not decode or fails its checks is counted.
+    """
     if not c.odometry:
         return None, None, None, None
-    from rclpy.serialization import deserialize_message
-
-    from iguana_ros.ros.conversions import odometry_to_numpy
-    from iguana_ros.ros.endpoints import message_class
-    cls = message_class(topic('iguana_state').type)
     rows = []
-    for stamp, log_ns, data in c.odometry:
-        pos, quat, _, _ = odometry_to_numpy(deserialize_message(data, cls))
-        if np.isfinite(pos).all() and np.isfinite(quat).all():
-            rows.append((c.time_of(stamp, log_ns), *pos, float(yaw_of(quat))))
+    for log_ns, data in c.odometry:
+        try:
+            _, pos, quat = state_from_cdr(data)
+        except InputError as exc:
+            c.skip('iguana_state', exc)
+            continue
+        rows.append((c.time_of(header_stamp_ns(data), log_ns), *pos, float(yaw_of(quat))))
     if not rows:
         return None, None, None, None
     table = np.array(sorted(rows, key=lambda r: r[0]))
@@ -279,7 +299,11 @@ def _scene(c: _Collector) -> tuple[tuple, list[GoalSet]]:
     goals: list[GoalSet] = []
     for log_ns, data in sorted(c.scenes, key=lambda s: s[0]):
         t = c.receive_time_of(log_ns)  # a MarkerArray has no header; its markers' stamps are often 0
-        new_terrain, new_goals = scene_update(marker_array_from_cdr(data), t)
+        try:
+            new_terrain, new_goals = scene_update(marker_array_from_cdr(data), t)
+        except InputError as exc:     # a damaged marker array: the terrain and goals of the others still show
+            c.skip('scene_markers', exc)
+            continue
         terrain = new_terrain or terrain
         goals.extend(new_goals)
     return terrain, goals

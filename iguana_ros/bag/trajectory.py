@@ -19,24 +19,23 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from rclpy.serialization import deserialize_message
 
 from iguana_ros.bag.storage import BagReader
-from iguana_ros.ros.conversions import odometry_to_numpy, time_from_msg
+from iguana_ros.errors import InputError
 from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.messages import stamp_of_cdr, state_from_cdr
 
 
 @dataclass
 class RecordedTopics:
     """
-    Deserialized messages of some topic-table keys, in file order.
+    The serialized messages of some topic-table keys, in file order, as the nodes received them.
 
-    `rejected` counts, per key, the messages that did not deserialize; `truncated` / `problem` say whether the file
-    ended early (see BagReader).
+    Decode them with the nodes' `ros.messages.*_from_cdr` functions. `truncated` / `problem` say whether the file ended
+    early (see BagReader).
     """
 
-    messages: dict[str, list] = field(default_factory=dict)
-    rejected: dict[str, int] = field(default_factory=dict)
+    messages: dict[str, list[bytes]] = field(default_factory=dict)
     truncated: bool = False
     problem: str = ''
 
@@ -49,31 +48,31 @@ def read_topics(bag: str | Path, keys: list[str] | tuple[str, ...]) -> RecordedT
     """
     wanted = {}
     for key in keys:
-        name, cls, _ = resolve(key)
-        wanted[name if name.startswith('/') else '/' + name] = (key, cls)
-    out = RecordedTopics({key: [] for key in keys}, dict.fromkeys(keys, 0))
+        name = resolve(key)[0]
+        wanted[name if name.startswith('/') else '/' + name] = key
+    out = RecordedTopics({key: [] for key in keys})
     reader = BagReader(bag)
     for record in reader.messages():
         if record.topic in wanted:
-            key, cls = wanted[record.topic]
-            try:
-                out.messages[key].append(deserialize_message(record.data, cls))
-            except Exception:  # noqa: BLE001 -- a corrupt payload (recovered chunk): counted, not fatal
-                out.rejected[key] += 1
+            out.messages[wanted[record.topic]].append(bytes(record.data))
     out.truncated, out.problem = reader.truncated, reader.problem
     return out
 
 
-def root_trajectory(messages: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def root_trajectory(messages: list[bytes]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
-    Return times `(n,)` s, root positions `(n, 3)` and orientations `(n, 4)` xyzw of iguana_state messages.
+    Return times `(n,)` s, root positions `(n, 3)` and orientations `(n, 4)` xyzw of serialized iguana_state messages.
 
-    In time order of their header stamps (a re-sent stamp counts once, its last message).
+    Read with the nodes' `state_from_cdr` (and its checks); in time order of their header stamps (a re-sent stamp
+    counts once, its last message). Messages that do not decode are left out (`run_gait` counts them in a note).
     """
     rows: dict[float, tuple] = {}
-    for msg in messages:
-        position, orientation, _, _ = odometry_to_numpy(msg)
-        rows[time_from_msg(msg.header.stamp)] = (position, orientation)
+    for data in messages:
+        try:
+            _, position, orientation = state_from_cdr(data)
+        except InputError:
+            continue
+        rows[stamp_of_cdr(data)] = (position, orientation)
     times = np.array(sorted(rows))
     positions = np.array([rows[t][0] for t in times]).reshape(-1, 3)
     orientations = np.array([rows[t][1] for t in times]).reshape(-1, 4)

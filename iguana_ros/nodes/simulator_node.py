@@ -36,7 +36,7 @@ from iguana_ros.ros.cdr import TriangleListMarkerWriter
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
 from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
-                                     goal_from_msg, lengths_from_cdr, push_from_msg, route_from_msg, state_to_cdr)
+                                     goal_from_msg, lengths_from_cdr, push_from_cdr, route_from_msg, state_to_cdr)
 from iguana_ros.ros.run_events import EVENT_BODY_LOST
 from iguana_ros.stages import simulator_stage
 from iguana_ros.topics import topic
@@ -110,7 +110,7 @@ class SimulatorNode(IguanaNode):
         self.foot_positions_pub = self.publisher('foot_positions')
         on_lengths = self.guarded('spring_rest_lengths', self.on_lengths)
         self.lengths_sub = self.subscription('spring_rest_lengths', on_lengths, raw=True)
-        self.subscription('push', self.guarded('push', self.on_push))
+        self.subscription('push', self.guarded('push', self.on_push), raw=True)
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('route', self.guarded('route', self.on_route))
         self.publish_scene_markers()
@@ -163,9 +163,9 @@ class SimulatorNode(IguanaNode):
                 del self.pending_lengths[f]
         return self.latest_lengths
 
-    def on_push(self, msg) -> None:
+    def on_push(self, data: bytes) -> None:
         """Apply a push (world-frame force on the tagged region named by header.frame_id) from the next frame."""
-        request = push_from_msg(msg)
+        request = push_from_cdr(data)
         push = self.stage.add_push(request.force, request.region, self.param('push_duration'), request.torque)
         self.get_logger().info(f'push {list(push.force)} N on {push.region} for {push.duration:g} s')
 

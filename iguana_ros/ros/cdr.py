@@ -92,6 +92,9 @@ JOINT_STATE = (('stamp', 'iI'), ('frame_id', STRING), ('name', STRINGS), ('posit
 CLOCK = (('clock', 'iI'),)
 """rosgraph_msgs/msg/Clock: one builtin_interfaces/Time."""
 
+WRENCH_STAMPED = (('stamp', 'iI'), ('frame_id', STRING), ('wrench', '6d'))
+"""geometry_msgs/msg/WrenchStamped in wire order: header, then force xyz and torque xyz."""
+
 
 def _alignment(fmt: str) -> int:
     """CDR alignment of a struct format: the size of its first primitive (every field here is homogeneous)."""
@@ -359,6 +362,18 @@ def joint_state_from_cdr(data: bytes, what: str = 'JointState') -> dict:
 def clock_cdr(stamp: tuple) -> bytes:
     """Return serialized rosgraph_msgs/Clock bytes of `stamp` (sec, nanosec)."""
     return write_layout(CLOCK, {'clock': stamp})
+
+
+def clock_from_cdr(data: bytes, what: str = 'clock') -> tuple[int, int]:
+    """Return the time (sec, nanosec) of serialized rosgraph_msgs/Clock bytes; InputError naming `what` if not one."""
+    return read_layout(data, CLOCK, what, 'a Clock')['clock']
+
+
+def wrench_stamped_from_cdr(data: bytes, what: str = 'WrenchStamped') -> tuple:
+    """(stamp (sec, nanosec), frame_id, force `(3,)`, torque `(3,)`) of WrenchStamped bytes, or InputError."""
+    fields = read_layout(data, WRENCH_STAMPED, what, 'a WrenchStamped')
+    wrench = np.array(fields['wrench'])
+    return fields['stamp'], fields['frame_id'], wrench[:3], wrench[3:]
 
 
 def header_stamp(data: bytes) -> tuple[int, int]:

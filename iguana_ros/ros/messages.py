@@ -12,10 +12,15 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The pipeline's values as the topic table's messages, and back, with validation (float64 end to end)."""
+"""
+The pipeline's values as the topic table's messages, and back, with validation (float64 end to end).
+
+Every per-frame topic is written and read as serialized bytes (`*_to_cdr`, `*_from_cdr`, over the CDR codec
+`iguana_ros.ros.cdr`): the nodes and the bag readers decode the same bytes with the same functions and the same checks.
+Only the inputs a person or a tool sends (goal_pose, route) and planner_status are read from rclpy message objects.
+"""
 from __future__ import annotations
 
-import array
 import math
 import struct
 
@@ -28,17 +33,20 @@ from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
-from iguana_ros.ros.cdr import (clock_cdr, header_stamp, joint_state_cdr, joint_state_from_cdr,
+from iguana_ros.ros.cdr import (clock_cdr, clock_from_cdr, header_stamp, joint_state_cdr, joint_state_from_cdr,
                                 multi_dof_trajectory_cdr, multi_dof_trajectory_from_cdr, odometry_cdr,
-                                odometry_from_cdr, pose_array_cdr, pose_array_from_cdr, Trajectory)
-from iguana_ros.ros.conversions import (frame_stamp, joint_state_msg, joint_state_positions, multi_dof_trajectory_msg,
-                                        multi_dof_trajectory_to_numpy, odometry_msg, odometry_to_numpy, pose_array_msg,
-                                        pose_array_to_numpy, pose_stamped_to_numpy, poses_from_msgs, stamp_frame,
-                                        time_from_msg, time_to_msg, validate_array)
+                                odometry_from_cdr, pose_array_cdr, pose_array_from_cdr, Trajectory,
+                                wrench_stamped_from_cdr)
+from iguana_ros.ros.conversions import (frame_stamp, pose_stamped_to_numpy, poses_from_msgs, time_from_msg,
+                                        time_to_msg, validate_array)
 from iguana_ros.run_metrics import Stride
 from iguana_ros.scene import MAX_WAYPOINTS
 from iguana_ros.validation import (check_bone_frames, check_clip, check_desired_lengths, check_goal, check_root_pose,
                                    check_route, GoalRequest, PushRequest, RouteRequest)
+
+
+DEFAULT_PUSH_REGION = 'trunk_left'
+"""The region a push whose header.frame_id is empty acts on."""
 
 
 def check_frame_id(what: str, frame_id: str) -> None:
@@ -47,17 +55,12 @@ def check_frame_id(what: str, frame_id: str) -> None:
         raise InputError(f'{what} has frame_id {frame_id!r}, expected {WORLD_FRAME!r}')
 
 
-def clip_to_msg(clip: AlignedClip, skeleton, start_frame: int):
-    """`MultiDOFJointTrajectory` of a placed clip: bone 0 carries the root pose, the others their offsets."""
-    trajectory = _clip_trajectory(clip, skeleton, start_frame)
-    msg = multi_dof_trajectory_msg(trajectory.times, trajectory.joint_names, trajectory.translations,
-                                   trajectory.rotations, stamp=frame_stamp(start_frame))
-    msg.header.frame_id = WORLD_FRAME
-    return msg
-
-
 def clip_to_cdr(clip: AlignedClip, skeleton, start_frame: int) -> bytes:
-    """Return the serialized bytes of `clip_to_msg`'s message, built from numpy (how the planner publishes a clip)."""
+    """
+    Return a placed clip as a serialized motion_clip (MultiDOFJointTrajectory), built from numpy.
+
+    Bone 0 carries the root pose, the others their offsets; stamped with `start_frame` (how the planner publishes).
+    """
     return multi_dof_trajectory_cdr(_clip_trajectory(clip, skeleton, start_frame))
 
 
@@ -71,29 +74,21 @@ def _clip_trajectory(clip: AlignedClip, skeleton, start_frame: int) -> Trajector
                       translations, np.asarray(clip.local_rotations, dtype=np.float64))
 
 
-def clip_from_msg(msg, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
+def clip_from_cdr(data: bytes, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
     """
-    (start frame, placed clip) of a motion_clip message.
+    (start frame, placed clip) of a serialized motion_clip message (decoded with numpy).
 
     InputError unless it fits `skeleton` (joint names, bone offsets, unit rotations, 2..MAX_CLIP_FRAMES points) with its
     root within `bound` m.
     """
-    _times, names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
-    return _checked_clip(msg.header.frame_id, stamp_frame(msg.header.stamp), names, translations, rotations, skeleton,
-                         bound)
-
-
-def clip_from_cdr(data: bytes, skeleton, bound: float = math.inf) -> tuple[int, AlignedClip]:
-    """`clip_from_msg` of a serialized motion_clip message (decoded with numpy, checked the same way)."""
     trajectory = multi_dof_trajectory_from_cdr(data)
-    frame = int(round((trajectory.stamp[0] + trajectory.stamp[1] * 1e-9) * FRAME_RATE))
-    return _checked_clip(trajectory.frame_id, frame, trajectory.joint_names, trajectory.translations,
-                         trajectory.rotations, skeleton, bound)
+    return _checked_clip(trajectory.frame_id, _cdr_stamp_frame(*trajectory.stamp), trajectory.joint_names,
+                         trajectory.translations, trajectory.rotations, skeleton, bound)
 
 
 def _checked_clip(frame_id: str, frame: int, names: list, translations: np.ndarray, rotations: np.ndarray, skeleton,
                   bound: float) -> tuple[int, AlignedClip]:
-    """(start frame, placed clip) of a motion_clip's fields, or InputError (see `clip_from_msg`)."""
+    """(start frame, placed clip) of a motion_clip's fields, or InputError (see `clip_from_cdr`)."""
     check_frame_id('motion_clip', frame_id)
     if tuple(names) != tuple(skeleton.names):
         raise InputError(f'motion_clip joint_names do not match the skeleton ({len(names)} names, '
@@ -104,52 +99,40 @@ def _checked_clip(frame_id: str, frame: int, names: list, translations: np.ndarr
     return frame, clip
 
 
-def stride_from_msg(msg) -> tuple[int, Stride]:
+def stride_from_cdr(data: bytes) -> tuple[int, Stride]:
     """
-    (start frame, Stride) of a motion_clip message.
+    (start frame, Stride) of a serialized motion_clip message (no skeleton needed).
 
     The frames it advances and its root's displacement `(2,)` (first to last point) and first heading, in the world;
     InputError if it does not fit.
     """
-    check_frame_id('motion_clip', msg.header.frame_id)
-    _times, _names, translations, rotations = multi_dof_trajectory_to_numpy(msg)
+    trajectory = multi_dof_trajectory_from_cdr(data)
+    check_frame_id('motion_clip', trajectory.frame_id)
+    translations, rotations = trajectory.translations, trajectory.rotations
     if len(translations) < 2 or translations.shape[1] < 1:
         raise InputError(f'motion_clip has {len(translations)} points, expected at least 2')
     root = validate_array('motion_clip root translations', translations[:, 0], (None, 3))
     heading = float(yaw_of(validate_array('motion_clip root rotation', rotations[0, 0], (4,))))
-    start = stamp_frame(msg.header.stamp)
+    start = _cdr_stamp_frame(*trajectory.stamp)
     return start, Stride(start, len(root) - 1, root[-1, :2] - root[0, :2], heading)
 
 
-def reference_pose_to_msg(joint_positions: np.ndarray, joint_rotations: np.ndarray, frame: int):
-    """`PoseArray` of world bone frames `(n_bones, 3)`, `(n_bones, 4)` stamped with `frame`."""
-    return pose_array_msg(joint_positions, joint_rotations, stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
-
-
 def reference_pose_to_cdr(joint_positions: np.ndarray, joint_rotations: np.ndarray, frame: int) -> bytes:
-    """Return the serialized bytes of `reference_pose_to_msg`'s message, from numpy (how the adaptation node sends)."""
+    """Return a serialized reference_pose (PoseArray) of world bone frames `(n_bones, 3)`, `(n_bones, 4)` at `frame`."""
     stamp = frame_stamp(frame)
     return pose_array_cdr((stamp.sec, stamp.nanosec), WORLD_FRAME,
                           validate_array('reference_pose positions', joint_positions, (None, 3)),
                           validate_array('reference_pose orientations', joint_rotations, (len(joint_positions), 4)))
 
 
-def reference_pose_from_msg(msg, n_bones: int, skeleton=None, bound: float = math.inf
+def reference_pose_from_cdr(data: bytes, n_bones: int, skeleton=None, bound: float = math.inf
                             ) -> tuple[int, np.ndarray, np.ndarray]:
     """
-    (frame, positions `(n_bones, 3)`, rotations `(n_bones, 4)`) of a reference_pose message.
+    (frame, positions `(n_bones, 3)`, rotations `(n_bones, 4)`) of a serialized reference_pose message.
 
     With `skeleton`, InputError unless the bone frames fit it (unit rotations, bone lengths) within `bound` m of the
     origin.
     """
-    positions, rotations = pose_array_to_numpy(msg)
-    return _checked_reference_pose(msg.header.frame_id, stamp_frame(msg.header.stamp), positions, rotations, n_bones,
-                                   skeleton, bound)
-
-
-def reference_pose_from_cdr(data: bytes, n_bones: int, skeleton=None, bound: float = math.inf
-                            ) -> tuple[int, np.ndarray, np.ndarray]:
-    """`reference_pose_from_msg` of a serialized reference_pose message (read with numpy, checked the same way)."""
     (sec, nsec), frame_id, positions, rotations = pose_array_from_cdr(data, 'reference_pose')
     return _checked_reference_pose(frame_id, _cdr_stamp_frame(sec, nsec), positions, rotations,
                                    n_bones, skeleton, bound)
@@ -157,7 +140,7 @@ def reference_pose_from_cdr(data: bytes, n_bones: int, skeleton=None, bound: flo
 
 def _checked_reference_pose(frame_id: str, frame: int, positions: np.ndarray, rotations: np.ndarray, n_bones: int,
                             skeleton, bound: float) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, positions, rotations) of a reference_pose's fields, or InputError (see `reference_pose_from_msg`)."""
+    """(frame, positions, rotations) of a reference_pose's fields, or InputError (see `reference_pose_from_cdr`)."""
     check_frame_id('reference_pose', frame_id)
     validate_array('reference_pose positions', positions, (n_bones, 3))
     validate_array('reference_pose orientations', rotations, (n_bones, 4))
@@ -166,34 +149,24 @@ def _checked_reference_pose(frame_id: str, frame: int, positions: np.ndarray, ro
     return frame, positions, rotations
 
 
-def lengths_to_msg(lengths: np.ndarray, frame: int):
-    """`JointState` whose position holds the desired spring lengths `(n_springs,)` of `frame`."""
-    return joint_state_msg(lengths, stamp=frame_stamp(frame))
-
-
 def lengths_to_cdr(lengths: np.ndarray, frame: int) -> bytes:
-    """Return the serialized bytes of `lengths_to_msg`'s message, from numpy (how the spring-length node publishes)."""
+    """Return a serialized JointState whose position holds the desired spring lengths `(n_springs,)` of `frame`."""
     return joint_state_cdr(_frame_stamp_pair(frame), '', [], validate_array('values', lengths, (None,)))
 
 
-def lengths_from_msg(msg, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
+def lengths_from_cdr(data: bytes, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
     """
-    (frame, lengths `(n_springs,)`) of a spring_rest_lengths message.
+    (frame, lengths `(n_springs,)`) of a serialized spring_rest_lengths message.
 
     InputError if wrong or negative, or (given the model's `rest_lengths`) outside the factor of rest that
     `check_desired_lengths` allows.
     """
-    return stamp_frame(msg.header.stamp), _checked_lengths(joint_state_positions(msg), n_springs, rest_lengths)
-
-
-def lengths_from_cdr(data: bytes, n_springs: int, rest_lengths: np.ndarray | None = None) -> tuple[int, np.ndarray]:
-    """`lengths_from_msg` of a serialized spring_rest_lengths message (read with numpy, checked the same way)."""
     fields = joint_state_from_cdr(data, 'spring_rest_lengths')
     return _cdr_stamp_frame(*fields['stamp']), _checked_lengths(fields['position'], n_springs, rest_lengths)
 
 
 def _checked_lengths(values: np.ndarray, n_springs: int, rest_lengths: np.ndarray | None) -> np.ndarray:
-    """Spring lengths `(n_springs,)` as float64, or InputError (see `lengths_from_msg`)."""
+    """Spring lengths `(n_springs,)` as float64, or InputError (see `lengths_from_cdr`)."""
     lengths = validate_array('spring_rest_lengths', values, (n_springs,))
     if np.any(lengths < 0.0):
         raise InputError('spring_rest_lengths has negative lengths')
@@ -202,15 +175,9 @@ def _checked_lengths(values: np.ndarray, n_springs: int, rest_lengths: np.ndarra
     return lengths
 
 
-def state_to_msg(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, angular: np.ndarray,
-                 frame: int):
-    """Odometry of the iguana root at the start of `frame`."""
-    return odometry_msg(root, orientation, linear, angular, stamp=frame_stamp(frame))
-
-
 def state_to_cdr(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, angular: np.ndarray,
                  frame: int) -> bytes:
-    """Return the serialized bytes of `state_to_msg`'s message, from numpy (how the simulator node publishes)."""
+    """Return the serialized iguana_state (Odometry) of the iguana root at the start of `frame` (the simulator's)."""
     pose = np.concatenate([validate_array('position', root, (3,)), validate_array('quaternion', orientation, (4,))])
     twist = np.concatenate([validate_array('linear_velocity', linear, (3,)),
                             validate_array('angular_velocity', angular, (3,))])
@@ -222,27 +189,36 @@ def clock_to_cdr(frame: int) -> bytes:
     return clock_cdr(_frame_stamp_pair(frame))
 
 
+def clock_frame_from_cdr(data: bytes) -> int:
+    """Return the frame of a serialized /clock message (`clock_to_cdr`'s inverse); InputError if it is not one."""
+    return _cdr_stamp_frame(*clock_from_cdr(data))
+
+
 def _frame_stamp_pair(frame: int) -> tuple[int, int]:
     """(sec, nanosec) of `frame_stamp(frame)`."""
     stamp = frame_stamp(frame)
     return stamp.sec, stamp.nanosec
 
 
-def state_from_msg(msg, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
+def state_from_cdr(data: bytes, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
     """
-    (frame, root position `(3,)`, orientation `(4,)`) of an iguana_state message.
+    (frame, root position `(3,)`, orientation `(4,)`) of a serialized iguana_state message.
 
     InputError if non-finite (pose or twist), not a unit orientation, or beyond `bound` m.
     """
-    position, orientation, linear, angular = odometry_to_numpy(msg)
-    return _checked_state(msg.header.frame_id, stamp_frame(msg.header.stamp), position, orientation,
-                          np.concatenate([linear, angular]), bound)
+    return state_twist_from_cdr(data, bound)[:3]
 
 
-def state_from_cdr(data: bytes, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray]:
-    """`state_from_msg` of a serialized iguana_state message (read with numpy, checked the same way)."""
+def state_twist_from_cdr(data: bytes, bound: float = math.inf) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """(frame, root position `(3,)`, orientation `(4,)`, twist `(6,)` linear + angular) of an iguana_state message."""
     (sec, nsec), frame_id, pose, twist = odometry_from_cdr(data, 'iguana_state')
     return _checked_state(frame_id, _cdr_stamp_frame(sec, nsec), pose[:3], pose[3:], twist, bound)
+
+
+def stamp_of_cdr(data: bytes) -> float:
+    """Return the header stamp (s) of a serialized stamped message, as `time_from_msg` of its header.stamp."""
+    sec, nsec = header_stamp(data)
+    return sec + nsec * 1e-9
 
 
 def frame_of_cdr(data: bytes) -> int | str:
@@ -259,12 +235,12 @@ def _cdr_stamp_frame(sec: int, nsec: int) -> int:
 
 
 def _checked_state(frame_id: str, frame: int, position: np.ndarray, orientation: np.ndarray, twist: np.ndarray,
-                   bound: float) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, position, orientation) of an iguana_state's fields, or InputError (see `state_from_msg`)."""
+                   bound: float) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """(frame, position, orientation, twist) of an iguana_state's fields, or InputError (see `state_from_cdr`)."""
     check_frame_id('iguana_state', frame_id)
     position, orientation = check_root_pose('iguana_state', position, orientation, bound)
-    validate_array('iguana_state twist', twist, (6,))
-    return frame, position, orientation
+    twist = validate_array('iguana_state twist', twist, (6,))
+    return frame, position, orientation, twist
 
 
 def goal_from_msg(msg, half_extent: float) -> GoalRequest:
@@ -344,62 +320,46 @@ def goal_readers_from_msg(msg) -> dict:
     return out
 
 
-def push_from_msg(msg) -> PushRequest:
+def push_from_cdr(data: bytes) -> PushRequest:
     """
-    Decode a push message: the force and torque `(3,)` of a WrenchStamped and the region its frame_id names.
+    Decode a serialized push message: the force and torque `(3,)` of a WrenchStamped and the region its frame_id names.
 
     '' names trunk_left; InputError unless both are finite. The simulator stage checks them against the body
     (`SimulatorStage.add_push`).
     """
-    wrench = msg.wrench
-    force = validate_array('push force', [wrench.force.x, wrench.force.y, wrench.force.z], (3,))
-    torque = validate_array('push torque', [wrench.torque.x, wrench.torque.y, wrench.torque.z], (3,))
-    return PushRequest(force, torque, msg.header.frame_id or 'trunk_left')
-
-
-def foot_state_to_msg(heights: np.ndarray, contact: np.ndarray, frame: int):
-    """
-    Return the foot_state message: a JointState named FEET, stamped with `frame` (the state after `frame` frames).
-
-    Its position holds the sole heights above the terrain `(4,)` m, its effort the contact flags `(4,)` as 1.0 / 0.0.
-    """
-    return _feet_msg(heights, contact, frame)
+    _stamp, frame_id, force, torque = wrench_stamped_from_cdr(data, 'push')
+    force = validate_array('push force', force, (3,))
+    torque = validate_array('push torque', torque, (3,))
+    return PushRequest(force, torque, frame_id or DEFAULT_PUSH_REGION)
 
 
 def foot_state_to_cdr(heights: np.ndarray, contact: np.ndarray, frame: int) -> bytes:
-    """Return the serialized bytes of `foot_state_to_msg`'s message, from numpy."""
+    """
+    Return the serialized foot_state: a JointState named FEET, stamped with `frame` (the state after `frame` frames).
+
+    position = sole heights above the terrain `(4,)` m, effort = contact flags `(4,)` as 1.0 / 0.0.
+    """
     return _feet_cdr(heights, contact, frame)
 
 
-def foot_state_from_msg(msg) -> tuple[int, np.ndarray, np.ndarray]:
-    """(frame, heights `(4,)` m, contact `(4,)` bool) of a foot_state message; InputError if it does not fit."""
-    heights, contact = _feet_from_msg('foot_state', msg, with_position=True)
-    return stamp_frame(msg.header.stamp), heights, contact
-
-
-def reference_stance_to_msg(stance: np.ndarray, frame: int):
-    """reference_stance: JointState named FEET, effort = the clip's stance flags `(4,)` as 1.0 / 0.0 at `frame`."""
-    return _feet_msg(None, stance, frame)
+def foot_state_from_cdr(data: bytes) -> tuple[int, np.ndarray, np.ndarray]:
+    """(frame, heights `(4,)` m, contact `(4,)` bool) of a serialized foot_state; InputError if it does not fit."""
+    return _feet_from_cdr('foot_state', data, with_position=True)
 
 
 def reference_stance_to_cdr(stance: np.ndarray, frame: int) -> bytes:
-    """Return the serialized bytes of `reference_stance_to_msg`'s message, from numpy (how the planner publishes)."""
+    """Return the serialized reference_stance: JointState named FEET, effort = the clip's stance flags `(4,)`."""
     return _feet_cdr(None, stance, frame)
 
 
-def reference_stance_from_msg(msg) -> tuple[int, np.ndarray]:
-    """(frame, stance flags `(4,)` bool) of a reference_stance message; InputError if it does not fit."""
-    return stamp_frame(msg.header.stamp), _feet_from_msg('reference_stance', msg, with_position=False)[1]
-
-
-def foot_positions_to_msg(centroids: np.ndarray, frame: int):
-    """foot_positions: PoseArray of the sole centroids `(4, 3)` m (fl, fr, hl, hr; identity orientations)."""
-    return pose_array_msg(validate_array('foot positions', centroids, (len(FEET), 3)), _identity_quats(),
-                          stamp=frame_stamp(frame), frame_id=WORLD_FRAME)
+def reference_stance_from_cdr(data: bytes) -> tuple[int, np.ndarray]:
+    """(frame, stance flags `(4,)` bool) of a serialized reference_stance; InputError if it does not fit."""
+    frame, _, stance = _feet_from_cdr('reference_stance', data, with_position=False)
+    return frame, stance
 
 
 def foot_positions_to_cdr(centroids: np.ndarray, frame: int) -> bytes:
-    """Return the serialized bytes of `foot_positions_to_msg`'s message, from numpy."""
+    """Return the serialized foot_positions: PoseArray of the sole centroids `(4, 3)` m (fl, fr, hl, hr; identity)."""
     return pose_array_cdr(_frame_stamp_pair(frame), WORLD_FRAME,
                           validate_array('foot positions', centroids, (len(FEET), 3)), _identity_quats())
 
@@ -411,24 +371,15 @@ def _identity_quats() -> np.ndarray:
     return quats
 
 
-def foot_positions_from_msg(msg) -> tuple[int, np.ndarray]:
-    """(frame, sole centroids `(4, 3)` m) of a foot_positions message; InputError if it does not fit."""
-    check_frame_id('foot_positions', msg.header.frame_id)
-    positions, _ = pose_array_to_numpy(msg)
-    return stamp_frame(msg.header.stamp), validate_array('foot_positions', positions, (len(FEET), 3))
-
-
-def _feet_msg(values: np.ndarray | None, flags: np.ndarray, frame: int):
-    """`JointState` named FEET: position = `values` (None = empty), effort = `flags` as 1.0 / 0.0."""
-    position, effort = _feet_arrays(values, flags)
-    msg = joint_state_msg(position, stamp=frame_stamp(frame))
-    msg.name = list(FEET)
-    msg.effort = array.array('d', effort.tobytes())
-    return msg
+def foot_positions_from_cdr(data: bytes) -> tuple[int, np.ndarray]:
+    """(frame, sole centroids `(4, 3)` m) of a serialized foot_positions; InputError if it does not fit."""
+    (sec, nsec), frame_id, positions, _ = pose_array_from_cdr(data, 'foot_positions')
+    check_frame_id('foot_positions', frame_id)
+    return _cdr_stamp_frame(sec, nsec), validate_array('foot_positions', positions, (len(FEET), 3))
 
 
 def _feet_cdr(values: np.ndarray | None, flags: np.ndarray, frame: int) -> bytes:
-    """Return the serialized bytes of `_feet_msg`'s message."""
+    """Return a serialized JointState named FEET: position = `values` (None = empty), effort = `flags` as 1.0 / 0.0."""
     position, effort = _feet_arrays(values, flags)
     return joint_state_cdr(_frame_stamp_pair(frame), '', list(FEET), position, effort)
 
@@ -443,12 +394,13 @@ def _feet_arrays(values: np.ndarray | None, flags: np.ndarray) -> tuple[np.ndarr
     return position, flags.astype(np.float64)
 
 
-def _feet_from_msg(what: str, msg, with_position: bool) -> tuple[np.ndarray | None, np.ndarray]:
-    """(position `(4,)` or None, effort flags `(4,)` bool) of a JointState named FEET."""
-    if tuple(msg.name) != FEET:
-        raise InputError(f'{what} names are {list(msg.name)}, expected {list(FEET)}')
-    flags = validate_array(f'{what} effort', np.array(msg.effort, dtype=np.float64), (len(FEET),))
+def _feet_from_cdr(what: str, data: bytes, with_position: bool) -> tuple[int, np.ndarray | None, np.ndarray]:
+    """(frame, position `(4,)` or None, effort flags `(4,)` bool) of a serialized JointState named FEET."""
+    fields = joint_state_from_cdr(data, what)
+    if tuple(fields['name']) != FEET:
+        raise InputError(f'{what} names are {list(fields["name"])}, expected {list(FEET)}')
+    flags = validate_array(f'{what} effort', fields['effort'], (len(FEET),))
     if not np.all((flags == 0.0) | (flags == 1.0)):
         raise InputError(f'{what} effort holds {flags.tolist()}, expected flags 0.0 or 1.0')
-    heights = validate_array(f'{what} position', joint_state_positions(msg), (len(FEET),)) if with_position else None
-    return heights, flags == 1.0
+    heights = validate_array(f'{what} position', fields['position'], (len(FEET),)) if with_position else None
+    return _cdr_stamp_frame(*fields['stamp']), heights, flags == 1.0

@@ -125,7 +125,7 @@ def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
     notes: list[str] = []
     if recorded.truncated:
         notes.append(f'the bag ends early ({recorded.problem}); figures over the frames recovered')
-    states = _frames(recorded, 'iguana_state', m.state_from_msg, notes)
+    states = _frames(recorded, 'iguana_state', m.state_from_cdr, notes)
     if not states:
         return RunGait(None, notes=notes + ['iguana_state is not in the bag'])
     n = max(states)
@@ -136,30 +136,30 @@ def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
     root = _table(states, after, 'iguana_state', notes)
     tracks = GaitTracks(times=(np.arange(n) + 1) / FRAME_RATE, root_positions=np.stack([r[1] for r in root]),
                         root_orientations=np.stack([r[2] for r in root]))
-    feet = _table(_frames(recorded, 'foot_state', m.foot_state_from_msg, notes), after, 'foot_state', notes)
+    feet = _table(_frames(recorded, 'foot_state', m.foot_state_from_cdr, notes), after, 'foot_state', notes)
     if feet is not None:
         tracks.foot_heights = np.stack([r[1] for r in feet])
         tracks.foot_contact = np.stack([r[2] for r in feet])
-    soles = _table(_frames(recorded, 'foot_positions', m.foot_positions_from_msg, notes), after, 'foot_positions',
+    soles = _table(_frames(recorded, 'foot_positions', m.foot_positions_from_cdr, notes), after, 'foot_positions',
                    notes)
     if soles is not None:
         tracks.foot_xy = np.stack([r[1] for r in soles])[..., :2]
-    stance = _table(_frames(recorded, 'reference_stance', m.reference_stance_from_msg, notes), of_frame,
+    stance = _table(_frames(recorded, 'reference_stance', m.reference_stance_from_cdr, notes), of_frame,
                     'reference_stance', notes)
     if stance is not None:
         tracks.reference_contacts = np.stack([r[1] for r in stance])
     if model is None:
         from iguana_ros.body.model import build_model
         model = build_model(scene.model.resolution, scene.model.stiffness)
-    poses = _table(_frames(recorded, 'reference_pose', lambda msg: m.reference_pose_from_msg(
-        msg, model.skeleton.n_bones), notes), of_frame, 'reference_pose', notes)
+    poses = _table(_frames(recorded, 'reference_pose', lambda data: m.reference_pose_from_cdr(
+        data, model.skeleton.n_bones), notes), of_frame, 'reference_pose', notes)
     if terrain is None:
         from iguana_ros.scene import terrain_from_spec
         terrain = terrain_from_spec(scene.terrain)
     if poses is not None:
         tracks.reference_heights = FootProbe(model, terrain).reference_heights(
             np.stack([r[1] for r in poses]), np.stack([r[2] for r in poses]))
-    clips = _frames(recorded, 'motion_clip', m.stride_from_msg, notes)
+    clips = _frames(recorded, 'motion_clip', m.stride_from_cdr, notes)
     if clips:
         tracks.strides = [clips[start][1] for start in sorted(clips) if start < n]
     until, reached = walk_frames(tracks.times, tracks.root_positions, scene_goal(scene), scene.goal_radius)
@@ -171,14 +171,14 @@ def run_gait(recorded, scene, model=None, terrain=None) -> RunGait:
 
 def _frames(recorded, key: str, decode, notes: list[str]) -> dict[int, tuple]:
     """
-    Return {frame: decoded message} of topic `key` (a re-sent frame counts once, its last message).
+    Return {frame: decoded message} of topic `key`'s serialized messages (a re-sent frame counts once, its last one).
 
-    Messages that do not decode are counted in a note.
+    `decode` is the nodes' `*_from_cdr` of the topic; messages that do not decode are counted in a note.
     """
-    out, bad = {}, recorded.rejected.get(key, 0)
-    for msg in recorded.messages.get(key, []):
+    out, bad = {}, 0
+    for data in recorded.messages.get(key, []):
         try:
-            row = decode(msg)
+            row = decode(data)
         except IguanaError:
             bad += 1
             continue

@@ -16,7 +16,7 @@
 A recorded bag read into a `RunView` for the timeline.
 
 Every mesh frame, the root's states, the feet, pushes, clips, terrain and goals, in one pass over the bag (the same
-decoders as live mode).
+decoders as live mode: the nodes' own, on the recorded bytes).
 """
 from __future__ import annotations
 
@@ -25,12 +25,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from rclpy.serialization import deserialize_message
 
 from iguana_ros.bag.frames import match_topic, NS
 from iguana_ros.bag.storage import accept, BagReader, summarize
 from iguana_ros.errors import IguanaError, InputError
-from iguana_ros.ros.endpoints import message_class
 from iguana_ros.topics import topic
 from iguana_ros.view import decode
 from iguana_ros.view.scene import RunView
@@ -80,39 +78,36 @@ def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None
     damage = accept(summary, allow_damaged)
     view, skipped = RunView(), {}
     pushes, scenes = [], []
-    classes = {key: message_class(topic(key).type) for key in set(roles.values())}
     takers: dict[str, Callable] = {
-        'iguana_state': lambda msg, log_ns: decode.take_state(view, msg, log_ns / NS),
-        'foot_state': lambda msg, _: decode.take_foot_state(view, msg),
-        'foot_positions': lambda msg, _: decode.take_foot_positions(view, msg),
-        'motion_clip': lambda msg, _: decode.take_clip(view, msg, library or {}),
-        'push': lambda msg, log_ns: pushes.append((log_ns, msg)),
+        'mesh_marker': lambda data, _: decode.take_mesh(view, data),
+        'scene_markers': lambda data, log_ns: scenes.append((log_ns, data)),
+        'iguana_state': lambda data, log_ns: decode.take_state(view, data, log_ns / NS),
+        'foot_state': lambda data, _: decode.take_foot_state(view, data),
+        'foot_positions': lambda data, _: decode.take_foot_positions(view, data),
+        'motion_clip': lambda data, _: decode.take_clip(view, data, library or {}),
+        'push': lambda data, log_ns: pushes.append((log_ns, data)),
     }
     for record in BagReader(path).messages():
         key = roles.get(record.topic)
         if key is None:
             continue
         try:
-            if key == 'mesh_marker':
-                decode.take_mesh(view, record.data)
-            elif key == 'scene_markers':
-                scenes.append((record.log_time, record.data))
-            else:
-                takers[key](deserialize_message(record.data, classes[key]), record.log_time)
-        except (IguanaError, ValueError, TypeError) as exc:  # a message that does not fit: counted, not fatal
+            takers[key](bytes(record.data), record.log_time)
+        except IguanaError as exc:  # a message that does not decode or fit: counted, not fatal
             skipped.setdefault(key, [0, str(exc)])[0] += 1
-    _place_by_receive_time(view, scenes, pushes, push_duration)
+    _place_by_receive_time(view, scenes, pushes, push_duration, skipped)
     if not view.meshes:
         raise InputError(f'bag {path} has no usable {topic("mesh_marker").name} messages; nothing to show')
     notes = [f'skipped {n} {key} message(s) that did not fit (first: {why})' for key, (n, why) in skipped.items()]
     return BagView(view, damage, notes)
 
 
-def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_duration: float) -> None:
+def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_duration: float, skipped: dict) -> None:
     """
     Scene markers and pushes carry no simulated time.
 
-    Each takes the simulated time of the states received around it (from the recorder's receive times).
+    Each takes the simulated time of the states received around it (from the recorder's receive times); one that does
+    not decode is counted in `skipped`.
     """
     states = view.states
     walls, times = states.values[:, 5], states.times
@@ -123,13 +118,10 @@ def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_durat
             return view.start_time
         return float(np.interp(log_ns / NS, walls[known], times[known]))
 
-    for log_ns, data in scenes:
-        try:
-            decode.take_scene(view, data, sim_time(log_ns))
-        except IguanaError:  # a damaged marker array: the terrain and goals of the others still show
-            continue
-    for log_ns, msg in pushes:
-        try:
-            decode.take_push(view, msg, sim_time(log_ns), push_duration)
-        except IguanaError:
-            continue
+    for key, messages, take in (('scene_markers', scenes, lambda data, t: decode.take_scene(view, data, t)),
+                                ('push', pushes, lambda data, t: decode.take_push(view, data, t, push_duration))):
+        for log_ns, data in messages:
+            try:
+                take(data, sim_time(log_ns))
+            except IguanaError as exc:  # a damaged marker array or push: the others still show
+                skipped.setdefault(key, [0, str(exc)])[0] += 1

@@ -13,12 +13,15 @@
 # limitations under the License.
 
 """
-The topic table's messages into a `RunView`, one function per topic.
+The topic table's serialized messages into a `RunView`, one function per topic.
 
-The live node and the bag reader both use these. Messages that do not fit their topic (the decoders of ros/messages.py
-decide) raise InputError; the caller counts or logs them and goes on.
+The live node and the bag reader both use these, on the bytes the nodes exchange, and they decode them with the nodes'
+own `*_from_cdr` functions of ros/messages.py and their checks. Messages that do not fit their topic raise InputError;
+the caller counts or logs them and goes on.
 """
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -26,12 +29,9 @@ from iguana_ros.bag.frames import DEFAULT_MESH_RGBA, NS, scene_update
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.ros.cdr import header_stamp_ns, marker_array_from_cdr, triangle_list_from_cdr
-from iguana_ros.ros.conversions import multi_dof_trajectory_to_numpy, odometry_to_numpy, time_from_msg
-from iguana_ros.ros.messages import foot_positions_from_msg, foot_state_from_msg
+from iguana_ros.ros.messages import (clip_from_cdr, foot_positions_from_cdr, foot_state_from_cdr, push_from_cdr,
+                                     stamp_of_cdr, state_twist_from_cdr)
 from iguana_ros.view.scene import ClipEvent, identify_clip, MeshFrame, PushEvent, RunView
-
-DEFAULT_PUSH_REGION = 'trunk_left'
-"""The region of a push whose header.frame_id is empty (as the simulator reads it)."""
 
 
 def take_mesh(view: RunView, data: bytes) -> None:
@@ -53,36 +53,38 @@ def take_scene(view: RunView, data: bytes, time: float) -> None:
         view.add_goals(goal)
 
 
-def take_state(view: RunView, msg, wall: float) -> None:
-    """Take an iguana_state (Odometry) received at wall time `wall` s: root position, heading, horizontal speed."""
-    position, quaternion, linear, _ = odometry_to_numpy(msg)
-    if not (np.isfinite(position).all() and np.isfinite(quaternion).all() and np.isfinite(linear).all()):
-        raise InputError('iguana_state with NaN or Inf values')
-    view.add_state(time_from_msg(msg.header.stamp), position, float(yaw_of(quaternion)),
-                   float(np.hypot(linear[0], linear[1])), wall)
+def take_state(view: RunView, data: bytes, wall: float) -> None:
+    """Take a serialized iguana_state (Odometry) received at wall time `wall` s: root position, heading, speed."""
+    _, position, quaternion, twist = state_twist_from_cdr(data)
+    view.add_state(stamp_of_cdr(data), position, float(yaw_of(quaternion)), float(np.hypot(twist[0], twist[1])), wall)
 
 
-def take_foot_state(view: RunView, msg) -> None:
-    """Take a foot_state (JointState named by foot): which feet touch the ground."""
-    _, _, contact = foot_state_from_msg(msg)
-    view.add_feet(time_from_msg(msg.header.stamp), contact=contact)
+def take_foot_state(view: RunView, data: bytes) -> None:
+    """Take a serialized foot_state (JointState named by foot): which feet touch the ground."""
+    _, _, contact = foot_state_from_cdr(data)
+    view.add_feet(stamp_of_cdr(data), contact=contact)
 
 
-def take_foot_positions(view: RunView, msg) -> None:
-    """Take a foot_positions (PoseArray): the sole centroids of the feet."""
-    _, centroids = foot_positions_from_msg(msg)
-    view.add_feet(time_from_msg(msg.header.stamp), positions=centroids)
+def take_foot_positions(view: RunView, data: bytes) -> None:
+    """Take a serialized foot_positions (PoseArray): the sole centroids of the feet."""
+    _, centroids = foot_positions_from_cdr(data)
+    view.add_feet(stamp_of_cdr(data), positions=centroids)
 
 
-def take_clip(view: RunView, msg, library: dict) -> None:
-    """Take a motion_clip (MultiDOFJointTrajectory): the clip playing from its stamp, named from `library`."""
-    _, _, _, rotations = multi_dof_trajectory_to_numpy(msg)
-    view.add_clip(ClipEvent(time_from_msg(msg.header.stamp), identify_clip(rotations, library)))
+@functools.lru_cache(maxsize=1)
+def _skeleton():
+    """Return the iguana skeleton the terrain adaptation node checks a motion_clip against."""
+    from iguana_ros.body.skeleton import iguana_skeleton
+    return iguana_skeleton()
 
 
-def take_push(view: RunView, msg, time: float, duration: float) -> None:
-    """Take a push (WrenchStamped) that acts from simulated time `time` s for `duration` s."""
-    force = np.array([msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z])
-    if not np.isfinite(force).all():
-        raise InputError('push with a NaN or Inf force')
-    view.add_push(PushEvent(time, force, msg.header.frame_id or DEFAULT_PUSH_REGION, duration))
+def take_clip(view: RunView, data: bytes, library: dict) -> None:
+    """Take a serialized motion_clip (MultiDOFJointTrajectory): the clip playing from its stamp, named by `library`."""
+    _, clip = clip_from_cdr(data, _skeleton())
+    view.add_clip(ClipEvent(stamp_of_cdr(data), identify_clip(clip.local_rotations, library)))
+
+
+def take_push(view: RunView, data: bytes, time: float, duration: float) -> None:
+    """Take a serialized push (WrenchStamped) that acts from simulated time `time` s for `duration` s."""
+    request = push_from_cdr(data)
+    view.add_push(PushEvent(time, request.force, request.region, duration))

@@ -72,16 +72,16 @@ class LiveSource:
         return self.node.create_publisher(cls, name, qos)
 
     def _subscribe(self) -> None:
-        """Subscriptions to the topics drawn (mesh and scene markers as raw bytes, read with numpy)."""
+        """Subscriptions to the topics drawn (raw bytes, read with the nodes' decoders) and to accepted_goals."""
         view = self.view
         handlers = {
             'mesh_marker': (True, lambda data: decode.take_mesh(view, data)),
             'scene_markers': (True, lambda data: decode.take_scene(view, data, view.end_time)),
-            'iguana_state': (False, lambda msg: decode.take_state(view, msg, time.monotonic())),
-            'foot_state': (False, lambda msg: decode.take_foot_state(view, msg)),
-            'foot_positions': (False, lambda msg: decode.take_foot_positions(view, msg)),
-            'motion_clip': (False, lambda msg: decode.take_clip(view, msg, self.library)),
-            'push': (False, lambda msg: decode.take_push(view, msg, view.end_time, self.push_duration)),
+            'iguana_state': (True, lambda data: decode.take_state(view, data, time.monotonic())),
+            'foot_state': (True, lambda data: decode.take_foot_state(view, data)),
+            'foot_positions': (True, lambda data: decode.take_foot_positions(view, data)),
+            'motion_clip': (True, lambda data: decode.take_clip(view, data, self.library)),
+            'push': (True, lambda data: decode.take_push(view, data, view.end_time, self.push_duration)),
             'accepted_goals': (False, lambda msg: setattr(self, 'accepted', list(msg.poses))),
         }
         for key, (raw, handler) in handlers.items():

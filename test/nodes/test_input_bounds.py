@@ -40,7 +40,7 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
     from geometry_msgs.msg import WrenchStamped
 
     from iguana_ros.nodes.goal_sender import goal_message
-    from iguana_ros.ros.messages import lengths_to_msg, state_from_msg
+    from iguana_ros.ros.messages import lengths_to_cdr, state_from_cdr
     from iguana_ros.stages import SimulatorStage
     from iguana_ros.terrain.heightfield import HeightField
     model = build_model('coarse')
@@ -65,20 +65,20 @@ def test_the_simulator_rejects_what_is_absurd_and_never_simulates_it(tmp_path, m
         push.header.frame_id = 'trunk_left'
         push.wrench.force.y = -1e6
         push_pub.publish(push)
-        lengths_pub.publish(lengths_to_msg(np.full(len(rest), 1e6), 0))
+        lengths_pub.publish(lengths_to_cdr(np.full(len(rest), 1e6), 0))
         # the watchdog names the rejection: the frame waits for lengths it can simulate
         assert sim.wait_for_output('last rejected: frame 0: spring_rest_lengths has', 30), sim.output
-        assert all(state_from_msg(s)[0] == 0 for s in probe.got['iguana_state'])
-        lengths_pub.publish(lengths_to_msg(rest, 0))
-        assert spin_until(executor, lambda: any(state_from_msg(s)[0] == 1 for s in probe.got['iguana_state']), 30)
+        assert all(state_from_cdr(s)[0] == 0 for s in probe.got['iguana_state'])
+        lengths_pub.publish(lengths_to_cdr(rest, 0))
+        assert spin_until(executor, lambda: any(state_from_cdr(s)[0] == 1 for s in probe.got['iguana_state']), 30)
         assert sim.running
         assert spin_until(executor, lambda: _reported_frames(probe.got['diagnostics']) >= 1, 10)   # 1 Hz reports
     assert drawn() == [(0.5, 1.0)]  # the 1e9 goal was never drawn
     assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain (|x|, |y| <= 5 m)' in sim.output
-    after = next(s for s in probe.got['iguana_state'] if state_from_msg(s)[0] == 1)
+    after = next(s for s in probe.got['iguana_state'] if state_from_cdr(s)[0] == 1)
     stage = SimulatorStage(model, HeightField.flat(), 'balanced')   # the same frame simulated in-process
     stage.advance(rest)
-    assert np.array_equal(state_from_msg(after)[1], stage.root_pose()[0])
+    assert np.array_equal(state_from_cdr(after)[1], stage.root_pose()[0])
     assert 'rejected push: push force 1e+06 N is above the 1000 N limit' in sim.output
     assert 'rejected spring_rest_lengths: spring_rest_lengths has' in sim.output
     assert 'x their rest length' in sim.output
@@ -116,16 +116,17 @@ def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make
     A reader that deep lost the planner's clip when another publisher's messages came right after it while the node was
     busy (found by `iguana bench faults topics`: the lockstep run stalled at that stride).
     """
-    from rclpy.serialization import serialize_message
+    from rclpy.serialization import deserialize_message, serialize_message
+    from trajectory_msgs.msg import MultiDOFJointTrajectory
 
     from iguana_ros.body.skeleton import iguana_skeleton
-    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.ros.messages import clip_to_cdr, reference_pose_from_cdr
     from iguana_ros.stages import motion_graph
     skeleton = iguana_skeleton()
     graph = motion_graph()
     first = graph.align('forward', np.array([0.0, 0.0]), 0.0)
     second = graph.align('forward', first.root_positions[-1, :2], 0.0, previous=first)
-    bad = clip_to_msg(second, skeleton, 20)
+    bad = deserialize_message(clip_to_cdr(second, skeleton, 20), MultiDOFJointTrajectory)
     bad.header.frame_id = 'map'
     bad = serialize_message(bad)
     probe = Probe(make_node('probe'), executor)
@@ -138,16 +139,16 @@ def test_a_burst_of_bad_clips_does_not_push_the_planners_clip_out(tmp_path, make
         assert spin_until(executor, lambda: clip_pub.get_subscription_count() >= 1
                           and bad_pub.get_subscription_count() >= 1, 30)
         probe.deliver(bad_pub, bad)                              # each writer and the node see each other
-        probe.deliver(clip_pub, clip_to_msg(first, skeleton, 0))
+        probe.deliver(clip_pub, clip_to_cdr(first, skeleton, 0))
         probe.deliver(state_pub, _state(0))
         assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 1, 30), node.output
         state_pub.publish(_state(1))                             # the node adapts frame 1 ...
-        clip_pub.publish(clip_to_msg(second, skeleton, 20))      # ... while the next clip and a burst arrive
+        clip_pub.publish(clip_to_cdr(second, skeleton, 20))      # ... while the next clip and a burst arrive
         for _ in range(8):
             bad_pub.publish(bad)
         assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 2, 30), node.output
         state_pub.publish(_state(20, xy=tuple(second.root_positions[0, :2])))
-        assert spin_until(executor, lambda: any(reference_pose_from_msg(p, skeleton.n_bones)[0] == 20
+        assert spin_until(executor, lambda: any(reference_pose_from_cdr(p, skeleton.n_bones)[0] == 20
                                                 for p in probe.got['reference_pose']), 20), node.output
         assert spin_until(executor, lambda: "rejected motion_clip: motion_clip has frame_id 'map'" in node.output,
                           10), node.output

@@ -54,8 +54,13 @@ def _node(kind, scene, tmp_path, **params):
     return NodeProcess(args, kind, tmp_path).start(ready=ready, timeout=90)
 
 
+RAW_KEYS = frozenset({'iguana_state', 'motion_clip', 'reference_stance', 'reference_pose', 'spring_rest_lengths',
+                      'foot_state', 'foot_positions'})
+"""Topics a Probe collects as serialized bytes, read with the nodes' own `ros.messages.*_from_cdr`."""
+
+
 class Probe:
-    """Publishers and collecting subscriptions on topic-table keys, on one test node."""
+    """Publishers and collecting subscriptions on topic-table keys, on one test node (RAW_KEYS as bytes)."""
 
     def __init__(self, node, executor):
         from iguana_ros.ros.endpoints import resolve
@@ -68,7 +73,7 @@ class Probe:
         name, cls, qos = self.resolve(key)
         self.got[key] = []
         for _ in range(copies):
-            self.node.create_subscription(cls, name, self.got[key].append, qos)
+            self.node.create_subscription(cls, name, self.got[key].append, qos, raw=key in RAW_KEYS)
 
     def pub(self, key):
         name, cls, qos = self.resolve(key)
@@ -108,15 +113,16 @@ def _lockstep_peers(make_node, executor):
 
 
 def _state(frame, xy=(0.0, 0.0), yaw=0.0):
-    from iguana_ros.ros.messages import state_to_msg
+    """Return a serialized iguana_state of frame `frame` (rclpy publishes bytes raw)."""
+    from iguana_ros.ros.messages import state_to_cdr
     root = np.array([xy[0], xy[1], 0.075])
-    return state_to_msg(root, quat_from_yaw(yaw), np.zeros(3), np.zeros(3), frame)
+    return state_to_cdr(root, quat_from_yaw(yaw), np.zeros(3), np.zeros(3), frame)
 
 
 def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
     from iguana_ros.nodes.goal_sender import goal_message
-    from iguana_ros.ros.messages import clip_from_msg
-    from iguana_ros.ros.messages import reference_stance_from_msg
+    from iguana_ros.ros.messages import clip_from_cdr
+    from iguana_ros.ros.messages import reference_stance_from_cdr
     probe = Probe(make_node('probe'), executor)
     probe.listen('motion_clip')
     probe.listen('reference_stance')
@@ -137,12 +143,12 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
         clip_msg = probe.wait('motion_clip')[0]
         stance_msg = probe.wait('reference_stance')[0]
         assert planner.running
-    start, clip = clip_from_msg(clip_msg, iguana_skeleton())
+    start, clip = clip_from_cdr(clip_msg, iguana_skeleton())
     assert start == 0
     # the stance flags of frame 0: the chosen library clip's first contacts
     library_clip = load_clip_library()[planner.output.split("frame 0: clip '")[1].split("'")[0]]
-    assert reference_stance_from_msg(stance_msg)[0] == 0
-    assert np.array_equal(reference_stance_from_msg(stance_msg)[1], library_clip.contacts[0])
+    assert reference_stance_from_cdr(stance_msg)[0] == 0
+    assert np.array_equal(reference_stance_from_cdr(stance_msg)[1], library_clip.contacts[0])
     turn = yaw_of(clip.local_rotations[-1, 0]) - yaw_of(clip.local_rotations[0, 0])
     assert turn > 0.1, f'expected a left turn, heading change {turn:.3f} rad'
     assert 'rejected goal_pose' in planner.output and 'non-finite' in planner.output
@@ -151,7 +157,7 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
 
 def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, executor):
     from iguana_ros.body.skeleton import FOOT_PIVOTS, forward_kinematics
-    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.ros.messages import clip_to_cdr, reference_pose_from_cdr
     from iguana_ros.scene import load_scene, terrain_from_spec
     from iguana_ros.body.skeleton import FEET
     from iguana_ros.terrain.adaptation import AdaptationSettings, residual_heights_of
@@ -165,11 +171,11 @@ def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, ex
     with _node('terrain_adaptation_node', scene_file, tmp_path) as node:
         probe.wait_matched('motion_clip')
         probe.wait_matched('iguana_state')
-        clip_pub.publish(clip_to_msg(clip, skeleton, 0))
+        clip_pub.publish(clip_to_cdr(clip, skeleton, 0))
         state_pub.publish(_state(0))
         msg = probe.wait('reference_pose')[0]
         assert node.running
-    frame, joints, _ = reference_pose_from_msg(msg, skeleton.n_bones)
+    frame, joints, _ = reference_pose_from_cdr(msg, skeleton.n_bones)
     assert frame == 0
     terrain = terrain_from_spec(load_scene(str(scene_file)).terrain)
     feet_h, _ = residual_heights_of(skeleton, clip.root_positions[0], clip.local_rotations[0])
@@ -196,7 +202,7 @@ def test_terrain_node_publishes_a_stride_ahead_up_to_lookahead_frames(tmp_path, 
     A repeated state gets the poses from its frame on again, after the poses published before it (one writer's
     messages arrive in order, so nothing past the bound was sent before that repeat).
     """
-    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.ros.messages import clip_to_cdr, reference_pose_from_cdr
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
     skeleton = iguana_skeleton()
     clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
@@ -205,11 +211,11 @@ def test_terrain_node_publishes_a_stride_ahead_up_to_lookahead_frames(tmp_path, 
     clip_pub, state_pub = probe.pub('motion_clip'), probe.pub('iguana_state')
 
     def frames():
-        return [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']]
+        return [reference_pose_from_cdr(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']]
     with _node('terrain_adaptation_node', scene_file, tmp_path, lookahead_frames=5) as node:
         probe.wait_matched('motion_clip')
         probe.wait_matched('iguana_state')
-        clip_pub.publish(clip_to_msg(clip, skeleton, 0))
+        clip_pub.publish(clip_to_cdr(clip, skeleton, 0))
         assert spin_until(executor, lambda: 5 in frames(), 30), node.output     # no state yet: frames 0..5
         probe.deliver(state_pub, _state(3))
         assert spin_until(executor, lambda: 8 in frames(), 30), node.output
@@ -224,7 +230,7 @@ def test_terrain_node_publishes_a_stride_ahead_up_to_lookahead_frames(tmp_path, 
 
 def test_terrain_node_holds_poses_until_a_reader_matches(tmp_path, make_node, executor):
     """Poses adapted before any reference_pose reader matched are held, and go out in order once one matches."""
-    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.ros.messages import clip_to_cdr, reference_pose_from_cdr
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
     skeleton = iguana_skeleton()
     clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
@@ -233,20 +239,20 @@ def test_terrain_node_holds_poses_until_a_reader_matches(tmp_path, make_node, ex
     with _node('terrain_adaptation_node', scene_file, tmp_path, lookahead_frames=5) as node:
         probe.wait_matched('motion_clip')
         probe.wait_matched('iguana_state')
-        probe.deliver(clip_pub, clip_to_msg(clip, skeleton, 0))             # acknowledged: the node has both
+        probe.deliver(clip_pub, clip_to_cdr(clip, skeleton, 0))             # acknowledged: the node has both
         probe.deliver(state_pub, _state(0))
         spin_until(executor, lambda: False, 1.0)                            # its poses are adapted meanwhile
         probe.listen('reference_pose')
         assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6, 30), node.output
         spin_until(executor, lambda: False, 0.3)
         assert node.running
-    assert [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(6))
+    assert [reference_pose_from_cdr(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(6))
 
 
 def test_terrain_node_does_not_wait_for_a_reader_that_cannot_match(tmp_path, make_node, executor):
     """A reader asking for transient-local poses is reported incompatible and not waited for: the others get them."""
     from rclpy.qos import DurabilityPolicy
-    from iguana_ros.ros.messages import clip_to_msg, reference_pose_from_msg
+    from iguana_ros.ros.messages import clip_to_cdr, reference_pose_from_cdr
     scene_file = _scene(tmp_path, terrain={'kind': 'tilted', 'slope_deg': 8.0})
     skeleton = iguana_skeleton()
     clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)     # frames 0..19
@@ -259,14 +265,14 @@ def test_terrain_node_does_not_wait_for_a_reader_that_cannot_match(tmp_path, mak
     with _node('terrain_adaptation_node', scene_file, tmp_path, lookahead_frames=5) as node:
         probe.wait_matched('motion_clip')
         probe.wait_matched('iguana_state')
-        probe.deliver(clip_pub, clip_to_msg(clip, skeleton, 0))
+        probe.deliver(clip_pub, clip_to_cdr(clip, skeleton, 0))
         # reported incompatible, not waited for: out before READER_HOLD_LIMIT_S (5 s)
         assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6, 3), node.output
         for frame in range(1, 4):                    # later poses are not held again
             probe.deliver(state_pub, _state(frame))
             assert spin_until(executor, lambda: len(probe.got['reference_pose']) >= 6 + frame, 0.5), node.output
         assert node.running
-    assert [reference_pose_from_msg(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(9))
+    assert [reference_pose_from_cdr(p, skeleton.n_bones)[0] for p in probe.got['reference_pose']] == list(range(9))
 
 
 def test_terrain_node_waits_for_the_declared_reader_not_just_any(tmp_path, make_node, executor, ros_context):
@@ -365,7 +371,7 @@ def test_spring_node_holds_lengths_until_the_simulator_reader_matches(tmp_path, 
     from rclpy.parameter import Parameter
     from iguana_ros.nodes import base
     from iguana_ros.nodes.spring_length_node import SpringLengthNode
-    from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_cdr
+    from iguana_ros.ros.messages import lengths_from_cdr, reference_pose_to_cdr
     from iguana_ros.terrain.adaptation import pose_kinematics
     monkeypatch.setattr(base, 'READER_HOLD_LIMIT_S', 120.0)  # released by the match, not by the hold's time limit
     clip = motion_graph().align('forward', np.array([0.0, 0.0]), 0.0)
@@ -387,7 +393,7 @@ def test_spring_node_holds_lengths_until_the_simulator_reader_matches(tmp_path, 
         spin_until(executor, lambda: len(probe.got['spring_rest_lengths']) >= 2, 5)
         n_springs = node.computer.n_springs
         for got in (simulator.got, probe.got):
-            assert [lengths_from_msg(m, n_springs)[0] for m in got['spring_rest_lengths']] == [0, 1]
+            assert [lengths_from_cdr(m, n_springs)[0] for m in got['spring_rest_lengths']] == [0, 1]
     finally:
         executor.remove_node(node)
         node.destroy_node()
@@ -413,7 +419,7 @@ def test_spring_node_with_no_reader_keeps_only_the_newest_lengths(tmp_path, exec
 
 def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     from iguana_ros.body.spring_lengths import SpringLengthComputer
-    from iguana_ros.ros.messages import lengths_from_msg, reference_pose_to_msg
+    from iguana_ros.ros.messages import lengths_from_cdr, reference_pose_to_cdr
     from iguana_ros.terrain.adaptation import pose_kinematics
     model = build_model('coarse')
     skeleton = model.skeleton
@@ -425,18 +431,18 @@ def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
     pose_pub = probe.pub('reference_pose')
     with _node('spring_length_node', _scene(tmp_path), tmp_path) as node:
         probe.wait_matched('reference_pose')
-        wrong = reference_pose_to_msg(joints[:5], rotations[:5], 3)  # too few bones
+        wrong = reference_pose_to_cdr(joints[:5], rotations[:5], 3)  # too few bones
         pose_pub.publish(wrong)
-        pose_pub.publish(reference_pose_to_msg(joints, rotations, 4))
+        pose_pub.publish(reference_pose_to_cdr(joints, rotations, 4))
         msg = probe.wait('spring_rest_lengths')[0]
-        pose_pub.publish(reference_pose_to_msg(joints, rotations, 4))   # a repeat: the same lengths again
+        pose_pub.publish(reference_pose_to_cdr(joints, rotations, 4))   # a repeat: the same lengths again
         again = probe.wait('spring_rest_lengths', 2)[1]
-        pose_pub.publish(reference_pose_to_msg(joints, rotations, 3))   # stale: logged, nothing published
+        pose_pub.publish(reference_pose_to_cdr(joints, rotations, 3))   # stale: logged, nothing published
         assert node.wait_for_output('ignored stale reference_pose for frame 3 (at 4)', 30), node.output
         assert len(probe.got['spring_rest_lengths']) == 2
         assert node.running
-    assert np.array_equal(lengths_from_msg(again, len(expected))[1], lengths_from_msg(msg, len(expected))[1])
-    frame, lengths = lengths_from_msg(msg, len(expected))
+    assert np.array_equal(lengths_from_cdr(again, len(expected))[1], lengths_from_cdr(msg, len(expected))[1])
+    frame, lengths = lengths_from_cdr(msg, len(expected))
     assert frame == 4
     assert np.array_equal(lengths, expected)
     assert 'rejected reference_pose' in node.output
@@ -444,7 +450,7 @@ def test_spring_node_lengths_equal_the_library(tmp_path, make_node, executor):
 
 def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make_node, executor):
     from iguana_ros.ros.conversions import triangle_list_from_marker
-    from iguana_ros.ros.messages import lengths_to_msg
+    from iguana_ros.ros.messages import lengths_to_cdr
     from visualization_msgs.msg import Marker
     model = build_model('coarse')
     probe = _lockstep_peers(make_node, executor)
@@ -469,13 +475,13 @@ def test_simulator_marker_is_a_valid_triangle_list_on_the_terrain(tmp_path, make
         push_pub.publish(push)
         push.wrench.force.y = -40.0
         push_pub.publish(push)
-        lengths_pub.publish(lengths_to_msg(np.ones(7), 0))  # wrong length: rejected, still waiting
-        lengths_pub.publish(lengths_to_msg(np.array(model.spring_rest_lengths), 0))
+        lengths_pub.publish(lengths_to_cdr(np.ones(7), 0))  # wrong length: rejected, still waiting
+        lengths_pub.publish(lengths_to_cdr(np.array(model.spring_rest_lengths), 0))
         markers = probe.wait('mesh_marker', 2)
         scene = probe.wait('scene_markers')[0]
-        from iguana_ros.ros.messages import foot_positions_from_msg, foot_state_from_msg
+        from iguana_ros.ros.messages import foot_positions_from_cdr, foot_state_from_cdr
         after_one = {}  # the foot probe of the state after frame 0 (stamped 1)
-        for key, decode in (('foot_state', foot_state_from_msg), ('foot_positions', foot_positions_from_msg)):
+        for key, decode in (('foot_state', foot_state_from_cdr), ('foot_positions', foot_positions_from_cdr)):
             assert spin_until(executor, lambda: any(decode(x)[0] == 1 for x in probe.got[key]), 30), key
             after_one[key] = next(decode(x) for x in probe.got[key] if decode(x)[0] == 1)
         assert sim.running
@@ -505,7 +511,7 @@ def test_simulator_keeps_lengths_that_arrive_ahead_and_simulates_them_in_order(t
     The first lengths of a frame count (a second, different message for frame 2 is ignored); the body ends where
     the simulator stage ends with the same three frames; lengths for a frame already simulated are stale.
     """
-    from iguana_ros.ros.messages import lengths_to_msg, state_from_msg
+    from iguana_ros.ros.messages import lengths_to_cdr, state_from_cdr
     from iguana_ros.stages import SimulatorStage
     from iguana_ros.terrain.heightfield import HeightField
     model = build_model('coarse')
@@ -517,20 +523,20 @@ def test_simulator_keeps_lengths_that_arrive_ahead_and_simulates_them_in_order(t
     with _node('simulator_node', _scene(tmp_path), tmp_path, lockstep_timeout=1.0, lockstep_max_timeouts=100) as sim:
         probe.wait('iguana_state', 1, timeout=60)
         probe.wait_matched('spring_rest_lengths')
-        probe.deliver(lengths_pub, lengths_to_msg(frames[2], 2))
-        probe.deliver(lengths_pub, lengths_to_msg(rest * 1.05, 2))   # a second one for frame 2: ignored
-        probe.deliver(lengths_pub, lengths_to_msg(frames[1], 1))
-        assert all(state_from_msg(s)[0] == 0 for s in probe.got['iguana_state'])   # still waiting for frame 0
-        lengths_pub.publish(lengths_to_msg(frames[0], 0))
-        assert spin_until(executor, lambda: any(state_from_msg(s)[0] == 3 for s in probe.got['iguana_state']), 30)
-        lengths_pub.publish(lengths_to_msg(rest, 1))
+        probe.deliver(lengths_pub, lengths_to_cdr(frames[2], 2))
+        probe.deliver(lengths_pub, lengths_to_cdr(rest * 1.05, 2))   # a second one for frame 2: ignored
+        probe.deliver(lengths_pub, lengths_to_cdr(frames[1], 1))
+        assert all(state_from_cdr(s)[0] == 0 for s in probe.got['iguana_state'])   # still waiting for frame 0
+        lengths_pub.publish(lengths_to_cdr(frames[0], 0))
+        assert spin_until(executor, lambda: any(state_from_cdr(s)[0] == 3 for s in probe.got['iguana_state']), 30)
+        lengths_pub.publish(lengths_to_cdr(rest, 1))
         assert sim.wait_for_output('ignored stale spring_rest_lengths for frame 1 (simulating frame 3)', 30), sim.output
         assert sim.running
     stage = SimulatorStage(model, HeightField.flat(), 'balanced')
     for lengths in frames:
         stage.advance(lengths)
-    after = next(s for s in probe.got['iguana_state'] if state_from_msg(s)[0] == 3)
-    assert np.array_equal(state_from_msg(after)[1], stage.root_pose()[0])
+    after = next(s for s in probe.got['iguana_state'] if state_from_cdr(s)[0] == 3)
+    assert np.array_equal(state_from_cdr(after)[1], stage.root_pose()[0])
 
 
 def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
@@ -547,7 +553,7 @@ def test_lockstep_simulator_times_out_clearly(tmp_path, make_node, executor):
 
 def test_planner_holds_the_first_stride_until_the_scene_goals_arrive(tmp_path, make_node, executor):
     from iguana_ros.nodes.goal_sender import goal_message
-    from iguana_ros.ros.messages import clip_from_msg
+    from iguana_ros.ros.messages import clip_from_cdr
     probe = Probe(make_node('probe'), executor)
     probe.listen('motion_clip')
     goal_pub, state_pub = probe.pub('goal_pose'), probe.pub('iguana_state')
@@ -560,7 +566,7 @@ def test_planner_holds_the_first_stride_until_the_scene_goals_arrive(tmp_path, m
         goal_pub.publish(goal_message(0.3, 2.0))
         clip = probe.wait('motion_clip')[0]
         assert planner.running
-    assert len(probe.got['motion_clip']) == 1 and clip_from_msg(clip, iguana_skeleton())[0] == 0
+    assert len(probe.got['motion_clip']) == 1 and clip_from_cdr(clip, iguana_skeleton())[0] == 0
     assert "frame 0: clip 'start'" in planner.output          # the held stride was decided with the goal (else idle)
 
 
@@ -573,19 +579,20 @@ def test_realtime_simulator_paces_lengths_that_arrived_ahead(tmp_path, make_node
     """
     import time
     from iguana_ros.nodes.goal_sender import goal_message
-    from iguana_ros.ros.messages import lengths_to_msg, state_from_msg
+    from iguana_ros.ros.messages import lengths_to_cdr, state_from_cdr
     rest = np.array(build_model('coarse').spring_rest_lengths)
     probe = Probe(make_node('spring_length_node'), executor)
     arrivals = []
     name, cls, qos = probe.resolve('iguana_state')
-    probe.node.create_subscription(cls, name, lambda m: arrivals.append((state_from_msg(m)[0], time.monotonic())), qos)
+    probe.node.create_subscription(cls, name, lambda m: arrivals.append((state_from_cdr(m)[0], time.monotonic())), qos,
+                                   raw=True)
     lengths_pub, goal_pub = probe.pub('spring_rest_lengths'), probe.pub('goal_pose')
     with _node('simulator_node', _scene(tmp_path, goals=[{'x': 1.0, 'y': 0.0}]), tmp_path, mode='realtime',
                wait_for_goals=1) as sim:
         probe.wait_matched('spring_rest_lengths')
         for frame in range(29):                              # a stride and more, before the run starts
-            lengths_pub.publish(lengths_to_msg(rest, frame))
-        probe.deliver(lengths_pub, lengths_to_msg(rest, 29))   # acknowledged: all 30 are in
+            lengths_pub.publish(lengths_to_cdr(rest, frame))
+        probe.deliver(lengths_pub, lengths_to_cdr(rest, 29))   # acknowledged: all 30 are in
         probe.wait_matched('goal_pose')
         probe.deliver(goal_pub, goal_message(1.0, 0.0))
         assert spin_until(executor, lambda: any(f >= 30 for f, _ in arrivals), 30), sim.output

@@ -82,8 +82,13 @@ def _scene_bytes(*goals):
 
 
 def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh=True, stamped=True,
-                        t_start=0.0, second_goal=None, chunk_bytes=768 * 1024):
-    """Write a bag of the synthetic run; returns the bag directory."""
+                        t_start=0.0, second_goal=None, chunk_bytes=768 * 1024, strays=False):
+    """
+    Write a bag of the synthetic run; returns the bag directory.
+
+    `strays`: a sound bag with payloads that do not decode besides, at 0.5 s: a mesh Marker on iguana_state, a cut
+    mesh_marker and a cut scene_markers.
+    """
     from rclpy.serialization import serialize_message
 
     from iguana_ros.bag.schema import message_definition
@@ -118,5 +123,10 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
             msg = odometry_msg(pos, quat_from_yaw(yaw), [SPEED * c, SPEED * s, 0.0], [0.0, 0.0, TURN_RATE],
                                stamp=stamp)
             writer.write(channels['iguana_state'], serialize_message(msg), log_ns + 10)
+        if strays and k == int(round(0.5 * RATE)):
+            marker = triangle_list_marker_cdr(world, tris, colors, stamp=stamp)
+            writer.write(channels['iguana_state'], marker, log_ns + 20)
+            writer.write(channels['mesh_marker'], marker[:len(marker) // 2], log_ns + 30)
+            writer.write(channels['scene_markers'], _scene_bytes(GOAL)[:200], log_ns + 40)
     writer.close()
     return directory

@@ -12,7 +12,12 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana render` of a bag with a damaged metadata.yaml or a damaged chunk: one line, exit 1 unless --allow-damaged."""
+"""
+`iguana render` of a bag with a damaged metadata.yaml or a damaged chunk: one line, exit 1 unless --allow-damaged.
+
+A sound bag whose payloads do not all decode (another type's bytes on a topic, a cut message) renders the rest with a
+note per topic.
+"""
 import numpy as np
 
 from render_synthetic import write_synthetic_bag
@@ -46,3 +51,19 @@ def test_render_of_a_bag_with_a_damaged_chunk_is_refused_without_allow_damaged(t
     assert not png.exists()
     rc, out, err = cli(['render', bag, '-o', png, '-q', '--allow-damaged'])
     assert rc == 0 and png.stat().st_size > 0 and 'damaged' in err
+
+
+def test_render_skips_payloads_that_do_not_decode_with_a_note(tmp_path, cli):
+    from iguana_ros.bag.frames import read_run
+    bag = write_synthetic_bag(tmp_path / 'synthetic', duration=1.0, strays=True)
+    run = read_run(bag)
+    clean = read_run(write_synthetic_bag(tmp_path / 'clean', duration=1.0))
+    assert run.damage == '' and len(run.times) == len(clean.times)
+    assert np.array_equal(run.track_positions, clean.track_positions)     # the Marker on iguana_state left out
+    notes = '\n'.join(run.notes)
+    for key in ('iguana_state', 'mesh_marker', 'scene_markers'):
+        assert f'skipped 1 {key} message(s) that did not decode' in notes, notes
+    png = tmp_path / 'frame.png'
+    rc, out, err = cli(['render', bag, '-o', png, '-q'])
+    assert rc == 0 and png.stat().st_size > 0, err
+    assert 'Traceback' not in err and 'note: skipped 1 iguana_state message(s) that did not decode' in err, err

@@ -166,36 +166,85 @@ def placed_clip():
     return skeleton, motion_graph().align('turn_left', np.array([0.3, -1.2]), 0.7)
 
 
+# The oracle: each topic's message built with rclpy's own classes (ros/conversions.py), for rclpy to serialize and
+# deserialize; the bytes the nodes write must be those, and what the nodes read from rclpy's bytes must be the values.
+
+def _clip_msg(clip, skeleton, frame: int):
+    """motion_clip of a placed clip as a MultiDOFJointTrajectory object: bone 0 the root, the others their offsets."""
+    from iguana_ros.constants import FRAME_RATE
+    from iguana_ros.ros.conversions import multi_dof_trajectory_msg
+    n = len(clip.root_positions)
+    translations = np.broadcast_to(skeleton.offsets, (n,) + skeleton.offsets.shape).copy()
+    translations[:, 0] = clip.root_positions
+    return multi_dof_trajectory_msg(np.arange(n) / FRAME_RATE, skeleton.names, translations, clip.local_rotations,
+                                    stamp=frame_stamp(frame), frame_id='world')
+
+
+def _pose_msg(positions, rotations, frame: int):
+    """reference_pose / foot_positions as a PoseArray object in the world frame."""
+    from iguana_ros.ros.conversions import pose_array_msg
+    return pose_array_msg(positions, rotations, stamp=frame_stamp(frame), frame_id='world')
+
+
+def _lengths_msg(lengths, frame: int):
+    """spring_rest_lengths as a JointState object."""
+    from iguana_ros.ros.conversions import joint_state_msg
+    return joint_state_msg(lengths, stamp=frame_stamp(frame))
+
+
+def _state_msg(root, orientation, linear, angular, frame: int):
+    """iguana_state as an Odometry object (world, iguana/base_link)."""
+    from iguana_ros.ros.conversions import odometry_msg
+    return odometry_msg(root, orientation, linear, angular, stamp=frame_stamp(frame))
+
+
+def _feet_msg(values, flags, frame: int):
+    """foot_state / reference_stance as a JointState object named by foot: position = values, effort = flags."""
+    import array
+
+    from iguana_ros.ros.conversions import joint_state_msg
+    from iguana_ros.body.skeleton import FEET
+    msg = joint_state_msg(np.zeros(0) if values is None else values, stamp=frame_stamp(frame))
+    msg.name = list(FEET)
+    msg.effort = array.array('d', np.asarray(flags, float).tobytes())
+    return msg
+
+
+def _identity(n: int = 4) -> np.ndarray:
+    quats = np.zeros((n, 4))
+    quats[:, 3] = 1.0
+    return quats
+
+
 @pytest.mark.parametrize('frame', [0, 17, 12345])
 def test_clip_bytes_are_the_message_rclpy_serializes(placed_clip, frame):
-    """`clip_to_cdr` (how the planner publishes) writes what rclpy serializes for `clip_to_msg`'s message."""
+    """`clip_to_cdr` (how the planner publishes) writes what rclpy serializes for the clip's message."""
     from trajectory_msgs.msg import MultiDOFJointTrajectory
 
-    from iguana_ros.ros.messages import clip_to_cdr, clip_to_msg
+    from iguana_ros.ros.messages import clip_to_cdr
     skeleton, clip = placed_clip
-    message, data = clip_to_msg(clip, skeleton, frame), clip_to_cdr(clip, skeleton, frame)
+    message, data = _clip_msg(clip, skeleton, frame), clip_to_cdr(clip, skeleton, frame)
     assert len(data) == len(serialize_message(message))
     assert deserialize_message(data, MultiDOFJointTrajectory) == message
 
 
-def test_clip_from_cdr_reads_and_checks_as_clip_from_msg(placed_clip):
-    """The terrain adaptation node's numpy reading of motion_clip: same clip, same checks, one-line errors."""
+def test_clip_from_cdr_reads_and_checks_what_rclpy_serializes(placed_clip):
+    """The terrain adaptation node's numpy reading of motion_clip: the clip's values, its checks, one-line errors."""
     from geometry_msgs.msg import Twist
 
-    from iguana_ros.ros.messages import clip_from_cdr, clip_from_msg, clip_to_msg
+    from iguana_ros.ros.messages import clip_from_cdr
     skeleton, clip = placed_clip
-    message = clip_to_msg(clip, skeleton, 40)
+    message = _clip_msg(clip, skeleton, 40)
     message.points[3].velocities = [Twist()] * 2            # twists (not used) are skipped
     start, read = clip_from_cdr(serialize_message(message), skeleton)
-    expected_start, expected = clip_from_msg(message, skeleton)
-    assert start == expected_start == 40
-    assert np.array_equal(read.root_positions, expected.root_positions)
-    assert np.array_equal(read.local_rotations, expected.local_rotations)
-    wrong = clip_to_msg(clip, skeleton, 40)
+    assert start == 40
+    assert np.array_equal(read.root_positions, clip.root_positions)
+    assert np.array_equal(read.local_rotations, clip.local_rotations)
+    wrong = _clip_msg(clip, skeleton, 40)
     wrong.header.frame_id = 'map'
     with pytest.raises(InputError, match="frame_id 'map'"):
         clip_from_cdr(serialize_message(wrong), skeleton)
-    short = clip_to_msg(clip, skeleton, 40)
+    short = _clip_msg(clip, skeleton, 40)
     short.points[2].transforms = short.points[2].transforms[:5]
     with pytest.raises(InputError, match='hold 5 transforms, expected 34'):
         clip_from_cdr(serialize_message(short), skeleton)
@@ -205,42 +254,61 @@ def test_clip_from_cdr_reads_and_checks_as_clip_from_msg(placed_clip):
             clip_from_cdr(data[:cut], skeleton)
 
 
-def test_reference_pose_bytes_and_reading_match_the_message_path(rng, placed_clip):
-    """`reference_pose_to_cdr` writes what rclpy serializes; `reference_pose_from_cdr` reads and checks as from_msg."""
+def test_stride_from_cdr_reads_a_clip_without_a_skeleton(placed_clip):
+    """The gait summary's reading of motion_clip: start frame, frames, root displacement and first heading."""
+    from iguana_ros.geometry import yaw_of
+    from iguana_ros.ros.messages import stride_from_cdr
+    skeleton, clip = placed_clip
+    start, stride = stride_from_cdr(serialize_message(_clip_msg(clip, skeleton, 60)))
+    assert start == stride.start == 60 and stride.n_frames == len(clip.root_positions) - 1
+    assert np.array_equal(stride.displacement, clip.root_positions[-1, :2] - clip.root_positions[0, :2])
+    assert stride.heading == float(yaw_of(clip.local_rotations[0, 0]))
+    wrong = _clip_msg(clip, skeleton, 60)
+    wrong.header.frame_id = 'map'
+    one = _clip_msg(clip, skeleton, 60)
+    one.points = one.points[:1]
+    for bad, match in ((wrong, "frame_id 'map'"), (one, 'has 1 points, expected at least 2')):
+        with pytest.raises(InputError, match=match):
+            stride_from_cdr(serialize_message(bad))
+
+
+def test_reference_pose_bytes_and_reading_match_rclpy(rng, placed_clip):
+    """`reference_pose_to_cdr` writes what rclpy serializes; `reference_pose_from_cdr` reads and checks its values."""
     from geometry_msgs.msg import PoseArray
 
-    from iguana_ros.ros.messages import reference_pose_from_cdr, reference_pose_from_msg, reference_pose_to_cdr
-    from iguana_ros.ros.messages import reference_pose_to_msg
+    from iguana_ros.ros.messages import reference_pose_from_cdr, reference_pose_to_cdr
     from iguana_ros.terrain.adaptation import pose_kinematics
     skeleton, clip = placed_clip
     joints, rotations = pose_kinematics(skeleton, clip.root_positions[4], clip.local_rotations[4])
-    message, data = reference_pose_to_msg(joints, rotations, 77), reference_pose_to_cdr(joints, rotations, 77)
+    message, data = _pose_msg(joints, rotations, 77), reference_pose_to_cdr(joints, rotations, 77)
     assert len(data) == len(serialize_message(message)) and deserialize_message(data, PoseArray) == message
     read = reference_pose_from_cdr(serialize_message(message), skeleton.n_bones, skeleton)
-    expected = reference_pose_from_msg(message, skeleton.n_bones, skeleton)
-    assert read[0] == expected[0] == 77
-    assert np.array_equal(read[1], expected[1]) and np.array_equal(read[2], expected[2])
-    bent = reference_pose_to_msg(joints + rng.normal(scale=0.01, size=joints.shape), rotations, 77)
+    assert read[0] == 77
+    assert np.array_equal(read[1], joints) and np.array_equal(read[2], rotations)
+    bent = _pose_msg(joints + rng.normal(scale=0.01, size=joints.shape), rotations, 77)
     with pytest.raises(InputError, match='reference_pose'):
         reference_pose_from_cdr(serialize_message(bent), skeleton.n_bones, skeleton)      # bone lengths do not fit
     with pytest.raises(InputError, match='truncated or not a PoseArray'):
         reference_pose_from_cdr(data[:-9], skeleton.n_bones, skeleton)
 
 
-def test_iguana_state_reading_matches_the_message_path(rng):
-    """`state_from_cdr` reads what rclpy serializes as `state_from_msg` reads the message, with the same checks."""
-    from iguana_ros.ros.messages import state_from_cdr, state_from_msg, state_to_msg
+def test_iguana_state_reading_matches_rclpy(rng):
+    """`state_from_cdr` reads what rclpy serializes (pose; with `state_twist_from_cdr` the twist), with its checks."""
+    from iguana_ros.ros.messages import state_from_cdr, state_twist_from_cdr
     quat = rng.normal(size=4)
-    message = state_to_msg(np.array([1.0, -2.0, 0.3]), quat / np.linalg.norm(quat), rng.normal(size=3),
-                           rng.normal(size=3), 123)
+    quat /= np.linalg.norm(quat)
+    root, linear, angular = np.array([1.0, -2.0, 0.3]), rng.normal(size=3), rng.normal(size=3)
+    message = _state_msg(root, quat, linear, angular, 123)
     message.pose.covariance[7] = 0.5                  # covariances are skipped, whatever they hold
-    read, expected = state_from_cdr(serialize_message(message), 15.0), state_from_msg(message, 15.0)
-    assert read[0] == expected[0] == 123
-    assert np.array_equal(read[1], expected[1]) and np.array_equal(read[2], expected[2])
-    far = state_to_msg(np.array([20.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 1)
+    read = state_from_cdr(serialize_message(message), 15.0)
+    assert len(read) == 3 and read[0] == 123
+    assert np.array_equal(read[1], root) and np.array_equal(read[2], quat)
+    full = state_twist_from_cdr(serialize_message(message), 15.0)
+    assert full[0] == 123 and np.array_equal(full[3], np.concatenate([linear, angular]))
+    far = _state_msg(np.array([20.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 1)
     with pytest.raises(InputError, match='iguana_state'):
         state_from_cdr(serialize_message(far), 15.0)
-    spinning = state_to_msg(np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 1)
+    spinning = _state_msg(np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 1)
     spinning.twist.twist.angular.y = float('nan')
     with pytest.raises(InputError, match='iguana_state twist'):
         state_from_cdr(serialize_message(spinning))
@@ -250,12 +318,20 @@ def test_iguana_state_reading_matches_the_message_path(rng):
             state_from_cdr(data[:cut])
 
 
+def test_another_types_bytes_on_iguana_state_are_an_input_error(rng):
+    """A Marker's bytes recorded on iguana_state (a wrong-type payload in a sound bag) fail the node's checks."""
+    from iguana_ros.ros.messages import state_from_cdr
+    verts, tris, rgba = _mesh(rng)
+    with pytest.raises(InputError, match='iguana_state'):
+        state_from_cdr(cdr.triangle_list_marker_cdr(verts, tris, rgba))
+
+
 @pytest.mark.parametrize('frame', [0, 1, 29, 12345])
 def test_per_frame_bytes_are_the_messages_rclpy_serializes(rng, frame):
     """
     The nodes publish these per frame as bytes built from numpy.
 
-    rclpy reads each back as the message the `_msg` builder makes, and mcap-ros2-support decodes the same values.
+    rclpy reads each back as the message built with its own classes, and mcap-ros2-support decodes the same values.
     """
     from geometry_msgs.msg import PoseArray
     from nav_msgs.msg import Odometry
@@ -268,11 +344,11 @@ def test_per_frame_bytes_are_the_messages_rclpy_serializes(rng, frame):
     state = (rng.normal(size=3), quat / np.linalg.norm(quat), rng.normal(size=3), rng.normal(size=3), frame)
     heights, flags, soles = rng.normal(size=4), rng.uniform(size=4) > 0.5, rng.normal(size=(4, 3))
     lengths = rng.uniform(size=2553)
-    cases = [(m.lengths_to_msg(lengths, frame), m.lengths_to_cdr(lengths, frame), JointState),
-             (m.state_to_msg(*state), m.state_to_cdr(*state), Odometry),
-             (m.foot_state_to_msg(heights, flags, frame), m.foot_state_to_cdr(heights, flags, frame), JointState),
-             (m.reference_stance_to_msg(flags, frame), m.reference_stance_to_cdr(flags, frame), JointState),
-             (m.foot_positions_to_msg(soles, frame), m.foot_positions_to_cdr(soles, frame), PoseArray),
+    cases = [(_lengths_msg(lengths, frame), m.lengths_to_cdr(lengths, frame), JointState),
+             (_state_msg(*state), m.state_to_cdr(*state), Odometry),
+             (_feet_msg(heights, flags, frame), m.foot_state_to_cdr(heights, flags, frame), JointState),
+             (_feet_msg(None, flags, frame), m.reference_stance_to_cdr(flags, frame), JointState),
+             (_pose_msg(soles, _identity(), frame), m.foot_positions_to_cdr(soles, frame), PoseArray),
              (Clock(clock=frame_stamp(frame)), m.clock_to_cdr(frame), Clock)]
     for message, data, cls in cases:
         assert deserialize_message(data, cls) == message, cls.__name__
@@ -283,19 +359,71 @@ def test_per_frame_bytes_are_the_messages_rclpy_serializes(rng, frame):
         assert (stamp.sec, stamp.nanosec) == (frame_stamp(frame).sec, frame_stamp(frame).nanosec)
     assert np.array_equal(_decoder('sensor_msgs/msg/JointState')(cases[0][1]).position, lengths)
     assert _decoder('sensor_msgs/msg/JointState')(cases[2][1]).effort == flags.astype(float).tolist()
+    assert m.clock_frame_from_cdr(serialize_message(cases[-1][0])) == frame
 
 
-def test_lengths_reading_matches_the_message_path(rng):
-    """`lengths_from_cdr` (the simulator node's read) gives what `lengths_from_msg` gives, with the same checks."""
-    from iguana_ros.ros.messages import frame_of_cdr, lengths_from_cdr, lengths_from_msg, lengths_to_msg
-    rest = rng.uniform(0.05, 0.2, size=40)
-    message = lengths_to_msg(rest * 1.1, 77)
-    read, expected = lengths_from_cdr(serialize_message(message), 40, rest), lengths_from_msg(message, 40, rest)
-    assert read[0] == expected[0] == 77 and np.array_equal(read[1], expected[1])
-    for bad, match in ((lengths_to_msg(rest[:-1], 1), r'shape \(39,\)'), (lengths_to_msg(-rest, 1), 'negative'),
-                       (lengths_to_msg(rest * 1e3, 1), 'spring_rest_lengths')):
+@pytest.mark.parametrize('frame', [0, 17, 12345])
+def test_feet_readings_match_rclpy(rng, frame):
+    """foot_state, reference_stance and foot_positions read from rclpy's bytes give the values they were built of."""
+    from iguana_ros.ros import messages as m
+    heights, flags, soles = rng.normal(size=4), rng.uniform(size=4) > 0.5, rng.normal(size=(4, 3))
+    got, h, c = m.foot_state_from_cdr(serialize_message(_feet_msg(heights, flags, frame)))
+    assert got == frame and np.array_equal(h, heights) and np.array_equal(c, flags) and c.dtype == bool
+    got, stance = m.reference_stance_from_cdr(serialize_message(_feet_msg(None, flags, frame)))
+    assert got == frame and np.array_equal(stance, flags)
+    got, read = m.foot_positions_from_cdr(serialize_message(_pose_msg(soles, _identity(), frame)))
+    assert got == frame and np.array_equal(read, soles)
+
+
+def test_feet_readings_reject_what_does_not_fit(rng):
+    """Wrong names, non-flag efforts, missing heights, three feet or another frame_id are InputErrors."""
+    from iguana_ros.ros import messages as m
+    renamed = _feet_msg(np.zeros(4), np.ones(4, bool), 1)
+    renamed.name = ['a', 'b', 'c', 'd']
+    halfway = _feet_msg(np.zeros(4), np.ones(4, bool), 1)
+    halfway.effort[2] = 0.5
+    heightless = _feet_msg(None, np.ones(4, bool), 1)
+    for bad, match in ((renamed, 'names are'), (halfway, 'flags 0.0 or 1.0'), (heightless, r'position.*shape')):
         with pytest.raises(InputError, match=match):
-            lengths_from_msg(bad, 40, rest)
+            m.foot_state_from_cdr(serialize_message(bad))
+    with pytest.raises(InputError, match='names are'):
+        m.reference_stance_from_cdr(serialize_message(renamed))
+    three = _pose_msg(np.zeros((3, 3)), _identity(3), 12)
+    elsewhere = _pose_msg(np.zeros((4, 3)), _identity(), 12)
+    elsewhere.header.frame_id = 'map'
+    for bad, match in ((three, r'foot_positions.*shape'), (elsewhere, "frame_id 'map'")):
+        with pytest.raises(InputError, match=match):
+            m.foot_positions_from_cdr(serialize_message(bad))
+    with pytest.raises(InputError, match='truncated or not a JointState'):
+        m.foot_state_from_cdr(serialize_message(_feet_msg(np.zeros(4), np.ones(4, bool), 1))[:30])
+
+
+def test_push_from_cdr_reads_what_rclpy_serializes_with_the_simulators_checks():
+    """The simulator node's reading of push: force, torque, the region ('' is trunk_left), finite or InputError."""
+    from iguana_ros.ros.conversions import push_msg
+    from iguana_ros.ros.messages import push_from_cdr
+    message = push_msg([1.0, -40.0, 0.5], 'trunk_right', stamp=2.5)
+    message.wrench.torque.z = 0.25
+    request = push_from_cdr(serialize_message(message))
+    assert np.array_equal(request.force, [1.0, -40.0, 0.5]) and np.array_equal(request.torque, [0.0, 0.0, 0.25])
+    assert request.region == 'trunk_right'
+    assert push_from_cdr(serialize_message(push_msg([0.0, 1.0, 0.0], ''))).region == 'trunk_left'
+    message.wrench.torque.x = float('nan')
+    with pytest.raises(InputError, match='push torque'):
+        push_from_cdr(serialize_message(message))
+    with pytest.raises(InputError, match='truncated or not a WrenchStamped'):
+        push_from_cdr(serialize_message(push_msg([0.0, 1.0, 0.0], 'trunk_left'))[:40])
+
+
+def test_lengths_reading_matches_rclpy(rng):
+    """`lengths_from_cdr` (the simulator node's read) gives the lengths rclpy serialized, with its checks."""
+    from iguana_ros.ros.messages import frame_of_cdr, lengths_from_cdr
+    rest = rng.uniform(0.05, 0.2, size=40)
+    message = _lengths_msg(rest * 1.1, 77)
+    read = lengths_from_cdr(serialize_message(message), 40, rest)
+    assert read[0] == 77 and np.array_equal(read[1], rest * 1.1)
+    for bad, match in ((_lengths_msg(rest[:-1], 1), r'shape \(39,\)'), (_lengths_msg(-rest, 1), 'negative'),
+                       (_lengths_msg(rest * 1e3, 1), 'spring_rest_lengths')):
         with pytest.raises(InputError, match=match):
             lengths_from_cdr(serialize_message(bad), 40, rest)
     data = serialize_message(message)

@@ -151,34 +151,40 @@ def test_bad_arrays_raise_input_error(call, message):
 
 
 def test_foot_probe_messages_round_trip_exactly(rng):
+    from geometry_msgs.msg import PoseArray
+    from sensor_msgs.msg import JointState
+
     from iguana_ros.ros import messages as m
     heights, contact, soles = rng.normal(size=4) * 0.01, np.array([True, False, False, True]), rng.normal(size=(4, 3))
-    state = deserialize_message(serialize_message(m.foot_state_to_msg(heights, contact, 17)), type(
-        m.foot_state_to_msg(heights, contact, 17)))
+    state = deserialize_message(m.foot_state_to_cdr(heights, contact, 17), JointState)
     assert list(state.name) == ['foot_fl', 'foot_fr', 'foot_hl', 'foot_hr'] and len(state.velocity) == 0
-    frame, h, c = m.foot_state_from_msg(state)
+    frame, h, c = m.foot_state_from_cdr(serialize_message(state))
     assert frame == 17 and np.array_equal(h, heights) and np.array_equal(c, contact)
-    assert m.foot_positions_from_msg(m.foot_positions_to_msg(soles, 4))[0] == 4
-    assert np.array_equal(m.foot_positions_from_msg(m.foot_positions_to_msg(soles, 4))[1], soles)
-    stance = m.reference_stance_to_msg(contact, 3)
+    positions = deserialize_message(m.foot_positions_to_cdr(soles, 4), PoseArray)
+    assert [(p.orientation.x, p.orientation.w) for p in positions.poses] == [(0.0, 1.0)] * 4
+    assert m.foot_positions_from_cdr(serialize_message(positions))[0] == 4
+    assert np.array_equal(m.foot_positions_from_cdr(m.foot_positions_to_cdr(soles, 4))[1], soles)
+    stance = deserialize_message(m.reference_stance_to_cdr(contact, 3), JointState)
     assert len(stance.position) == 0 and list(stance.effort) == [1.0, 0.0, 0.0, 1.0]
-    assert m.reference_stance_from_msg(stance)[0] == 3
-    assert np.array_equal(m.reference_stance_from_msg(stance)[1], contact)
+    assert m.reference_stance_from_cdr(serialize_message(stance))[0] == 3
+    assert np.array_equal(m.reference_stance_from_cdr(serialize_message(stance))[1], contact)
 
 
 def test_bad_foot_probe_messages_raise_input_error():
+    from sensor_msgs.msg import JointState
+
     from iguana_ros.ros import messages as m
-    msg = m.foot_state_to_msg(np.zeros(4), np.ones(4, bool), 1)
+    msg = deserialize_message(m.foot_state_to_cdr(np.zeros(4), np.ones(4, bool), 1), JointState)
     msg.name = ['a', 'b', 'c', 'd']
     with pytest.raises(InputError, match='foot_state names'):
-        m.foot_state_from_msg(msg)
-    msg = m.reference_stance_to_msg(np.ones(4, bool), 1)
+        m.foot_state_from_cdr(serialize_message(msg))
+    msg = deserialize_message(m.reference_stance_to_cdr(np.ones(4, bool), 1), JointState)
     msg.effort = [1.0, 0.5, 0.0, 1.0]
     with pytest.raises(InputError, match='expected flags 0.0 or 1.0'):
-        m.reference_stance_from_msg(msg)
+        m.reference_stance_from_cdr(serialize_message(msg))
     with pytest.raises(InputError, match=r'foot positions has shape \(3, 3\)'):
-        m.foot_positions_to_msg(np.zeros((3, 3)), 0)
-    msg = m.foot_state_to_msg(np.zeros(4), np.ones(4, bool), 1)
+        m.foot_positions_to_cdr(np.zeros((3, 3)), 0)
+    msg = deserialize_message(m.foot_state_to_cdr(np.zeros(4), np.ones(4, bool), 1), JointState)
     msg.position = [0.0, float('nan'), 0.0, 0.0]
     with pytest.raises(InputError, match='non-finite'):
-        m.foot_state_from_msg(msg)
+        m.foot_state_from_cdr(serialize_message(msg))

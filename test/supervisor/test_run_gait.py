@@ -27,7 +27,7 @@ import pytest
 import yaml
 
 pytest.importorskip('rclpy')
-from rclpy.serialization import serialize_message  # noqa: E402, I100
+from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402, I100
 
 from iguana_ros.bag.schema import message_definition  # noqa: E402
 from iguana_ros.bag.storage import BagWriter  # noqa: E402
@@ -64,7 +64,7 @@ def walk(tmp_path_factory):
 
 
 def _messages(scene, result) -> dict[str, list]:
-    """Return the messages the four nodes publish for `result`, by topic key (frame 0's state: the first row's)."""
+    """Return the bytes the four nodes publish for `result`, by topic key (frame 0's state: the first row's)."""
     model = build_model(scene.model.resolution, scene.model.stiffness)
     probe = FootProbe(model, terrain_from_spec(scene.terrain))
     n = len(result.times)
@@ -72,15 +72,15 @@ def _messages(scene, result) -> dict[str, list]:
     for frame in range(n + 1):
         row = max(frame - 1, 0)           # the body after frame `frame` is row frame - 1
         heights, contact, soles = probe.body(result.node_positions[row], result.contacts[row])
-        out['iguana_state'].append(m.state_to_msg(result.root_positions[row], result.root_orientations[row],
+        out['iguana_state'].append(m.state_to_cdr(result.root_positions[row], result.root_orientations[row],
                                                   np.zeros(3), np.zeros(3), frame))
-        out['foot_state'].append(m.foot_state_to_msg(heights, contact, frame))
-        out['foot_positions'].append(m.foot_positions_to_msg(soles, frame))
+        out['foot_state'].append(m.foot_state_to_cdr(heights, contact, frame))
+        out['foot_positions'].append(m.foot_positions_to_cdr(soles, frame))
         if frame < n:                     # the reference of frame `frame` is row frame
-            out['reference_stance'].append(m.reference_stance_to_msg(result.reference_contacts[frame], frame))
-            out['reference_pose'].append(m.reference_pose_to_msg(result.reference_joints[frame],
+            out['reference_stance'].append(m.reference_stance_to_cdr(result.reference_contacts[frame], frame))
+            out['reference_pose'].append(m.reference_pose_to_cdr(result.reference_joints[frame],
                                                                  result.reference_rotations[frame], frame))
-    out['motion_clip'] = [m.clip_to_msg(clip, model.skeleton, start) for start, clip in _placed_clips(scene, result)]
+    out['motion_clip'] = [m.clip_to_cdr(clip, model.skeleton, start) for start, clip in _placed_clips(scene, result)]
     return out
 
 
@@ -102,14 +102,14 @@ def _placed_clips(scene, result) -> list:
 
 
 def _write_bag(path, messages: dict[str, list]):
-    """Return a bag of `messages` (topic key -> messages) as the recorder writes it."""
+    """Return a bag of `messages` (topic key -> serialized messages) as the recorder writes it."""
     writer = BagWriter(path)
     for key, msgs in messages.items():
         spec = topic(key)
         name = spec.name if spec.name.startswith('/') else '/' + spec.name
         channel = writer.add_topic(name, spec.type, message_definition(spec.type))
-        for i, msg in enumerate(msgs):
-            writer.write(channel, serialize_message(msg), 1_000_000 + i)
+        for i, data in enumerate(msgs):
+            writer.write(channel, data, 1_000_000 + i)
     writer.close()
     return path
 
@@ -166,9 +166,9 @@ def test_a_crashed_run_with_gaps_and_a_bad_message_is_summarised_with_notes(tmp_
     scene, result, _ = walk
     messages = _messages(scene, result)
     del messages['foot_state'][10]                   # a frame the recorder lost
-    bad = m.foot_positions_to_msg(np.zeros((4, 3)), 12)
+    bad = deserialize_message(m.foot_positions_to_cdr(np.zeros((4, 3)), 12), resolve('foot_positions')[1])
     bad.poses = bad.poses[:3]                         # three feet: rejected, not fatal
-    messages['foot_positions'].append(bad)
+    messages['foot_positions'].append(serialize_message(bad))
     messages['iguana_state'] = messages['iguana_state'][:30]   # the run stopped at frame 29
     gait = _gait(tmp_path, scene, messages)
     assert gait.frames == 29 and not gait.reached
@@ -186,14 +186,23 @@ def test_no_state_or_no_bag_gives_lines_not_a_traceback(tmp_path, walk):
     assert 'gait: no figures (iguana_state is not in the bag)' in summary.lines()
 
 
-def test_read_topics_counts_undecodable_payloads(tmp_path):
-    writer = BagWriter(tmp_path / 'bag')
-    spec = topic('foot_state')
-    channel = writer.add_topic('/' + spec.name, spec.type, message_definition(spec.type))
-    writer.write(channel, b'\x00\x01\x00\x00\x07', 1)
-    writer.write(channel, serialize_message(m.foot_state_to_msg(np.zeros(4), np.ones(4, bool), 1)), 2)
-    writer.close()
-    recorded = read_topics(tmp_path / 'bag', ['foot_state', 'iguana_state'])
-    assert recorded.rejected == {'foot_state': 1, 'iguana_state': 0}
-    assert len(recorded.messages['foot_state']) == 1 and recorded.messages['iguana_state'] == []
+def test_read_topics_keeps_the_bytes_and_the_nodes_decoders_count_what_does_not_decode(tmp_path, walk):
+    """A damaged payload or another type's bytes (a Marker on iguana_state) are skipped with a note, not raised."""
+    from iguana_ros.bag.trajectory import root_trajectory
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
+    scene, result, _ = walk
+    messages = _messages(scene, result)
+    marker = triangle_list_marker_cdr(np.eye(3), np.array([[0, 1, 2]]), np.ones((3, 4)))
+    messages['foot_state'].insert(0, b'\x00\x01\x00\x00\x07')
+    messages['iguana_state'].insert(5, marker)
+    messages['iguana_state'].insert(9, messages['iguana_state'][8][:40])
+    recorded = read_topics(_write_bag(tmp_path / 'bag', messages), ['foot_state', 'iguana_state', 'push'])
+    assert recorded.messages['foot_state'][0] == b'\x00\x01\x00\x00\x07' and recorded.messages['push'] == []
+    assert recorded.messages['foot_state'][1:] == messages['foot_state'][1:]
+    times, positions, _ = root_trajectory(recorded.messages['iguana_state'])
+    assert len(times) == len(result.times) + 1 and np.array_equal(positions[1:], result.root_positions)
+    gait = run_gait(read_topics(tmp_path / 'bag', GAIT_TOPICS), scene)
+    assert 'foot_state: 1 message(s) unreadable, skipped' in gait.notes
+    assert 'iguana_state: 2 message(s) unreadable, skipped' in gait.notes
+    assert gait.frames == len(result.times)
     assert resolve('foot_state')[1].__name__ == 'JointState'

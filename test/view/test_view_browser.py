@@ -245,17 +245,22 @@ def recorded_bag(live_run, clicked_goal, pushed):
 
 
 def test_the_bag_holds_the_goal_the_planner_accepted_and_the_push(recorded_bag, clicked_goal, pushed):
+    from rclpy.serialization import deserialize_message
+
     from iguana_ros.bag.trajectory import read_topics
+    from iguana_ros.ros.endpoints import resolve
     assert clicked_goal.accepted and clicked_goal.headed and pushed, clicked_goal.page
-    recorded = read_topics(recorded_bag.bag, ['accepted_goals', 'push', 'goal_pose'])
-    accepted = recorded.messages['accepted_goals'][-1].poses
+    keys = ['accepted_goals', 'push', 'goal_pose']
+    recorded = {key: [deserialize_message(data, resolve(key)[1]) for data in messages]
+                for key, messages in read_topics(recorded_bag.bag, keys).messages.items()}
+    accepted = recorded['accepted_goals'][-1].poses
     poses = [(p.pose.position.x, p.pose.position.y) for p in accepted]
     assert len(poses) == 3 and poses[0] == (2.0, 0.0)            # the scene's, the click's, the shift-click's heading
     assert np.allclose(poses[1], clicked_goal.goal, atol=0.006) and np.allclose(poses[2], clicked_goal.goal, atol=0.006)
     assert [p.pose.orientation.w for p in accepted[1:2]] == [0.0]           # the click: any heading
     q = accepted[2].pose.orientation
     assert math.degrees(2 * math.atan2(q.z, q.w)) == pytest.approx(clicked_goal.heading, abs=0.6)
-    (push,) = recorded.messages['push']
+    (push,) = recorded['push']
     force = push.wrench.force
     assert push.header.frame_id == 'trunk_left' and math.isclose(math.hypot(force.x, force.y), 40.0)
 

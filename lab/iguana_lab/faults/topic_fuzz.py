@@ -109,6 +109,14 @@ def _bad_value(kind: str, rng: np.random.Generator) -> float:
     return sign * 10.0 ** float(rng.uniform(6, 300))
 
 
+def _message(key: str, data: bytes):
+    """Return the rclpy message object of topic `key` that serialized `data` holds (to set one bad field in)."""
+    from rclpy.serialization import deserialize_message
+
+    from iguana_ros.ros.endpoints import resolve
+    return deserialize_message(data, resolve(key)[1])
+
+
 def _corrupt_point(point, kind: str, rng: np.random.Generator, attrs=('x', 'y', 'z')) -> None:
     """Set one of `attrs` of a Point/Vector3/Quaternion to a bad value."""
     setattr(point, str(rng.choice(attrs)), _bad_value(kind, rng))
@@ -145,8 +153,8 @@ def _push(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _clip(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.ros.messages import clip_to_msg
-    msg = clip_to_msg(ctx.clip, ctx.skeleton, 0)
+    from iguana_ros.ros.messages import clip_to_cdr
+    msg = _message('motion_clip', clip_to_cdr(ctx.clip, ctx.skeleton, 0))
     _set_stamp(msg.header, _stamp_frame(kind, ctx, rng))
     point = msg.points[int(rng.integers(len(msg.points)))]
     transform = point.transforms[int(rng.integers(len(point.transforms)))]
@@ -172,7 +180,7 @@ def _clip(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _reference_pose(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.ros.messages import reference_pose_to_msg
+    from iguana_ros.ros.messages import reference_pose_to_cdr
     joints, rotations = ctx.joints.copy(), ctx.rotations.copy()
     bone = int(rng.integers(len(joints)))
     if kind == 'wrong_length':
@@ -181,7 +189,7 @@ def _reference_pose(kind: str, ctx: FuzzContext, rng: np.random.Generator):
             np.vstack([joints, joints[:3]]), np.vstack([rotations, rotations[:3]]))
     elif kind == 'bad_quaternion':
         rotations[bone] *= 0.0 if rng.random() < 0.5 else 1.5
-    msg = reference_pose_to_msg(joints, rotations, 0)
+    msg = _message('reference_pose', reference_pose_to_cdr(joints, rotations, 0))
     _set_stamp(msg.header, _stamp_frame(kind, ctx, rng))
     if kind in ('nan', 'inf'):
         pose = msg.poses[bone]
@@ -194,7 +202,7 @@ def _reference_pose(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _lengths(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.ros.messages import lengths_to_msg
+    from iguana_ros.ros.messages import lengths_to_cdr
     lengths = ctx.rest_lengths.copy()
     some = rng.random(len(lengths)) < rng.uniform(0.001, 1.0)
     some[int(rng.integers(len(lengths)))] = True
@@ -207,7 +215,7 @@ def _lengths(kind: str, ctx: FuzzContext, rng: np.random.Generator):
     elif kind == 'wrong_length':
         lengths = lengths[:int(rng.integers(0, len(lengths)))] if rng.random() < 0.5 else np.concatenate(
             [lengths, lengths[:int(rng.integers(1, 50))]])
-    msg = lengths_to_msg(lengths, 0)
+    msg = _message('spring_rest_lengths', lengths_to_cdr(lengths, 0))
     _set_stamp(msg.header, _stamp_frame(kind, ctx, rng))
     if kind in ('nan', 'inf'):
         msg.position[int(rng.integers(len(msg.position)))] = _bad_value(kind, rng)
@@ -215,8 +223,9 @@ def _lengths(kind: str, ctx: FuzzContext, rng: np.random.Generator):
 
 
 def _state(kind: str, ctx: FuzzContext, rng: np.random.Generator):
-    from iguana_ros.ros.messages import state_to_msg
-    msg = state_to_msg(ctx.clip.root_positions[0], np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3), 0)
+    from iguana_ros.ros.messages import state_to_cdr
+    msg = _message('iguana_state', state_to_cdr(ctx.clip.root_positions[0], np.array([0.0, 0.0, 0.0, 1.0]),
+                                                np.zeros(3), np.zeros(3), 0))
     _set_stamp(msg.header, _stamp_frame(kind, ctx, rng))
     if kind in ('nan', 'inf'):
         where = int(rng.integers(3))
@@ -330,8 +339,9 @@ class TopicFuzzer:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
 
-        from iguana_ros.ros.conversions import time_from_msg
+        from iguana_ros.errors import InputError
         from iguana_ros.ros.endpoints import resolve
+        from iguana_ros.ros.messages import clock_frame_from_cdr
 
         node = rclpy.create_node('iguana_topic_fuzzer')
         pubs, names = {}, {}
@@ -341,9 +351,12 @@ class TopicFuzzer:
             names[key] = pubs[key].topic_name
         clock_name, clock_cls, clock_qos = resolve('clock')
 
-        def on_clock(msg) -> None:
-            self.ctx.frame = max(self.ctx.frame, int(round(time_from_msg(msg.clock) * FRAME_RATE)))
-        clock = node.create_subscription(clock_cls, clock_name, on_clock, clock_qos)
+        def on_clock(data: bytes) -> None:
+            try:
+                self.ctx.frame = max(self.ctx.frame, clock_frame_from_cdr(data))
+            except InputError:
+                pass
+        clock = node.create_subscription(clock_cls, clock_name, on_clock, clock_qos, raw=True)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         readers = fuzzed_readers()
@@ -458,8 +471,8 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
     """
     Every recorded message that is not one of `sent` (topic, bytes), deserialized and scanned for non-finite floats.
 
-    The iguana_state messages are kept for the trajectory; the recorded faults are counted, and those the recorder
-    received between the first and the last /clock message (while the simulator ran).
+    The iguana_state messages are kept (serialized) for the trajectory; the recorded faults are counted, and those the
+    recorder received between the first and the last /clock message (while the simulator ran).
     """
     from rclpy.serialization import deserialize_message
 
@@ -492,7 +505,7 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
         if bad:
             scan.non_finite[record.topic] = scan.non_finite.get(record.topic, 0) + bad
         if record.topic == '/iguana_state':
-            scan.states.append(msg)
+            scan.states.append(data)
     scan.fuzz_recorded, scan.fuzz_missing = len(fuzz_times), sum(fuzz.values())
     if clock_times:
         scan.fuzz_during_run = sum(1 for t in fuzz_times if min(clock_times) <= t <= max(clock_times))

@@ -55,23 +55,25 @@ def _refused(key: str, msg, ctx: FuzzContext, model) -> bool:
     They refuse it with an InputError, or by not using its frame: stale, or not the one the lockstep simulator waits
     for.
     """
+    from rclpy.serialization import serialize_message
     bound = world_bound(2 * ctx.half_extent)
     skeleton = ctx.skeleton
+    data = serialize_message(msg)          # what the nodes that read the topic raw receive
     try:
         if key == 'goal_pose':
             m.goal_from_msg(msg, ctx.half_extent)
         elif key == 'push':
-            push = m.push_from_msg(msg)
+            push = m.push_from_cdr(data)
             check_push(push.force, push.torque, push.region, region_masses(model.node_mass, model.node_tags), 1.0, 0.1)
         elif key == 'motion_clip':
-            return check_frame('motion_clip', m.clip_from_msg(msg, skeleton, bound)[0], ctx.frame) != FRAME_NEW
+            return check_frame('motion_clip', m.clip_from_cdr(data, skeleton, bound)[0], ctx.frame) != FRAME_NEW
         elif key == 'reference_pose':
-            frame = m.reference_pose_from_msg(msg, skeleton.n_bones, skeleton, bound)[0]
+            frame = m.reference_pose_from_cdr(data, skeleton.n_bones, skeleton, bound)[0]
             return check_frame('reference_pose', frame, ctx.frame) != FRAME_NEW
         elif key == 'spring_rest_lengths':
-            return m.lengths_from_msg(msg, len(ctx.rest_lengths), ctx.rest_lengths)[0] != ctx.frame + 1
+            return m.lengths_from_cdr(data, len(ctx.rest_lengths), ctx.rest_lengths)[0] != ctx.frame + 1
         else:
-            return check_frame('iguana_state', m.state_from_msg(msg, bound)[0], ctx.frame) != FRAME_NEW
+            return check_frame('iguana_state', m.state_from_cdr(data, bound)[0], ctx.frame) != FRAME_NEW
     except InputError:
         return True
     return False
