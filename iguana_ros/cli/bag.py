@@ -33,6 +33,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      help='close a chunk at least every S seconds (default 1)')
     rec.add_argument('--duration', type=float, default=None, metavar='S',
                      help='stop after S seconds (default: until Ctrl-C / SIGTERM)')
+    rec.add_argument('--use-sim-time', action='store_true',
+                     help='log times from /clock (simulated time), as ros2 bag record --use-sim-time, so the bag '
+                          'replays at the simulated pace (default: wall-clock receive times; iguana run always '
+                          'records on simulated time)')
     rec.set_defaults(func=run)
 
     play = actions.add_parser('play', help='republish a bag with its recorded timing and QoS')
@@ -85,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
     topics = None if args.all else (args.topics or default_topic_names())
     from iguana_ros.bag.storage import BagWriteError, DISK_FULL_EXIT
     try:
-        record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration)
+        record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration,
+               use_sim_time=args.use_sim_time)
     except BagWriteError as exc:                      # a full disk: one line, the bag finalised from what was written
         print(f'iguana bag record: error: {exc}', file=sys.stderr, flush=True)
         return DISK_FULL_EXIT

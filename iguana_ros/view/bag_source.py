@@ -16,7 +16,8 @@
 A recorded bag read into a `RunView` for the timeline.
 
 Every mesh frame, the root's states, the feet, pushes, clips, terrain and goals, in one pass over the bag (the same
-decoders as live mode).
+decoders as live mode). Wall time is each message's publish time (its publisher's send time, wall clock in every
+bag): a run's log times are simulated time, which would make the realtime factor 1.
 """
 from __future__ import annotations
 
@@ -96,9 +97,9 @@ def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None
             if key == 'mesh_marker':
                 decode.take_mesh(view, record.data)
             elif key == 'scene_markers':
-                scenes.append((record.log_time, record.data))
+                scenes.append((record.publish_time, record.data))
             else:
-                takers[key](deserialize_message(record.data, classes[key]), record.log_time)
+                takers[key](deserialize_message(record.data, classes[key]), record.publish_time)
         except (IguanaError, ValueError, TypeError) as exc:  # a message that does not fit: counted, not fatal
             skipped.setdefault(key, [0, str(exc)])[0] += 1
     _place_by_receive_time(view, scenes, pushes, push_duration)
@@ -112,7 +113,7 @@ def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_durat
     """
     Scene markers and pushes carry no simulated time.
 
-    Each takes the simulated time of the states received around it (from the recorder's receive times).
+    Each takes the simulated time of the states sent around it (from the messages' wall-clock send times).
     """
     states = view.states
     walls, times = states.values[:, 5], states.times
