@@ -44,7 +44,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     play.add_argument('--rate', type=float, default=1.0, help='playback speed factor (default 1)')
     play.add_argument('--loop', action='store_true', help='start again at the end, until Ctrl-C')
     play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
-    play.add_argument('--clock', action='store_true', help='publish /clock from the bag time (40 Hz)')
+    play.add_argument('--clock', action='store_true',
+                      help='give subscribers with use_sim_time one /clock: the recorded /clock if the bag has one '
+                           '(played even if --topics leaves it out), else one from the bag time (40 Hz)')
     play.add_argument('--wait-for-subscribers', type=float, default=0.5, metavar='S',
                       help='wait up to S s for every topic to have a subscriber first (default 0.5)')
     add_allow_damaged(play, 'play the messages of every intact chunk of a damaged or truncated bag')

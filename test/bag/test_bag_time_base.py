@@ -219,3 +219,27 @@ def test_wall_bags_old_bags_and_custom_data_alone(tmp_path):
 def test_writer_refuses_an_unknown_time_base(tmp_path):
     with pytest.raises(ValueError, match='time_base'):
         BagWriter(tmp_path / 'x', time_base='gps')
+
+
+# -- the player's one /clock ---------------------------------------------------------------------------------------
+
+def _summary(*topics):
+    from iguana_ros.bag.storage import TopicInfo
+    from pathlib import Path
+    return BagSummary(Path('b.mcap'), 0, 'ros2', '', [TopicInfo(t, 'x/msg/Y') for t in topics], 0, 0, 0,
+                      time_base='simulated')
+
+
+def test_clock_source_plays_the_recorded_clock_or_its_own_never_both():
+    from iguana_ros.bag.play import clock_source
+    with_clock = _summary('/iguana_state', '/clock')
+    selected, own = clock_source(with_clock, list(with_clock.topics), clock=True)
+    assert [t.name for t in selected] == ['/iguana_state', '/clock'] and not own
+    only_state = [with_clock.topics[0]]
+    selected, own = clock_source(with_clock, only_state, clock=True)   # --topics left /clock out: added back
+    assert [t.name for t in selected] == ['/iguana_state', '/clock'] and not own
+    selected, own = clock_source(with_clock, only_state, clock=False)
+    assert [t.name for t in selected] == ['/iguana_state'] and not own
+    without = _summary('/iguana_state')
+    selected, own = clock_source(without, list(without.topics), clock=True)
+    assert [t.name for t in selected] == ['/iguana_state'] and own
