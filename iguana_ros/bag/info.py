@@ -12,12 +12,17 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana bag info`: duration, topics, types and counts of a bag, laid out like `ros2 bag info` (ROS-free)."""
+"""
+`iguana bag info`: duration, topics, types and counts of a bag, laid out like `ros2 bag info` (ROS-free).
+
+One line more than rosbag2's: `Time base`, simulated (log times from /clock) or wall (receive times).
+"""
 from __future__ import annotations
 
 from datetime import datetime
 from pathlib import Path
 
+from iguana_ros.bag.sim_time import time_base_description, TIME_BASE_SIMULATED
 from iguana_ros.bag.storage import BagSummary, summarize
 
 
@@ -38,17 +43,24 @@ def _time(ns: int) -> str:
     return f'{stamp:%b %d %Y %H:%M:%S}.{stamp.microsecond // 1000:03d} ({epoch})'
 
 
+def _sim_time(ns: int) -> str:
+    """Seconds of simulated time, e.g. '2.000000000 s (simulated)'."""
+    return f'{ns // 1_000_000_000}.{ns % 1_000_000_000:09d} s (simulated)'
+
+
 def format_summary(summary: BagSummary) -> str:
     """Multi-line text of a BagSummary."""
     duration = max(summary.end_ns - summary.start_ns, 0) * 1e-9
+    stamp = _sim_time if summary.time_base == TIME_BASE_SIMULATED else _time
     lines = [f'Files:             {summary.path.name}',
              f'Bag size:          {_size(summary.size)}',
              'Storage id:        mcap',
              f'Library:           {summary.library}',
-             f'Duration:          {duration:.9f}s']
+             f'Duration:          {duration:.9f}s',
+             f'Time base:         {time_base_description(summary.time_base, summary.clock_topic)}']
     if summary.message_count:
-        lines += [f'Start:             {_time(summary.start_ns)}',
-                  f'End:               {_time(summary.end_ns)}']
+        lines += [f'Start:             {stamp(summary.start_ns)}',
+                  f'End:               {stamp(summary.end_ns)}']
     lines.append(f'Messages:          {summary.message_count}')
     rows = [f'Topic: {t.name} | Type: {t.type} | Count: {t.message_count} | '
             f'Serialization Format: cdr' for t in summary.topics] or ['(none)']

@@ -12,7 +12,14 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana bag play`: republish a bag's serialized messages with the recorded timing and QoS."""
+"""
+`iguana bag play`: republish a bag's serialized messages with the recorded timing and QoS.
+
+Messages are paced by their log times, whatever the bag's time base (simulated for `iguana run`'s bags, so they replay
+at the simulated pace; wall for older bags and `iguana bag record` without --use-sim-time). With `clock` there is
+exactly one /clock: the bag's recorded /clock when it has one (played even if `topics` leaves it out), else one the
+player derives from the log times; never both (two interleaved clocks would send use_sim_time nodes back and forth).
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -30,6 +37,7 @@ from rosgraph_msgs.msg import Clock
 
 from iguana_ros.bag.qos import offer_profile
 from iguana_ros.bag.record import absolute_name
+from iguana_ros.bag.sim_time import time_base_description
 from iguana_ros.bag.storage import accept, BagReader, BagSummary, parse_qos_profiles, summarize
 from iguana_ros.errors import InputError
 from iguana_ros.ros.endpoints import message_class, resolve
@@ -87,14 +95,33 @@ def _stamp(ns: int) -> Time:
     return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
+def clock_source(summary: BagSummary, selected: list, clock: bool) -> tuple[list, bool]:
+    """
+    (topics to play, whether the player publishes its own /clock) for `--clock` (module docstring).
+
+    A bag with a recorded /clock plays that one (added to `selected` if left out) and the player publishes none.
+    """
+    if not clock:
+        return selected, False
+    recorded = next((t for t in summary.topics if t.name == summary.clock_topic), None)
+    if recorded is None:
+        return selected, True
+    if all(t.name != recorded.name for t in selected):
+        selected = [*selected, recorded]
+    return selected, False
+
+
 class _Pacer:
-    """Maps bag time to wall time (scaled by `rate`) and publishes /clock while waiting."""
+    """Maps bag time to wall time (scaled by `rate`) and publishes the player's own /clock while waiting."""
 
     def __init__(self, rate: float, clock_pub) -> None:
         self.rate, self.clock_pub = rate, clock_pub
         self.bag0: int | None = None
         self.wall0 = 0.0
         self.next_clock = 0.0
+        self.last_clock = -1
+        """Last /clock published (ns): each one is later than the one before (messages of a bag are in file order,
+        which is log-time order only per topic)."""
 
     def wait_until(self, log_time: int, stop: list[bool]) -> None:
         """Sleep until the wall time of bag time `log_time` (first call starts the clock)."""
@@ -104,8 +131,10 @@ class _Pacer:
         while not stop[0]:
             now = time.monotonic()
             if self.clock_pub is not None and now >= self.next_clock:
-                bag_now = self.bag0 + int((now - self.wall0) * self.rate * 1e9)
-                self.clock_pub.publish(Clock(clock=_stamp(min(bag_now, log_time))))
+                bag_now = min(self.bag0 + int((now - self.wall0) * self.rate * 1e9), log_time)
+                if bag_now > self.last_clock:
+                    self.clock_pub.publish(Clock(clock=_stamp(bag_now)))
+                    self.last_clock = bag_now
                 self.next_clock = now + CLOCK_PERIOD_S
             if now >= target:
                 return
@@ -153,7 +182,7 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
     damage = accept(summary, allow_damaged)
     if damage:
         _err(f'iguana bag play: warning: {damage}; playing the recovered messages')
-    selected = select_topics(summary, topics)
+    selected, own_clock = clock_source(summary, select_topics(summary, topics), clock)
     stop = [False]
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda _s, _f: stop.__setitem__(0, True))
@@ -163,12 +192,17 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
         node = rclpy.create_node('iguana_bag_player', context=context)
         publishers = _create_publishers(node, selected)
         clock_pub = None
-        if clock:
+        if own_clock:
             name, cls, qos = resolve('clock')
             clock_pub = node.create_publisher(cls, name, qos)
         n_selected = sum(t.message_count for t in selected if t.name in publishers)
         print(f'playing {summary.path}: {n_selected} messages on {len(publishers)} topics '
-              f'at rate {rate:g}', flush=True)
+              f'at rate {rate:g}; time base {time_base_description(summary.time_base, summary.clock_topic)}',
+              flush=True)
+        if clock:
+            what = ('the bag has no /clock: the player publishes one from the bag time' if own_clock
+                    else f'the recorded {summary.clock_topic} is the clock (the player publishes no second one)')
+            print(f'--clock: {what}', flush=True)
         _wait_for_subscribers(publishers, wait_for_subscribers_s, stop)
         warn = summary.health.sound
         total = _play_once(summary.path, publishers, rate, clock_pub, stop, warn)

@@ -12,7 +12,13 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana bag record`: subscribe with raw (serialized) messages and write a rosbag2-compatible MCAP bag."""
+"""
+`iguana bag record`: subscribe with raw (serialized) messages and write a rosbag2-compatible MCAP bag.
+
+Log times are the wall-clock receive times, or with `use_sim_time` (`--use-sim-time`, as `ros2 bag record
+--use-sim-time`; `iguana run` always records so) the simulated time of the latest /clock received before each message
+(iguana_ros.bag.sim_time), so a bag of a lockstep run replays at its simulated pace.
+"""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -27,6 +33,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.bag.qos import profile_to_dict, request_profile, table_request_profile
 from iguana_ros.bag.schema import message_definition
+from iguana_ros.bag.sim_time import CLOCK_TOPIC, SimTimeStamper, TIME_BASE_SIMULATED, TIME_BASE_WALL
 from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
 from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, tool_node
@@ -54,24 +61,38 @@ def default_topic_names() -> list[str]:
 
 
 class Recorder:
-    """Discovers wanted topics, subscribes raw with QoS adapted to the publishers, writes every message."""
+    """
+    Discovers wanted topics, subscribes raw with QoS adapted to the publishers, writes every message.
+
+    On simulated time (`stamper` given) /clock is subscribed to even when it is not recorded, and each wake's messages
+    are stamped by `flush` once the wake's /clock messages are known.
+    """
 
     def __init__(self, node: Node, writer: BagWriter, topics: list[str] | None,
                  log: Callable[[str], None] = print,
-                 error: Callable[[str], None] = lambda m: print(m, file=sys.stderr, flush=True)) -> None:
+                 error: Callable[[str], None] = lambda m: print(m, file=sys.stderr, flush=True),
+                 stamper: SimTimeStamper | None = None) -> None:
         self.node, self.writer = node, writer
         # a remap given to the recorder (`--ros-args -r a:=b`, as `iguana run` passes its nodes') renames what it wants
         self.wanted = None if topics is None else [node.resolve_topic_name(absolute_name(t)) for t in topics]
         self.log, self.error = log, error
-        self.subscriptions: dict[str, int] = {}
+        self.stamper = stamper
+        self.subscriptions: dict[str, int | None] = {}
+        """Topic -> its channel (None: /clock subscribed for the clock only, not recorded)."""
         self.failed: set[str] = set()
         self.received = 0
+
+    def _names(self, types: dict) -> list[str]:
+        """Topics to subscribe to: the wanted ones (every one for -a), and /clock on simulated time."""
+        names = list(self.wanted) if self.wanted is not None else sorted(types)
+        if self.stamper is not None and CLOCK_TOPIC not in names:
+            names.insert(0, CLOCK_TOPIC)
+        return names
 
     def poll_discovery(self) -> None:
         """Subscribe to every wanted topic that now has a publisher (and was not subscribed yet)."""
         types = dict(self.node.get_topic_names_and_types())
-        names = self.wanted if self.wanted is not None else sorted(types)
-        for name in names:
+        for name in self._names(types):
             if name in self.subscriptions or name in self.failed or name not in types:
                 continue
             endpoints = self.node.get_publishers_info_by_topic(name)
@@ -88,21 +109,57 @@ class Recorder:
             self.error(f'iguana bag record: error: cannot record {name}: {exc}; recording the others')
             return
         offered = [e.qos_profile for e in endpoints]
-        qos_yaml = qos_profiles_yaml([profile_to_dict(p) for p in offered])
-        type_hash = str(getattr(endpoints[0], 'topic_type_hash', '') or '')
-        channel = self.writer.add_topic(name, type_name, schema, qos_yaml, type_hash)
+        recorded = self.wanted is None or name in self.wanted
+        channel = None
+        if recorded:
+            qos_yaml = qos_profiles_yaml([profile_to_dict(p) for p in offered])
+            type_hash = str(getattr(endpoints[0], 'topic_type_hash', '') or '')
+            channel = self.writer.add_topic(name, type_name, schema, qos_yaml, type_hash)
         qos = table_request_profile(name) or request_profile(offered)
-        listener(self.node, cls, name, lambda data, info, ch=channel: self._on_message(ch, data, info), qos, raw=True)
+        handle = self._on_clock if self.stamper is not None and name == CLOCK_TOPIC else self._on_message
+        listener(self.node, cls, name, lambda data, info, ch=channel, h=handle: h(ch, data, info), qos, raw=True)
         self.subscriptions[name] = channel
         self.log(f'subscribed {name} [{type_name}] {qos.reliability.name.lower()}/'
-                 f'{qos.durability.name.lower()}')
+                 f'{qos.durability.name.lower()}' + ('' if recorded else ' (the clock only, not recorded)'))
+
+    @staticmethod
+    def _times(info: dict) -> tuple[int, int]:
+        """(receive time, source time) of a message, wall clock ns (now where the middleware gives none)."""
+        received = int(info.get('received_timestamp') or 0) or time.time_ns()
+        return received, int(info.get('source_timestamp') or 0) or received
 
     def _on_message(self, channel: int, data: bytes, info: dict) -> None:
-        """Store one serialized message: log time = receive time, publish time = source time."""
-        received = int(info.get('received_timestamp') or 0) or time.time_ns()
-        published = int(info.get('source_timestamp') or 0) or received
-        self.writer.write(channel, bytes(data), received, published)
+        """
+        Store one serialized message: publish time = source time; log time = receive time.
+
+        On simulated time: queued for `flush`, which stamps it from /clock.
+        """
+        received, published = self._times(info)
+        if self.stamper is None:
+            self.writer.write(channel, bytes(data), received, published)
+        else:
+            self.stamper.add(channel, bytes(data), received, published)
         self.received += 1
+
+    def _on_clock(self, channel: int | None, data: bytes, info: dict) -> None:
+        """Advance the simulated clock (a /clock that does not decode is recorded, not used), then record it."""
+        received, _ = self._times(info)
+        try:
+            self.stamper.clock(received, bytes(data))
+        except ValueError as exc:
+            self.error(f'iguana bag record: warning: {CLOCK_TOPIC} message ignored as a clock: {exc}')
+        if channel is not None:
+            self._on_message(channel, data, info)
+
+    def flush(self) -> None:
+        """Write the messages queued on simulated time that can be stamped (after each wake)."""
+        if self.stamper is not None:
+            self.stamper.flush()
+
+    def close(self) -> None:
+        """Write every queued message (at log time 0 if no /clock ever came)."""
+        if self.stamper is not None:
+            self.stamper.close()
 
 
 def _install_stop_handlers(stop: list[bool]) -> None:
@@ -114,27 +171,32 @@ def _install_stop_handlers(stop: list[bool]) -> None:
 
 
 def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CHUNK_AGE_S,
-           duration_s: float | None = None, ros_args: tuple = ()) -> int:
+           duration_s: float | None = None, use_sim_time: bool = False, ros_args: tuple = ()) -> int:
     """
     Record `topics` (None = every discovered topic) into bag directory `output` until SIGINT/SIGTERM.
 
     `ros_args` (`--ros-args ...`) apply to the recorder's node: a remap records the topic under its new name.
 
     Returns the number of messages written. The bag is finalised (summary, footer, metadata.yaml)
-    on every exit path except SIGKILL, after which every completed chunk remains readable.
+    on every exit path except SIGKILL, after which every completed chunk remains readable. With `use_sim_time` the log
+    times are simulated time from /clock (module docstring), and the bag says so.
     """
-    writer = BagWriter(output, chunk_age_s=chunk_age_s)
+    writer = BagWriter(output, chunk_age_s=chunk_age_s,
+                       time_base=TIME_BASE_SIMULATED if use_sim_time else TIME_BASE_WALL)
     stop = [False]
     _install_stop_handlers(stop)
     context = rclpy.Context()
     rclpy.init(args=['iguana', *ros_args], context=context, signal_handler_options=SignalHandlerOptions.NO)
-    loop = None
+    loop = recorder = None
     try:
         node = tool_node(RECORDER_NODE_NAME, context)
         loop = ListenerLoop(node)
-        recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True))
+        stamper = SimTimeStamper(writer.write, warn=lambda m: print(m, file=sys.stderr, flush=True)) \
+            if use_sim_time else None
+        recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True), stamper=stamper)
         settle_heap()
-        print(f'recording to {writer.path}', flush=True)
+        print(f'recording to {writer.path}' + (f' on simulated time ({CLOCK_TOPIC})' if use_sim_time else ''),
+              flush=True)
         chores = [(DISCOVERY_PERIOD_S, recorder.poll_discovery),
                   (min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)]
         due = [time.monotonic()] * len(chores)
@@ -146,12 +208,17 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
                     chore()
                     due[i] = now + period
             if loop.spin_once(min(0.1, max(0.0, min(due) - time.monotonic()))):
+                recorder.flush()
                 time.sleep(BATCH_S)                  # let a frame's messages gather: one wake takes them all
         return recorder.received
     finally:
         if loop is not None:
             loop.close()
-        writer.close()
+        try:
+            if recorder is not None and not writer.closed:
+                recorder.close()
+        finally:
+            writer.close()
         print(f'wrote {sum(t.message_count for t in writer.topics)} messages on '
               f'{len(writer.topics)} topics to {writer.path}', flush=True)
         rclpy.try_shutdown(context=context)

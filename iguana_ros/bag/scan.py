@@ -50,7 +50,7 @@ import zlib
 
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
-from mcap.records import Channel, ChunkIndex, Header, Message, Schema, Statistics
+from mcap.records import Channel, ChunkIndex, Header, Message, Metadata, Schema, Statistics
 import zstandard
 
 from iguana_ros.errors import InputError
@@ -201,6 +201,36 @@ class _File:
         if self.fd >= 0:
             os.close(self.fd)
             self.fd = -1
+
+
+LEADING_BYTES = 64 * 1024
+"""How far `leading_metadata` reads: a writer's Metadata records right after its Header are a few hundred bytes."""
+
+
+def leading_metadata(path: Path) -> dict[str, dict[str, str]]:
+    """
+    {name: key-value map} of the Metadata records right after the Header (where BagWriter writes its own).
+
+    Read on their own, without a scan, so a summary taken from a trusted index knows them too; {} when the start of the
+    file is not a Header followed by Metadata records.
+    """
+    out: dict[str, dict[str, str]] = {}
+    with open(path, 'rb') as f:
+        head = f.read(LEADING_BYTES)
+    pos, first = len(MAGIC), True
+    while pos + RECORD_HEAD <= len(head):
+        op, length = struct.unpack_from('<BQ', head, pos)
+        body = head[pos + RECORD_HEAD:pos + RECORD_HEAD + length]
+        if len(body) != length or op != (OP_HEADER if first else OP_METADATA):
+            break
+        if op == OP_METADATA:
+            try:
+                record = _parse_exact(Metadata, body)
+            except _PARSE_ERRORS:
+                break
+            out[record.name] = dict(record.metadata)
+        pos, first = pos + RECORD_HEAD + length, False
+    return out
 
 
 def looks_like_mcap(path: Path) -> bool:

@@ -21,6 +21,10 @@ MCAP conventions of rosbag2's mcap storage plugin: profile `ros2`, schemas `ros2
 The writer adds a data-section CRC and repeats the schema and channel records at the start of every chunk,
 so each chunk can be read (and its topics named) on its own. Reading goes through `iguana_ros.bag.scan`:
 every intact chunk is recovered, and what was damaged or missing is reported, never passed off as sound.
+
+The bag's time base (`iguana_ros.bag.sim_time`: 'simulated', log times from /clock, or 'wall', receive times) is
+a Metadata record named `iguana_ros` written right after the Header (so a killed recorder's bag keeps it) and
+metadata.yaml's `custom_data`; a bag without it (older bags, other recorders) is taken as 'wall'.
 """
 from __future__ import annotations
 
@@ -37,7 +41,9 @@ from mcap.writer import CompressionType, Writer
 import yaml
 
 from iguana_ros.bag.metadata import check_metadata, load_metadata, relative_files
-from iguana_ros.bag.scan import Health, looks_like_mcap, Scan
+from iguana_ros.bag.scan import Health, leading_metadata, looks_like_mcap, Scan
+from iguana_ros.bag.sim_time import (CLOCK_TOPIC, CUSTOM_DATA_KEYS, METADATA_NAME, TIME_BASE_WALL,
+                                     TIME_BASES)
 from iguana_ros.errors import IguanaError, InputError
 
 PROFILE = 'ros2'
@@ -162,7 +168,10 @@ class BagWriter:
     """
 
     def __init__(self, directory: str | Path, chunk_bytes: int = CHUNK_BYTES,
-                 chunk_age_s: float = CHUNK_AGE_S) -> None:
+                 chunk_age_s: float = CHUNK_AGE_S, time_base: str = TIME_BASE_WALL) -> None:
+        if time_base not in TIME_BASES:
+            raise ValueError(f'time_base must be one of {TIME_BASES}, got {time_base!r}')
+        self.time_base = time_base
         self.directory = Path(directory)
         if self.directory.exists():
             raise InputError(f'output {self.directory} already exists; choose a new bag directory')
@@ -181,6 +190,7 @@ class BagWriter:
         if not (hasattr(self._writer, '_Writer__finalize_chunk') and hasattr(self._writer, '_Writer__chunk_builder')):
             raise RuntimeError('this mcap version has no chunk finaliser; age-bounded chunks need mcap>=1.1')
         self._writer.start(profile=PROFILE, library=_library())
+        self._writer.add_metadata(METADATA_NAME, self.time_base_record())
         self._file.flush()
         self.failed: OSError | None = None
         self.chunk_bytes = chunk_bytes
@@ -193,6 +203,10 @@ class BagWriter:
         self._last_ns = 0
         self.closed = False
         self._written = self._snapshot()
+
+    def time_base_record(self) -> dict[str, str]:
+        """Return the map of the `iguana_ros` Metadata record: time_base and clock_topic."""
+        return {'time_base': self.time_base, 'clock_topic': CLOCK_TOPIC}
 
     def add_topic(self, name: str, type_name: str, schema_text: str,
                   offered_qos_profiles: str = '', type_hash: str = '') -> int:
@@ -214,7 +228,12 @@ class BagWriter:
         return channel_id
 
     def write(self, channel_id: int, data: bytes, log_time: int, publish_time: int | None = None) -> None:
-        """Append one serialized message (times in ns since the epoch); BagWriteError when the disk is full."""
+        """
+        Append one serialized message; BagWriteError when the disk is full.
+
+        Times are ns: `log_time` in the bag's time base (since the epoch on wall time), `publish_time` the publisher's
+        send time (wall clock; `log_time` when None).
+        """
         try:
             self._write(channel_id, data, log_time, publish_time)
         except OSError as exc:
@@ -374,7 +393,8 @@ class BagWriter:
             'relative_file_paths': [self.path.name],
             'files': [{'path': self.path.name, 'starting_time': {'nanoseconds_since_epoch': start},
                        'duration': {'nanoseconds': duration}, 'message_count': count}],
-            'custom_data': None, 'ros_distro': ROS_DISTRO}}
+            'custom_data': {CUSTOM_DATA_KEYS[k]: v for k, v in self.time_base_record().items()},
+            'ros_distro': ROS_DISTRO}}
 
 
 @dataclass
@@ -401,6 +421,9 @@ class BagSummary:
     metadata_problems: list[str] = field(default_factory=list)
     bag: Path | None = None
     """The bag as given (its directory, or the file)."""
+    time_base: str = TIME_BASE_WALL
+    """'simulated' (log times from `clock_topic`) or 'wall' (receive times; also a bag that does not say)."""
+    clock_topic: str = CLOCK_TOPIC
 
     @property
     def sound(self) -> bool:
@@ -521,7 +544,28 @@ def summarize(path: str | Path, verify: bool = True) -> BagSummary:
                          health=health, bag=Path(path))
     if Path(path).is_dir():
         summary.metadata_problems = _metadata_problems(Path(path), mcap, scan)
+    summary.time_base, summary.clock_topic = time_base_of(path, mcap)
     return summary
+
+
+def time_base_of(path: str | Path, mcap: Path | None = None) -> tuple[str, str]:
+    """
+    (time base, clock topic) of a bag: its `iguana_ros` Metadata record, else metadata.yaml's custom_data, else wall.
+
+    Bags recorded before the time base was written (and by other recorders) have neither: they are on wall time.
+    """
+    mcap = mcap or resolve_bag_file(path)
+    record = leading_metadata(mcap).get(METADATA_NAME, {})
+    if record.get('time_base') not in TIME_BASES and Path(path).is_dir():
+        info, _ = load_metadata(path)
+        custom = info.get('custom_data') if isinstance(info, dict) else None
+        if isinstance(custom, dict):
+            record = {k: custom.get(key) for k, key in CUSTOM_DATA_KEYS.items()}
+    time_base = record.get('time_base')
+    if time_base not in TIME_BASES:
+        return TIME_BASE_WALL, CLOCK_TOPIC
+    clock = record.get('clock_topic')
+    return time_base, clock if isinstance(clock, str) and clock else CLOCK_TOPIC
 
 
 def _metadata_problems(directory: Path, mcap: Path, scan: Scan) -> list[str]:

@@ -33,6 +33,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      help='close a chunk at least every S seconds (default 1)')
     rec.add_argument('--duration', type=float, default=None, metavar='S',
                      help='stop after S seconds (default: until Ctrl-C / SIGTERM)')
+    rec.add_argument('--use-sim-time', action='store_true',
+                     help='log times from /clock (simulated time), as ros2 bag record --use-sim-time, so the bag '
+                          'replays at the simulated pace (default: wall-clock receive times; iguana run always '
+                          'records on simulated time)')
     rec.set_defaults(func=run, takes_ros_args=True)
     rec.epilog = '--ros-args ... at the end goes to the recorder node (e.g. the remaps a run gives its nodes)'
 
@@ -41,7 +45,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     play.add_argument('--rate', type=float, default=1.0, help='playback speed factor (default 1)')
     play.add_argument('--loop', action='store_true', help='start again at the end, until Ctrl-C')
     play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
-    play.add_argument('--clock', action='store_true', help='publish /clock from the bag time (40 Hz)')
+    play.add_argument('--clock', action='store_true',
+                      help='give subscribers with use_sim_time one /clock: the recorded /clock if the bag has one '
+                           '(played even if --topics leaves it out), else one from the bag time (40 Hz)')
     play.add_argument('--wait-for-subscribers', type=float, default=0.5, metavar='S',
                       help='wait up to S s for every topic to have a subscriber first (default 0.5)')
     add_allow_damaged(play, 'play the messages of every intact chunk of a damaged or truncated bag')
@@ -87,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from iguana_ros.bag.storage import BagWriteError, DISK_FULL_EXIT
     try:
         record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration,
-               ros_args=getattr(args, 'ros_args', ()))
+               use_sim_time=args.use_sim_time, ros_args=getattr(args, 'ros_args', ()))
     except BagWriteError as exc:                      # a full disk: one line, the bag finalised from what was written
         print(f'iguana bag record: error: {exc}', file=sys.stderr, flush=True)
         return DISK_FULL_EXIT

@@ -368,7 +368,7 @@ class SceneRun:
 
     def start(self) -> None:
         """Start the recorder first (so it sees every topic), then the nodes."""
-        recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '-o', str(self.bag)]
+        recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '--use-sim-time', '-o', str(self.bag)]
         recorder += ['--ros-args', *self.options.ros_args] if self.options.ros_args else []   # remaps recorded as is
         if self.monitor is not None:
             self.monitor.launched()
@@ -524,7 +524,7 @@ class SceneRun:
         """
         Return the run's outcome from data.
 
-        How far it got and the loop's wall time from the bag (last iguana_state stamp; receive times of the first and
+        How far it got and the loop's wall time from the bag (last iguana_state stamp; send times of the first and
         last), the total from the supervisor's clock, goal and gait figures from the recorded messages (what a bag lacks
         is named in the gait lines, never raised).
         """

@@ -39,8 +39,9 @@ class BagProgress:
     """
     One pass over a run's bag.
 
-    Messages per topic, receive times (ns) of the first and last iguana_state, whether the file was finalised (summary
-    section and metadata.yaml written) and what ended it early.
+    Messages per topic, wall-clock send times (ns, the messages' publish times: a run's log times are simulated) of the
+    first and last iguana_state, whether the file was finalised (summary section and metadata.yaml written) and what
+    ended it early.
     """
 
     exists: bool = False
@@ -57,7 +58,7 @@ class BagProgress:
 
     @property
     def loop_wall_s(self) -> float:
-        """Wall seconds from the first to the last iguana_state the recorder received (0 if fewer than 2)."""
+        """Wall seconds from the first to the last iguana_state the simulator sent (0 if fewer than 2)."""
         return max(0.0, (self.state_last_ns - self.state_first_ns) / 1e9)
 
     def note(self) -> str:
@@ -85,8 +86,8 @@ def bag_progress(bag: Path) -> BagProgress:
     for msg in reader.messages():
         progress.counts[msg.topic] = progress.counts.get(msg.topic, 0) + 1
         if msg.topic == STATE_TOPIC:
-            progress.state_first_ns = progress.state_first_ns or msg.log_time
-            progress.state_last_ns = msg.log_time
+            progress.state_first_ns = progress.state_first_ns or msg.publish_time
+            progress.state_last_ns = msg.publish_time
     progress.problem = reader.problem
     progress.finalised = not reader.truncated and (Path(bag) / 'metadata.yaml').is_file()
     return progress
@@ -98,8 +99,8 @@ class RunSummary:
     What a run reports.
 
     `exit_code`: 0 completed, 1 failed, 128 + n stopped by signal n. `simulated_s` is the last recorded iguana_state
-    stamp, `wall_s` the recorder's wall time from the first to the last of them; `message` holds the last lines of the
-    node that failed.
+    stamp, `wall_s` the wall time from the first to the last of them (their send times); `message` holds the last
+    lines of the node that failed.
     """
 
     scene: str

@@ -16,7 +16,9 @@
 A recorded bag read into a `RunView` for the timeline.
 
 Every mesh frame, the root's states, the feet, pushes, clips, terrain and goals, in one pass over the bag (the same
-decoders as live mode: the nodes' own, on the recorded bytes).
+decoders as live mode: the nodes' own, on the recorded bytes). Wall time is each message's publish time (its
+publisher's send time, wall clock in every bag): a run's log times are simulated time, which would make the realtime
+factor 1.
 """
 from __future__ import annotations
 
@@ -80,19 +82,19 @@ def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None
     pushes, scenes = [], []
     takers: dict[str, Callable] = {
         'mesh_marker': lambda data, _: decode.take_mesh(view, data),
-        'scene_markers': lambda data, log_ns: scenes.append((log_ns, data)),
-        'iguana_state': lambda data, log_ns: decode.take_state(view, data, log_ns / NS),
+        'scene_markers': lambda data, wall_ns: scenes.append((wall_ns, data)),
+        'iguana_state': lambda data, wall_ns: decode.take_state(view, data, wall_ns / NS),
         'foot_state': lambda data, _: decode.take_foot_state(view, data),
         'foot_positions': lambda data, _: decode.take_foot_positions(view, data),
         'motion_clip': lambda data, _: decode.take_clip(view, data, library or {}),
-        'push': lambda data, log_ns: pushes.append((log_ns, data)),
+        'push': lambda data, wall_ns: pushes.append((wall_ns, data)),
     }
     for record in BagReader(path).messages():
         key = roles.get(record.topic)
         if key is None:
             continue
         try:
-            takers[key](bytes(record.data), record.log_time)
+            takers[key](bytes(record.data), record.publish_time)
         except IguanaError as exc:  # a message that does not decode or fit: counted, not fatal
             skipped.setdefault(key, [0, str(exc)])[0] += 1
     _place_by_receive_time(view, scenes, pushes, push_duration, skipped)
@@ -106,8 +108,8 @@ def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_durat
     """
     Scene markers and pushes carry no simulated time.
 
-    Each takes the simulated time of the states received around it (from the recorder's receive times); one that does
-    not decode is counted in `skipped`.
+    Each takes the simulated time of the states sent around it (from the messages' wall-clock send times); one that
+    does not decode is counted in `skipped`.
     """
     states = view.states
     walls, times = states.values[:, 5], states.times

@@ -15,11 +15,12 @@
 """
 Test helper process: publishes several topics of the table as serialized bytes and dumps them.
 
-Usage: publish_topics.py DUMP_FILE [--duration S] [--rate HZ] [--wait-subscribers S]
+Usage: publish_topics.py DUMP_FILE [--duration S] [--rate HZ] [--wait-subscribers S] [--clock]
 1. publishes scene_markers (transient-local) once and prints 'latched published';
 2. waits until the periodic topics have a subscriber (e.g. a recorder), up to --wait-subscribers;
 3. publishes goal_pose, iguana_state, spring_rest_lengths and mesh_marker at --rate for --duration s,
-   writing each message's bytes to DUMP_FILE as it goes (so a killed run still leaves a prefix).
+   writing each message's bytes to DUMP_FILE as it goes (so a killed run still leaves a prefix); with --clock,
+   /clock first in each frame, at the frames' stamps (100 s + i / rate), like the simulator.
 Every message is serialized here, zero-padded to a multiple of 4 bytes (as Fast DDS delivers it)
 and published raw, so the bytes on the wire are exactly the dump.
 """
@@ -54,6 +55,7 @@ def main() -> int:
     parser.add_argument('--duration', type=float, default=2.0)
     parser.add_argument('--rate', type=float, default=20.0)
     parser.add_argument('--wait-subscribers', type=float, default=15.0)
+    parser.add_argument('--clock', action='store_true')
     args = parser.parse_args()
 
     import time
@@ -62,6 +64,7 @@ def main() -> int:
     import rclpy
     from rclpy.duration import Duration
     from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
 
     from iguana_ros.ros import conversions as cv
     from iguana_ros.ros.endpoints import resolve
@@ -71,7 +74,7 @@ def main() -> int:
     node = rclpy.create_node('test_publisher')
     pubs = {key: node.create_publisher(cls, name, qos) for key, (name, cls, qos) in
             ((k, resolve(k)) for k in ('scene_markers', 'goal_pose', 'iguana_state',
-                                       'spring_rest_lengths', 'mesh_marker'))}
+                                       'spring_rest_lengths', 'mesh_marker', *(['clock'] if args.clock else [])))}
     records = []
 
     def send(key: str, msg) -> None:
@@ -92,6 +95,8 @@ def main() -> int:
     t0 = time.monotonic()
     i = 0
     while time.monotonic() - t0 < args.duration:
+        if args.clock:
+            send('clock', Clock(clock=cv.time_to_msg(100.0 + i / args.rate)))
         for key, msg in build_messages(i, 100.0 + i / args.rate).items():
             send(key, msg)
         write_dump(args.dump, records)

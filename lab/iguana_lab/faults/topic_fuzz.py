@@ -471,8 +471,9 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
     """
     Every recorded message that is not one of `sent` (topic, bytes), deserialized and scanned for non-finite floats.
 
-    The iguana_state messages are kept (serialized) for the trajectory; the recorded faults are counted, and those the
-    recorder received between the first and the last /clock message (while the simulator ran).
+    The iguana_state messages are kept (serialized) for the trajectory; the recorded faults are counted, and those sent
+    between the first and the last /clock message (while the simulator ran; by publish times, the wall clock: a run's
+    log times are simulated, and a fault received before the first /clock is logged at its time).
     """
     from rclpy.serialization import deserialize_message
 
@@ -488,10 +489,10 @@ def scan_bag(bag: str | Path, sent: list[tuple[str, bytes]]) -> BagScan:
         data = bytes(record.data)
         if fuzz[(record.topic, data)] > 0:
             fuzz[(record.topic, data)] -= 1
-            fuzz_times.append(record.log_time)
+            fuzz_times.append(record.publish_time)
             continue
         if record.topic == '/clock':
-            clock_times.append(record.log_time)
+            clock_times.append(record.publish_time)
         info = reader.topic(record.channel_id)
         if info.type not in classes:
             classes[info.type] = message_class(info.type)
