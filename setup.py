@@ -148,7 +148,7 @@ setup(
         # dependency lists leave out some of what their CMake configs load, named here one by one), the Python
         # modules that parse package.xml. A C and a C++ compiler come from the machine (gcc, g++).
         'interfaces': [
-            'cmake>=3.22',
+            'cmake>=3.22,<5',   # built with 3.25 (Debian) and 4.4 (PyPI)
             'catkin-pkg>=0.5',
             'ros-jazzy-ament-package',
             'ros-jazzy-ament-cmake',

@@ -229,10 +229,12 @@ def test_step_service_advances_the_frame_counter(server, client_node):
     first = _wait(client_node, client.call_async(Step.Request(frames=10)))
     second = _wait(client_node, client.call_async(Step.Request(frames=5)))
     refused = _wait(client_node, client.call_async(Step.Request(frames=0)))
-    assert (first.success, first.frame, second.success, second.frame) == (True, 10, True, 15)
-    assert second.time == pytest.approx(15 * interfaces_peer.STEP_DT)
+    # the server (one per module) keeps its counter: it starts at 0, and a repeated test finds it further on
+    assert first.success and first.frame >= 10 and first.frame % 5 == 0
+    assert (second.success, second.frame) == (True, first.frame + 5)
+    assert second.time == pytest.approx(second.frame * interfaces_peer.STEP_DT)
     assert second.message == 'advanced 5 frames'
-    assert (refused.success, refused.frame, refused.message) == (False, 15, 'frames must be at least 1')
+    assert (refused.success, refused.frame, refused.message) == (False, second.frame, 'frames must be at least 1')
     client_node.destroy_client(client)
 
 
