@@ -87,11 +87,11 @@ def test_push_with_a_duration_moves_the_body_sideways(running):
 def test_follow_waypoints_passes_them_in_order_with_feedback(running):
     run, iguana = running
     start = iguana.state().position[:2]
-    points = [start + [0.7, 0.0], start + [0.7, 0.7]]
+    points = [start + [1.0, 0.0], start + [1.0, 0.7]]    # the first leg several strides long: its feedback is seen
     iguana.follow_waypoints(points, yaw=np.pi / 2, timeout=30.0)
     heading_for = []
-    for _ in range(120):
-        if iguana.wait_until_reached(timeout=1.0):
+    for _ in range(1200):
+        if iguana.wait_until_reached(timeout=0.1):
             break
         heading_for.append(iguana.feedback().waypoint)
     done = iguana.feedback()
