@@ -140,7 +140,7 @@ def test_every_goal_the_planner_accepted_during_a_recorded_run_is_in_the_bag(tmp
     from iguana_ros.bag.storage import BagReader
     scene = tmp_path / 'goals.yaml'
     scene.write_text(yaml.safe_dump({'model': {'resolution': 'coarse'}, 'terrain': {'kind': 'flat'},
-                                     'goals': [{'x': 1.0, 'y': 0.0}], 'duration': 40.0}))
+                                     'goals': [{'x': 1.0, 'y': 0.0}], 'duration': 300.0}))   # stopped below
     bag = tmp_path / 'bag'
     run = NodeProcess([*IGUANA, 'run', str(scene), '--mode', 'realtime', '--record', str(bag)], 'run', tmp_path)
     with run.start():
