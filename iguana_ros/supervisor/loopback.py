@@ -27,7 +27,7 @@ import sys
 import time
 import uuid
 
-from iguana_ros.doctor.checks import Check
+from iguana_ros.doctor.checks import Check, DISCOVERY_ENV
 from iguana_ros.supervisor.domain_check import current_domain_id, DomainWatch
 from iguana_ros.supervisor.process import NodeProcess, stop_all
 
@@ -45,9 +45,6 @@ LOOPBACK_TIMEOUT_S = 15.0
 
 ECHO_LIFETIME_S = 60.0
 """Wall seconds after which the echo process leaves by itself (its parent stops it long before)."""
-
-DISCOVERY_RANGE_ENV = 'ROS_AUTOMATIC_DISCOVERY_RANGE'
-"""Environment variable that limits DDS discovery (LOCALHOST, SUBNET, OFF, SYSTEM_DEFAULT)."""
 
 
 @dataclass(frozen=True)
@@ -122,10 +119,10 @@ def loopback(watch: DomainWatch, timeout: float = LOOPBACK_TIMEOUT_S) -> Loopbac
 
 def loopback_fix() -> str:
     """Return what to change when two processes on this machine cannot reach each other over DDS."""
-    scope = os.environ.get(DISCOVERY_RANGE_ENV, '').strip().upper()
+    scope = os.environ.get(DISCOVERY_ENV, '').strip().upper()
     if scope == 'OFF':
-        return f'{DISCOVERY_RANGE_ENV}=OFF turns discovery off: export {DISCOVERY_RANGE_ENV}=LOCALHOST'
-    hints = [f'export {DISCOVERY_RANGE_ENV}=LOCALHOST (processes on this machine only)']
+        return f'{DISCOVERY_ENV}=OFF turns discovery off: export {DISCOVERY_ENV}=LOCALHOST'
+    hints = [f'export {DISCOVERY_ENV}=LOCALHOST (processes on this machine only)']
     for name in ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE', 'ROS_STATIC_PEERS'):
         if os.environ.get(name):
             hints.append(f'check or unset {name}={os.environ[name]}')
@@ -140,9 +137,9 @@ def check_loopback(result: LoopbackResult, domain: str) -> Check:
     if result.ok:
         return Check(name, True, f'a second process echoed a message in {result.seconds:.2f} s '
                      '(start-up and discovery included)')
-    scope = os.environ.get(DISCOVERY_RANGE_ENV, '') or 'unset'
+    scope = os.environ.get(DISCOVERY_ENV, '') or 'unset'
     return Check(name, False, f'{result.why}: processes cannot reach each other over DDS '
-                 f'({DISCOVERY_RANGE_ENV} {scope})', loopback_fix())
+                 f'({DISCOVERY_ENV} {scope})', loopback_fix())
 
 
 def check_loopback_now(timeout: float = LOOPBACK_TIMEOUT_S) -> Check:
