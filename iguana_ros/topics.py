@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The topic table of msg_configs/topics.yaml as plain data (ROS-free); the only source of topic names."""
+"""The topic, service and action tables of msg_configs/topics.yaml (ROS-free): the one source of their names."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -63,6 +63,18 @@ class TopicSpec:
         return tuple(entry.split()[0] for entry in self.publishers if entry.split()[0] in NODE_EXECUTABLES)
 
 
+@dataclass(frozen=True)
+class InterfaceSpec:
+    """One row of the service or action table: key, ROS name, service or action type, its server and clients."""
+
+    key: str
+    name: str
+    type: str  # noqa: A003 - the `type` key of msg_configs/topics.yaml
+    server: str
+    clients: tuple = field(default_factory=tuple)
+    description: str = ''
+
+
 class TopicConfigError(ValueError):
     """msg_configs/topics.yaml is malformed; the message names the file and the field."""
 
@@ -99,22 +111,79 @@ def _parse_topic(key: str, raw: dict, source: Path) -> TopicSpec:
         subscribers=tuple(raw.get('subscribers') or ()), description=raw.get('description', ''))
 
 
-def load_topics(path: Path | None = None) -> dict[str, TopicSpec]:
-    """Read the topic table (default msg_configs/topics.yaml) into {key: TopicSpec}."""
-    source = Path(path) if path is not None else config_path('topics.yaml')
+def _parse_interface(section: str, kind: str, key: str, raw: dict, source: Path) -> InterfaceSpec:
+    """Validate and build one row of the `services` (kind 'srv') or `actions` (kind 'action') table."""
+    if not isinstance(raw, dict):
+        raise TopicConfigError(f'{source}: {section}.{key} must be a mapping')
+    for required in ('name', 'type', 'server'):
+        if required not in raw:
+            raise TopicConfigError(f'{source}: {section}.{key} lacks the field {required!r}')
+    if raw['type'].count('/') != 2 or f'/{kind}/' not in raw['type']:
+        raise TopicConfigError(f'{source}: {section}.{key}.type is {raw["type"]!r}, expected package/{kind}/Type')
+    unknown = set(raw) - set(InterfaceSpec.__dataclass_fields__)
+    if unknown:
+        raise TopicConfigError(f'{source}: {section}.{key} has unknown fields {sorted(unknown)}')
+    return InterfaceSpec(key=key, name=raw['name'], type=raw['type'], server=raw['server'],
+                         clients=tuple(raw.get('clients') or ()), description=raw.get('description', ''))
+
+
+def _read_table(source: Path) -> dict:
+    """Return the parsed YAML mapping of the table file `source`, which has a `topics:` mapping."""
     try:
         data = yaml.safe_load(source.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise TopicConfigError(f'{source}: cannot read topic table: {exc}') from exc
     if not isinstance(data, dict) or not isinstance(data.get('topics'), dict):
         raise TopicConfigError(f'{source}: expected a top-level mapping "topics:"')
-    return {key: _parse_topic(key, raw, source) for key, raw in data['topics'].items()}
+    for section in ('services', 'actions'):
+        if not isinstance(data.get(section) or {}, dict):
+            raise TopicConfigError(f'{source}: "{section}:" must be a mapping')
+    return data
+
+
+def load_topics(path: Path | None = None) -> dict[str, TopicSpec]:
+    """Read the topic table (default msg_configs/topics.yaml) into {key: TopicSpec}."""
+    source = Path(path) if path is not None else config_path('topics.yaml')
+    return {key: _parse_topic(key, raw, source) for key, raw in _read_table(source)['topics'].items()}
+
+
+def load_interfaces(section: str, path: Path | None = None) -> dict[str, InterfaceSpec]:
+    """Read the `services` or `actions` table (default msg_configs/topics.yaml) into {key: InterfaceSpec}."""
+    kinds = {'services': 'srv', 'actions': 'action'}
+    if section not in kinds:
+        raise ValueError(f'unknown table {section!r}; expected one of {sorted(kinds)}')
+    source = Path(path) if path is not None else config_path('topics.yaml')
+    rows = _read_table(source).get(section) or {}
+    return {key: _parse_interface(section, kinds[section], key, raw, source) for key, raw in rows.items()}
 
 
 @lru_cache(maxsize=1)
 def default_topics() -> dict[str, TopicSpec]:
     """Return the package's topic table, read once per process."""
     return load_topics()
+
+
+@lru_cache(maxsize=2)
+def default_interfaces(section: str) -> dict[str, InterfaceSpec]:
+    """Return the package's `services` or `actions` table, read once per process."""
+    return load_interfaces(section)
+
+
+def service(key: str) -> InterfaceSpec:
+    """Return the InterfaceSpec of service `key` (e.g. 'sim_pause'); KeyError lists the known keys."""
+    return _row(default_interfaces('services'), 'service', key)
+
+
+def action(key: str) -> InterfaceSpec:
+    """Return the InterfaceSpec of action `key` (e.g. 'go_to_pose'); KeyError lists the known keys."""
+    return _row(default_interfaces('actions'), 'action', key)
+
+
+def _row(table: dict, kind: str, key: str):
+    """Return `table[key]`, or KeyError naming the kind and the known keys."""
+    if key not in table:
+        raise KeyError(f'unknown {kind} key {key!r}; known: {sorted(table)}')
+    return table[key]
 
 
 def topic(key: str) -> TopicSpec:

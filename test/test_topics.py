@@ -15,7 +15,8 @@
 """The topic table in msg_configs/ parses, and bad tables give errors naming file and field."""
 import pytest
 
-from iguana_ros.topics import default_topics, load_topics, topic, TopicConfigError
+from iguana_ros.topics import (action, default_interfaces, default_topics, load_interfaces, load_topics, service, topic,
+                               TopicConfigError)
 
 DESIGN_KEYS = {'goal_pose', 'motion_clip', 'reference_pose', 'spring_rest_lengths', 'iguana_state',
                'mesh_marker', 'scene_markers', 'push', 'clock'}
@@ -75,3 +76,34 @@ def test_ros_profiles_resolve():
         name, cls, qos = endpoints.resolve(key)
         assert name and cls.__name__ == topic(key).type.split('/')[-1]
     assert endpoints.resolve('scene_markers')[2].durability == DurabilityPolicy.TRANSIENT_LOCAL
+
+
+def test_services_and_actions_are_declared_with_their_types_and_servers():
+    assert set(default_interfaces('services')) == {'sim_pause', 'sim_resume', 'sim_step', 'sim_reset'}
+    assert service('sim_step').type == 'iguana_interfaces/srv/Step'
+    assert all(s.server == 'simulator_node' and not s.name.startswith('/')
+               for s in default_interfaces('services').values())
+    assert action('go_to_pose').server == 'planner_node'
+    with pytest.raises(KeyError, match='sim_pause'):
+        service('nope')
+
+
+def test_services_and_actions_resolve_to_importable_classes():
+    from iguana_ros.ros.endpoints import resolve_action, resolve_service
+    name, cls = resolve_service('sim_reset')
+    assert name == 'sim/reset' and hasattr(cls, 'Request')
+    name, cls = resolve_action('go_to_pose')
+    assert name == 'go_to_pose' and hasattr(cls, 'Feedback')
+
+
+@pytest.mark.parametrize('body, field', [
+    ('services: {a: {name: a, type: std_srvs/srv/Trigger}}', "'server'"),
+    ('services: {a: {name: a, type: std_srvs/msg/Trigger, server: s}}', 'services.a.type'),
+    ('services: {a: {name: a, type: std_srvs/srv/Trigger, server: s, port: 3}}', 'unknown fields'),
+    ('services: [a]', '"services:" must be a mapping'),
+])
+def test_bad_service_tables_name_the_field(tmp_path, body, field):
+    path = tmp_path / 'topics.yaml'
+    path.write_text('topics: {}\n' + body + '\n')
+    with pytest.raises(TopicConfigError, match=field):
+        load_interfaces('services', path)

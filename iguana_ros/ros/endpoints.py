@@ -20,7 +20,7 @@ import importlib
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from iguana_ros.topics import QosSpec, topic, TopicSpec
+from iguana_ros.topics import action, QosSpec, service, topic, TopicSpec
 
 _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE, 'best_effort': ReliabilityPolicy.BEST_EFFORT}
 _DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
@@ -44,7 +44,7 @@ def qos_profile(spec: QosSpec) -> QoSProfile:
 
 
 def message_class(type_name: str) -> type:
-    """Import a message class from 'package/msg/Type'; ValueError with the name if it is unknown."""
+    """Import a message, service or action class from 'package/msg/Type' (srv, action); ValueError if unknown."""
     try:
         package, kind, name = type_name.split('/')
         return getattr(importlib.import_module(f'{package}.{kind}'), name)
@@ -56,6 +56,18 @@ def resolve(key: str) -> tuple[str, type, QoSProfile]:
     """(topic name, message class, QoS profile) of topic `key` from msg_configs/topics.yaml."""
     spec: TopicSpec = topic(key)
     return spec.name, message_class(spec.type), qos_profile(spec.qos)
+
+
+def resolve_service(key: str) -> tuple[str, type]:
+    """Return the (service name, service class) of service `key` from msg_configs/topics.yaml."""
+    spec = service(key)
+    return spec.name, message_class(spec.type)
+
+
+def resolve_action(key: str) -> tuple[str, type]:
+    """Return the (action name, action class) of action `key` from msg_configs/topics.yaml."""
+    spec = action(key)
+    return spec.name, message_class(spec.type)
 
 
 def tool_node(name: str, context):
