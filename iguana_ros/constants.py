@@ -50,6 +50,15 @@ N_MARKERS = 15
 WORLD_FRAME = 'world'
 """frame_id of the fixed world frame used by every stamped message."""
 
+ODOM_FRAME = 'odom'
+"""REP-105 odometry frame: a static identity child of the world frame on /tf_static."""
+
+MAP_FRAME = 'map'
+"""REP-105 map frame: coincides with the world frame (the terrain is the map)."""
+
+GOAL_FRAMES = (WORLD_FRAME, MAP_FRAME, ODOM_FRAME)
+"""frame_ids a goal or route may have: frames that coincide with the world frame, so no transform is needed."""
+
 BASE_FRAME = 'iguana/base_link'
 """child_frame_id of the iguana's root (pelvis) in odometry."""
 

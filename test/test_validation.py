@@ -62,8 +62,10 @@ def test_goal_off_the_terrain_or_stamped_before_zero_is_rejected_by_the_one_goal
     twisted.pose.orientation.z = float('inf')
     with pytest.raises(InputError, match='goal orientation has 1 non-finite'):
         m.goal_from_msg(twisted, half_extent=5.0)
-    with pytest.raises(InputError, match="frame_id 'map'"):
-        m.goal_from_msg(goal_message(1.0, 1.0, frame_id='map'), half_extent=5.0)
+    with pytest.raises(InputError, match="frame_id 'base_link', expected 'world' or 'map' or 'odom'"):
+        m.goal_from_msg(goal_message(1.0, 1.0, frame_id='base_link'), half_extent=5.0)
+    for frame in ('map', 'odom'):                  # REP-105 frames that coincide with the world frame
+        assert m.goal_from_msg(goal_message(1.0, 1.0, frame_id=frame), half_extent=5.0).xy.tolist() == [1.0, 1.0]
 
 
 def test_desired_lengths_must_lie_within_the_factor_of_rest(model):
@@ -174,5 +176,6 @@ def test_a_route_is_checked_waypoint_by_waypoint_and_keeps_only_the_last_heading
         m.route_from_msg(route_message([(1.0, 0.0), (9.0, 1.0)]), half_extent=5.0)
     with pytest.raises(InputError, match='route has 0 waypoints, expected 1 to'):
         m.route_from_msg(route_message([]), half_extent=5.0)
-    with pytest.raises(InputError, match="frame_id 'map'"):
-        m.route_from_msg(route_message([(1.0, 0.0)], frame_id='map'), half_extent=5.0)
+    with pytest.raises(InputError, match="frame_id 'iguana/head'"):
+        m.route_from_msg(route_message([(1.0, 0.0)], frame_id='iguana/head'), half_extent=5.0)
+    assert len(m.route_from_msg(route_message([(1.0, 0.0)], frame_id='odom'), half_extent=5.0).waypoints) == 1

@@ -29,7 +29,7 @@ import numpy as np
 from std_msgs.msg import Header
 
 from iguana_ros.body.skeleton import FEET
-from iguana_ros.constants import BASE_FRAME, FRAME_RATE, MAX_CLIP_FRAMES, WORLD_FRAME
+from iguana_ros.constants import BASE_FRAME, FRAME_RATE, GOAL_FRAMES, MAX_CLIP_FRAMES, WORLD_FRAME
 from iguana_ros.errors import InputError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.motion.motion_graph import AlignedClip
@@ -49,10 +49,11 @@ DEFAULT_PUSH_REGION = 'trunk_left'
 """The region a push whose header.frame_id is empty acts on."""
 
 
-def check_frame_id(what: str, frame_id: str) -> None:
-    """`InputError` unless `frame_id` is the world frame."""
-    if frame_id != WORLD_FRAME:
-        raise InputError(f'{what} has frame_id {frame_id!r}, expected {WORLD_FRAME!r}')
+def check_frame_id(what: str, frame_id: str, allowed: tuple = (WORLD_FRAME,)) -> None:
+    """`InputError` unless `frame_id` is one of `allowed` (default: the world frame)."""
+    if frame_id not in allowed:
+        expected = ' or '.join(repr(f) for f in allowed)
+        raise InputError(f'{what} has frame_id {frame_id!r}, expected {expected}')
 
 
 def clip_to_cdr(clip: AlignedClip, skeleton, start_frame: int) -> bytes:
@@ -250,18 +251,18 @@ def goal_from_msg(msg, half_extent: float) -> GoalRequest:
     On a terrain reaching `half_extent` m from the origin; InputError if its frame, numbers, orientation or stamp are
     wrong or the goal is off the terrain (`check_goal`).
     """
-    check_frame_id('goal_pose', msg.header.frame_id)
+    check_frame_id('goal_pose', msg.header.frame_id, GOAL_FRAMES)
     position, orientation = pose_stamped_to_numpy(msg)
     return check_goal(position, orientation, time_from_msg(msg.header.stamp), half_extent)
 
 
 def route_from_msg(msg, half_extent: float) -> RouteRequest:
     """Return the RouteRequest of a route message (nav_msgs/Path): waypoints and adoption time (`check_route`)."""
-    check_frame_id('route', msg.header.frame_id)
+    check_frame_id('route', msg.header.frame_id, GOAL_FRAMES)
     if len(msg.poses) > MAX_WAYPOINTS:
         raise InputError(f'route has {len(msg.poses)} waypoints, expected at most {MAX_WAYPOINTS}')
     for pose in msg.poses:
-        check_frame_id('a route waypoint', pose.header.frame_id or WORLD_FRAME)
+        check_frame_id('a route waypoint', pose.header.frame_id or WORLD_FRAME, GOAL_FRAMES)
     positions, orientations = poses_from_msgs([p.pose for p in msg.poses])
     return check_route(positions, orientations, time_from_msg(msg.header.stamp), half_extent)
 

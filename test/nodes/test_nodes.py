@@ -134,7 +134,7 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
         bad = goal_message(0.0, 1.0)
         bad.pose.position.x = float('nan')  # a user's broken goal: the node must reject it
         goal_pub.publish(bad)
-        wrong_frame = goal_message(1.0, 1.0, frame_id='map')
+        wrong_frame = goal_message(1.0, 1.0, frame_id='base_link')
         goal_pub.publish(wrong_frame)
         goal_pub.publish(goal_message(0.3, 2.0))
         # the state goes out once the planner lists the goal (after the two bad ones, same publisher, in order)
@@ -152,7 +152,7 @@ def test_planner_turns_toward_a_goal_on_its_left(tmp_path, make_node, executor):
     turn = yaw_of(clip.local_rotations[-1, 0]) - yaw_of(clip.local_rotations[0, 0])
     assert turn > 0.1, f'expected a left turn, heading change {turn:.3f} rad'
     assert 'rejected goal_pose' in planner.output and 'non-finite' in planner.output
-    assert "frame_id 'map'" in planner.output
+    assert "frame_id 'base_link'" in planner.output
 
 
 def test_terrain_node_puts_stance_feet_on_a_tilted_plane(tmp_path, make_node, executor):

@@ -50,8 +50,8 @@ STALE_FRAMES = 40
 """A stale stamp is this many frames behind the newest /clock frame (or negative while the run is younger): more
 than any node can lag behind the simulator (a planner is at most one stride, 20 frames, behind)."""
 
-WRONG_FRAMES = ('map', 'odom', 'World', 'iguana/base_link', 'wing')
-"""Wrong frame_ids (for push: regions that are not node tags)."""
+WRONG_FRAMES = ('World', 'base_link', 'iguana/base_link', 'wing', 'map ')
+"""Wrong frame_ids (map and odom are goal frames; for push: regions that are not node tags)."""
 
 
 @dataclass
