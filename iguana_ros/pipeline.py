@@ -98,6 +98,10 @@ class Pipeline:
         self.frame += 1
         return root, quat, reference.joints, reference.rotations
 
+    def reset(self) -> None:
+        """Put the body back at the scene's start (`SimulatorStage.reset`): the simulator node's reset service."""
+        self.simulator.reset()
+
     def load_kernels(self) -> None:
         """Load every stage's compiled kernels (no state changes), so the first frame runs at the speed of the rest."""
         self.planner.load_kernels()

@@ -636,11 +636,26 @@ class SimulatorStage:
         self.live_pushes: list[PushSpec] = []
         self.watch = BodyWatch(terrain)
         self.sim = SoftBodySimulator(model, terrain, fidelity, **(options or {}))
-        self.sim.reset(positions=place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
-                                                  lift_only=True))
+        self.start_positions = place_on_terrain(model.rest_positions, terrain, xy=start_xy, yaw=start_yaw,
+                                                lift_only=True)
+        self.sim.reset(positions=self.start_positions)
         self.tracker = RootTracker(model)
         self._root, self._root_revision = None, -1
         self.frame = 0
+        self.resets = 0
+
+    def reset(self) -> None:
+        """
+        Put the body back at the scene's start pose, at rest, with no push acting (the simulator's reset service).
+
+        The frame count and simulated time go on, so clocks and bags stay monotonic; the scene's pushes still to
+        come are kept. The simulator then behaves as at frame 0: the first lengths ramp from rest.
+        """
+        self.sim.reset(positions=self.start_positions)
+        self.live_pushes = []
+        self.pushes = tuple(p for p in self.pushes if p.at >= self.time)
+        self.watch = BodyWatch(self.terrain)
+        self.resets += 1
 
     @property
     def time(self) -> float:
@@ -695,6 +710,44 @@ class SimulatorStage:
     def lost(self) -> BodyLoss | None:
         """Return the body's loss once it left the terrain or fell; None while it is on the terrain and upright."""
         return self.watch.lost
+
+
+@dataclasses.dataclass
+class SimControl:
+    """
+    Pause, resume and step of a frame loop (the simulator's services): whether the next frame may be simulated.
+
+    `step_until` is the frame at which a step pauses again (None: no step running).
+    """
+
+    paused: bool = False
+    step_until: int | None = None
+
+    def may_advance(self, frame: int) -> bool:
+        """Return whether frame `frame` may be simulated now."""
+        return not self.paused or (self.step_until is not None and frame < self.step_until)
+
+    def pause(self) -> None:
+        """Hold at the current frame (a running step stops too)."""
+        self.paused, self.step_until = True, None
+
+    def resume(self) -> None:
+        """Advance again."""
+        self.paused, self.step_until = False, None
+
+    def step(self, frame: int, frames: int) -> int:
+        """Advance `frames` frames from frame `frame`, then hold; return the frame the step ends at."""
+        if frames < 1:
+            raise InputError(f'a step needs at least 1 frame, got {frames}')
+        self.paused, self.step_until = True, frame + frames
+        return self.step_until
+
+    def step_done(self, frame: int) -> bool:
+        """Return whether the running step has reached frame `frame` (it ends there; the loop holds)."""
+        if self.step_until is None or frame < self.step_until:
+            return False
+        self.step_until = None
+        return True
 
 
 def simulator_stage(scene: Scene, fidelity: str | None = None, model=None,

@@ -86,6 +86,47 @@ def test_simulator_stage_fidelity_and_start_pose():
     assert float(yaw_of(quat)) == pytest.approx(np.pi / 2, abs=1e-6)
 
 
+def test_reset_puts_the_body_back_at_its_start_and_then_it_moves_as_a_fresh_one():
+    scene = _scene(pushes=[{'at': 0.05, 'force': [0.0, -20.0, 0.0], 'region': 'trunk_left', 'duration': 0.2},
+                           {'at': 0.4, 'force': [0.0, 20.0, 0.0], 'region': 'trunk_left', 'duration': 0.1}])
+    fresh, used = stages.simulator_stage(scene), stages.simulator_stage(scene)
+    start = fresh.sim.positions.copy()
+    rng = np.random.default_rng(3)
+    lengths = [fresh.model.spring_rest_lengths * rng.uniform(0.95, 1.05, len(fresh.model.springs)) for _ in range(5)]
+    for desired in lengths:
+        used.advance(desired)                        # frames 1-5 with the first push acting
+    used.add_push(np.array([0.0, 5.0, 0.0]), 'trunk_right', 0.5)
+    used.reset()
+    assert used.frame == 5 and used.time == pytest.approx(5 / FRAME_RATE) and used.resets == 1   # time goes on
+    assert np.array_equal(used.sim.positions, start) and not np.any(used.sim.velocities)
+    assert used.live_pushes == [] and [p.at for p in used.pushes] == [0.4]    # the later scene push is kept
+    assert np.array_equal(used.root_pose()[0], fresh.root_pose()[0])
+    fresh.pushes = used.pushes = ()                  # the same dynamics from here: no push on either
+    for desired in lengths:
+        fresh.advance(desired)
+        used.advance(desired)
+    assert np.array_equal(used.sim.positions, fresh.sim.positions)   # bit for bit, as from frame 0
+
+
+def test_sim_control_pauses_steps_exact_frames_and_resumes():
+    control = stages.SimControl()
+    assert control.may_advance(0)
+    control.pause()
+    assert not control.may_advance(7)
+    assert control.step(7, 3) == 10
+    assert [control.may_advance(f) for f in (7, 8, 9, 10)] == [True, True, True, False]
+    assert not control.step_done(9) and control.step_done(10) and not control.may_advance(10)
+    assert control.step_until is None and control.paused
+    control.step(10, 5)
+    control.pause()                                  # a pause ends a running step
+    assert not control.may_advance(10) and control.step_until is None
+    control.resume()
+    assert control.may_advance(10) and not control.step_done(11)
+    with pytest.raises(stages.InputError, match='at least 1 frame'):
+        control.step(0, 0)
+    assert stages.SimControl(paused=True).may_advance(0) is False
+
+
 def test_root_twist_of_a_rigid_motion():
     """Nodes moving rigidly (v = v_c + ω × (x − c) about the root region's centre c): the twist is (v_c, ω)."""
     sim = stages.simulator_stage(_scene(terrain={'kind': 'flat'}))

@@ -34,6 +34,7 @@ SUBCOMMANDS = (
     ('topics', 'iguana_ros.cli.topics'),
     ('bag', 'iguana_ros.cli.bag'),
     ('goal', 'iguana_ros.cli.goal'),
+    ('sim', 'iguana_ros.cli.sim'),
     ('render', 'iguana_ros.cli.render'),
     ('view', 'iguana_ros.cli.view'),
     ('motion', 'iguana_ros.cli.motion'),

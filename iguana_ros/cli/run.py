@@ -34,6 +34,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help='wall-clock limit of the run (default: 120 s + 30 x the scene duration)')
     parser.add_argument('--duration', type=float, default=None, metavar='S',
                         help="simulated seconds to run (default: the scene's duration)")
+    parser.add_argument('--paused', action='store_true',
+                        help='start paused at frame 0: go on with `iguana sim resume` or `iguana sim step N`')
     add_progress_option(parser)
     parser.add_argument('--view', action='store_true',
                         help='also start `iguana view` (live, in a web browser; it stops with the run)')
@@ -106,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None and not args.duration > 0:
         raise InputError(f'--duration is {args.duration}; expected a positive number of seconds')
     extra = {} if args.duration is None else {'duration': float(args.duration)}
+    if args.paused:
+        extra['start_paused'] = True
     display = progress_display(args.progress_every)
     view = None
     if args.view:

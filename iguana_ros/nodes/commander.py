@@ -26,11 +26,16 @@ Driving a running iguana_ros system from Python, in the style of nav2_simple_com
             print('heading for waypoint', iguana.feedback().waypoint)
         sent = iguana.push('trunk_left', (0.0, -40.0, 0.0), duration=0.1)
         print(max(abs(s.linear_velocity[1]) for s in iguana.states_since(sent)))
+        iguana.pause()                         # the simulator's sim/* services
+        print(iguana.step(30).time)            # exactly 30 frames later, held again
+        iguana.reset()                         # the body back at the scene's start
+        iguana.resume()
 
 The commander is an rclpy node of its own (its own context, so it can live beside other nodes of the same
 process). Goals and routes go out like `iguana goal`'s (`publish_goals`: the planner must list them on
 `accepted_goals`); the planner's `planner_status` is the feedback (state, current waypoint, distance, heading error);
-a push is a WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`.
+a push is a WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`; `pause`,
+`resume`, `step` and `reset` call the simulator's sim/* services (`nodes.sim_control`).
 """
 from __future__ import annotations
 
@@ -48,6 +53,7 @@ from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import yaw_of
 from iguana_ros.nodes.goal_sender import goal_message, publish_goals, route_message, wait_spinning
+from iguana_ros.nodes.sim_control import SimControlClient, SimReply
 from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_msg
 from iguana_ros.ros.endpoints import resolve
 from iguana_ros.ros.messages import planner_status_from_msg
@@ -118,6 +124,7 @@ class IguanaCommander:
         name, cls, qos = resolve('push')
         self._push_pub = self.node.create_publisher(cls, name, qos)
         self._push_duration: float | None = None
+        self._sim_control: SimControlClient | None = None
 
     def __enter__(self) -> IguanaCommander:
         return self
@@ -274,3 +281,29 @@ class IguanaCommander:
         if not result.successful:
             raise IguanaError(f'push duration {duration:g} s refused by {SIMULATOR_NODE}: {result.reason}')
         self._push_duration = duration
+
+    # ------------------------------------------------------------------------------------------ simulation control
+    def _sim(self, command: str, frames: int = 1, timeout: float = 10.0) -> SimReply:
+        """Call the simulator's sim/`command` service; IguanaError with its message if it refuses."""
+        if self._sim_control is None:
+            self._sim_control = SimControlClient(self.node)
+        reply = self._sim_control.call(command, frames, timeout)
+        if not reply.success:
+            raise IguanaError(f'sim/{command} refused: {reply.message}')
+        return reply
+
+    def pause(self, timeout: float = 10.0) -> SimReply:
+        """Hold the simulation at its current frame (the body's state is kept bit-for-bit)."""
+        return self._sim('pause', timeout=timeout)
+
+    def resume(self, timeout: float = 10.0) -> SimReply:
+        """Let the simulation advance again."""
+        return self._sim('resume', timeout=timeout)
+
+    def step(self, frames: int = 1, timeout: float = 30.0) -> SimReply:
+        """Advance exactly `frames` frames and hold; returns once they are simulated (frame and time reached)."""
+        return self._sim('step', frames, timeout)
+
+    def reset(self, timeout: float = 10.0) -> SimReply:
+        """Put the body back at the scene's start, at rest (simulated time goes on)."""
+        return self._sim('reset', timeout=timeout)

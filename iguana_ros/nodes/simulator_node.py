@@ -17,14 +17,17 @@ Simulator node (Section V).
 
 Its inputs are spring_rest_lengths and push; its outputs are mesh_marker, scene_markers, iguana_state, foot_state,
 foot_positions and /clock. `lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the
-wall clock with the latest lengths.
+wall clock with the latest lengths. Its services sim/pause, sim/resume, sim/step and sim/reset control the frame loop
+in both modes (`stages.SimControl`, `SimulatorStage.reset`).
 """
 from __future__ import annotations
 
 import time
 
 import numpy as np
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType
+from rclpy.task import Future
 from visualization_msgs.msg import Marker
 
 from iguana_ros.body.feet import FootProbe
@@ -34,11 +37,11 @@ from iguana_ros.nodes.base import IguanaNode, node_main, READER_HOLD_LIMIT_S, Re
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.ros.cdr import TriangleListMarkerWriter
 from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, triangle_list_marker
-from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve
+from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve, resolve_service
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
                                      goal_from_msg, lengths_from_cdr, push_from_cdr, route_from_msg, state_to_cdr)
-from iguana_ros.ros.run_events import EVENT_BODY_LOST
-from iguana_ros.stages import simulator_stage
+from iguana_ros.ros.run_events import EVENT_BODY_LOST, EVENT_PAUSED, EVENT_RESET, EVENT_RESUMED
+from iguana_ros.stages import SimControl, simulator_stage
 from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_STALE
 from iguana_ros.visuals import body_colors, terrain_mesh
@@ -85,6 +88,8 @@ class SimulatorNode(IguanaNode):
         self.pending_lengths: dict[int, np.ndarray] = {}
         self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals + scene.route]
         self.started = False
+        self.control = SimControl(paused=self.param('start_paused'))
+        self.step_waiters: list[Future] = []
         self.goals_received = 0
         self.timeouts = 0
         self.rejected_lengths = ''
@@ -97,7 +102,8 @@ class SimulatorNode(IguanaNode):
         self.timer = self.create_timer(period, self.on_timer, clock=steady)
         self.get_logger().info(
             f'simulator ready: {self.model.n_nodes} nodes, {len(self.model.tets)} tets, {self.n_springs} springs, '
-            f'{fidelity} fidelity, {self.mode} mode, {duration:g} s')
+            f'{fidelity} fidelity, {self.mode} mode, {duration:g} s'
+            + (', paused until sim/resume or sim/step' if self.control.paused else ''))
 
     def _make_io(self) -> None:
         """Make publishers and subscriptions."""
@@ -113,6 +119,11 @@ class SimulatorNode(IguanaNode):
         self.subscription('push', self.guarded('push', self.on_push), raw=True)
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('route', self.guarded('route', self.on_route))
+        awaiting = ReentrantCallbackGroup()   # a step awaits its frames: its group stays busy until they are simulated
+        for key, callback in (('sim_pause', self.on_pause), ('sim_resume', self.on_resume), ('sim_step', self.on_step),
+                              ('sim_reset', self.on_reset)):
+            name, cls = resolve_service(key)
+            self.create_service(cls, name, callback, callback_group=awaiting if key == 'sim_step' else None)
         self.publish_scene_markers()
 
     # ------------------------------------------------------------------------------------------ inputs
@@ -145,7 +156,7 @@ class SimulatorNode(IguanaNode):
 
         Never in realtime mode: there the timer paces every frame (lengths a stride ahead would be raced through).
         """
-        if self.mode != 'lockstep':
+        if self.mode != 'lockstep' or not self.control.may_advance(self.stage.frame):
             return
         lengths = self.pending_lengths.pop(self.stage.frame, None) if self.started else None
         if lengths is None or self.exit_code or self.stage.frame >= self.end_frame:
@@ -190,6 +201,9 @@ class SimulatorNode(IguanaNode):
         """Start when peers are connected; lockstep watchdog; realtime pacing."""
         if not self.started:
             self.try_start()
+            return
+        if not self.control.may_advance(self.stage.frame):
+            self.wait_since = time.monotonic()           # paused: nothing is late
             return
         if self.mode == 'realtime':
             self.advance(self.realtime_lengths())
@@ -270,6 +284,8 @@ class SimulatorNode(IguanaNode):
         self.health.sim_time = self.stage.time
         self.wait_since = time.monotonic()
         self.publish_state()
+        if self.control.step_done(self.stage.frame):
+            self._answer_steps()
         if self.stage.lost is not None:
             lost = self.stage.lost
             self.report(EVENT_BODY_LOST, detail=f'{lost.cause}: {lost.message}', frame=self.stage.frame)
@@ -295,6 +311,68 @@ class SimulatorNode(IguanaNode):
         for pub in (self.state_pub, self.clock_pub, self.mesh_pub, self.foot_pub, self.foot_positions_pub):
             pub.wait_for_all_acked(Duration(seconds=FINISH_ACK_TIMEOUT))
         rclpy.try_shutdown(context=self.context)
+
+    # ------------------------------------------------------------------------------------------ control services
+    def _at(self) -> str:
+        """Return where the simulation is, for the services' messages."""
+        return f'frame {self.stage.frame} (t={self.stage.time:.3f} s)'
+
+    def on_pause(self, request, response):
+        """sim/pause: hold at the current frame."""
+        self.control.pause()
+        self._answer_steps()
+        self.report(EVENT_PAUSED, frame=self.stage.frame)
+        self.get_logger().info(f'paused at {self._at()}')
+        response.success, response.message = True, f'paused at {self._at()}'
+        return response
+
+    def on_resume(self, request, response):
+        """sim/resume: advance again."""
+        self.control.resume()
+        self._answer_steps()
+        self.wait_since = time.monotonic()
+        self.advance_signal.trigger()                    # lengths of the current frame may be waiting
+        self.report(EVENT_RESUMED, frame=self.stage.frame)
+        self.get_logger().info(f'resumed at {self._at()}')
+        response.success, response.message = True, f'resumed at {self._at()}'
+        return response
+
+    async def on_step(self, request, response):
+        """sim/step: advance exactly `frames` frames, then hold; answer once they are simulated."""
+        left = self.end_frame - self.stage.frame
+        if not 1 <= request.frames <= left:
+            response.success = False
+            response.message = (f'cannot step {request.frames} frames at {self._at()}: between 1 and {left} '
+                                f'(the scene ends at frame {self.end_frame})')
+        else:
+            target = self.control.step(self.stage.frame, request.frames)
+            self.get_logger().info(f'stepping {request.frames} frames from {self._at()}')
+            done = Future()
+            self.step_waiters.append(done)
+            self.wait_since = time.monotonic()
+            self.advance_signal.trigger()
+            await done
+            response.success = self.stage.frame == target
+            response.message = (f'stepped to {self._at()}' if response.success
+                                else f'step to frame {target} interrupted at {self._at()}')
+        response.frame, response.time = self.stage.frame, self.stage.time
+        return response
+
+    def _answer_steps(self) -> None:
+        """Let every waiting step request answer (its step ended, or a pause or resume interrupted it)."""
+        for done in self.step_waiters:
+            done.set_result(True)
+        self.step_waiters = []
+
+    def on_reset(self, request, response):
+        """sim/reset: the body back at the scene's start, at rest; simulated time goes on."""
+        self.stage.reset()
+        self.report(EVENT_RESET, detail=f'reset {self.stage.resets}', frame=self.stage.frame)
+        self.get_logger().info(f'reset to the scene start at {self._at()}')
+        if self.started:
+            self.publish_state()                         # the new pose now, also while paused
+        response.success, response.message = True, f'reset to the scene start at {self._at()}'
+        return response
 
     # ------------------------------------------------------------------------------------------ outputs
     def publish_state(self) -> None:

@@ -41,6 +41,15 @@ EVENT_CLIP = 'clip'
 EVENT_BODY_LOST = 'body_lost'
 """Event the simulator sends when the body left the terrain or fell (detail 'cause: what happened'); the run ends."""
 
+EVENT_PAUSED = 'paused'
+"""Event the simulator sends when its sim/pause service holds it (frame: the frame it holds at)."""
+
+EVENT_RESUMED = 'resumed'
+"""Event the simulator sends when its sim/resume service lets it advance again."""
+
+EVENT_RESET = 'reset'
+"""Event the simulator sends when its sim/reset service put the body back at the scene's start (frame: when)."""
+
 
 @dataclass(frozen=True)
 class RunEvent:
