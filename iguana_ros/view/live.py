@@ -33,6 +33,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.goal_sender import goal_message, same_goal
+from iguana_ros.nodes.sim_control import SimControlClient
 from iguana_ros.ros.conversions import time_to_msg
 from iguana_ros.ros.endpoints import resolve
 from iguana_ros.view import decode
@@ -60,6 +61,8 @@ class LiveSource:
         self._subscribe()
         self.goal_pub = self._publisher('goal_pose')
         self.push_pub = self._publisher('push')
+        self.sim_control = SimControlClient(self.node)
+        self.sim_calls: list = []
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._running = True
@@ -127,6 +130,24 @@ class LiveSource:
         msg.header.frame_id = region
         msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z = (float(v) for v in force)
         self.push_pub.publish(msg)
+
+    def send_sim(self, command: str, frames: int = 1) -> str:
+        """Call the simulator's sim/`command` service without waiting (its answer: `sim_answers`); return a status."""
+        if not self.sim_control.ready(command):
+            return f'no simulator offers sim/{command} on this ROS_DOMAIN_ID.'
+        self.sim_calls.append((command, self.sim_control.call_async(command, frames)))
+        return f'{command} sent to the simulator.'
+
+    def sim_answers(self) -> list[str]:
+        """Return the answers of the control calls that came back since the last call (one line each)."""
+        done = [(command, future) for command, future in self.sim_calls if future.done()]
+        self.sim_calls = [call for call in self.sim_calls if not call[1].done()]
+        lines = []
+        for command, future in done:
+            reply = self.sim_control.reply(future.result()) if future.exception() is None else None
+            lines.append(f'{command}: {reply.message}.' if reply is not None and reply.success
+                         else f'{command} refused: {reply.message if reply else future.exception()}.')
+        return lines
 
     def close(self) -> None:
         """Stop spinning and leave the graph."""

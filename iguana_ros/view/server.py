@@ -59,6 +59,9 @@ FOLLOW_STEP_M = 0.01
 
 CONTACT_RGB = (240, 140, 40)
 PUSH_RGB = (210, 0, 0)
+SIM_BUTTONS = (('pause', 'pause'), ('resume', 'resume'), ('step 1 frame', 'step'), ('reset to the start', 'reset'))
+"""Live mode's simulation buttons: (label, the simulator's sim/* service they call)."""
+
 DEFAULT_PUSH_N = 40.0
 """The push button's default force, N (Section VIII-D)."""
 
@@ -240,8 +243,13 @@ class ViewerPage:
 
     # ------------------------------------------------------------------------------------------ controls
     def _live_controls(self) -> None:
-        """Push force and one button per flank."""
+        """Push force and one button per flank; the simulation's pause, resume, step and reset."""
         gui = self.server.gui
+        with gui.add_folder('simulation'):
+            for label, command in SIM_BUTTONS:
+                button = self._input(gui.add_button(label), InputRule(label, 'button'))
+                button.on_click(_guarded(lambda _event, command=command: self._set_status(
+                    self.live.send_sim(command, 1)), label))
         self._force = self._input(gui.add_number('push force (N)', initial_value=DEFAULT_PUSH_N, min=0.0,
                                                  max=float(MAX_PUSH_FORCE), step=1.0),
                                   InputRule('push force (N)', 'number', 0.0, float(MAX_PUSH_FORCE)))
@@ -344,6 +352,8 @@ class ViewerPage:
                 self._show_playback()
             if self.live is not None:
                 self._goal_status()
+                for answer in self.live.sim_answers():
+                    self._set_status(answer)
 
     def _show_playback(self) -> None:
         """

@@ -193,6 +193,22 @@ def test_the_push_button_sends_a_push(pushed, browser):
     assert pushed, page_text(browser)          # its arrow is checked on the bag's timeline, paused at the push
 
 
+def test_the_simulation_buttons_pause_step_and_resume_the_run(browser, live_run, pushed):
+    _open_live_page(browser, live_run)
+    click_button(browser, 'pause')
+    paused = wait_until(lambda: re.search(r'pause: paused at frame (\d+)', page_text(browser)), 60.0)
+    assert paused, page_text(browser)
+    frame = int(paused.group(1))
+    assert wait_until(lambda: figure(browser, 'simulated time') == pytest.approx(frame / 30.0, abs=0.01), 30.0), \
+        page_text(browser)
+    click_button(browser, 'step 1 frame')
+    stepped = wait_until(lambda: re.search(r'step: stepped to frame (\d+)', page_text(browser)), 60.0)
+    assert stepped and int(stepped.group(1)) == frame + 1, page_text(browser)
+    click_button(browser, 'resume')
+    assert wait_until(lambda: (figure(browser, 'simulated time') or 0.0) > (frame + 15) / 30.0, 60.0), \
+        page_text(browser)
+
+
 def _children(pid: int) -> dict[str, int]:
     """{'viewer' | 'recorder': pid} among the live child processes of `pid` (from /proc)."""
     out = {}
