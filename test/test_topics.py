@@ -107,3 +107,12 @@ def test_bad_service_tables_name_the_field(tmp_path, body, field):
     path.write_text('topics: {}\n' + body + '\n')
     with pytest.raises(TopicConfigError, match=field):
         load_interfaces('services', path)
+
+
+def test_iguana_topics_lists_the_services_and_the_action_with_their_servers(cli):
+    code, out, _ = cli(['topics'])
+    lines = out.splitlines()
+    assert code == 0 and len(lines) == len(default_topics()) + 5
+    assert any(line.startswith('sim/step ') and 'iguana_interfaces/srv/Step' in line and 'simulator_node' in line
+               for line in lines)
+    assert any(line.startswith('go_to_pose ') and 'action' in line and 'planner_node' in line for line in lines)

@@ -218,6 +218,8 @@ class SimulatorNode(IguanaNode):
         if not missing:
             self.started = True
             self.wall_start = self.wait_since = time.monotonic()
+            if self.control.paused:
+                self.report(EVENT_PAUSED, detail='started paused', frame=0)
             self.publish_state()
             self.advance_signal.trigger()                 # lengths of frame 0 may be in already
             return

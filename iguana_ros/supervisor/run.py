@@ -558,7 +558,8 @@ class SceneRun:
                           phases=self.monitor.clock.finished() if self.monitor is not None else (),
                           cpu_ms_per_frame=self.cpu.ms_per_frame(progress.state_first_ns / 1e9,
                                                                  progress.state_last_ns / 1e9,
-                                                                 round(simulated * FRAME_RATE)))
+                                                                 round(simulated * FRAME_RATE)),
+                          paused_s=progress.paused_s)
 
 
 def body_lost_outcome(sim_code: int | None, detail: str) -> tuple[str, str, int] | None:

@@ -33,6 +33,9 @@ from iguana_ros.supervisor.run_gait import RunGait
 STATE_TOPIC = '/iguana_state'
 """Recorded topic whose stamps say how far the simulation got."""
 
+EVENTS_TOPIC = '/run_events'
+"""Recorded topic whose simulator events say when the simulation was paused and resumed."""
+
 
 @dataclass
 class BagProgress:
@@ -50,6 +53,8 @@ class BagProgress:
     state_first_ns: int = 0
     state_last_ns: int = 0
     problem: str = ''
+    pauses: list = field(default_factory=list)
+    """The simulator's pause and resume events in order: (EVENT_PAUSED or EVENT_RESUMED, wall time s)."""
 
     @property
     def messages(self) -> int:
@@ -60,6 +65,11 @@ class BagProgress:
     def loop_wall_s(self) -> float:
         """Wall seconds from the first to the last iguana_state the simulator sent (0 if fewer than 2)."""
         return max(0.0, (self.state_last_ns - self.state_first_ns) / 1e9)
+
+    @property
+    def paused_s(self) -> float:
+        """Wall seconds the simulation loop was paused (sim/pause to sim/resume, or to the last iguana_state)."""
+        return paused_seconds(self.pauses, self.state_first_ns / 1e9, self.state_last_ns / 1e9)
 
     def note(self) -> str:
         """'finalised, 1234 messages on 12 topics' or what is wrong with the bag."""
@@ -88,9 +98,40 @@ def bag_progress(bag: Path) -> BagProgress:
         if msg.topic == STATE_TOPIC:
             progress.state_first_ns = progress.state_first_ns or msg.publish_time
             progress.state_last_ns = msg.publish_time
+        elif msg.topic == EVENTS_TOPIC:
+            progress.pauses.extend(_pause_events(bytes(msg.data)))
     progress.problem = reader.problem
     progress.finalised = not reader.truncated and (Path(bag) / 'metadata.yaml').is_file()
     return progress
+
+
+def _pause_events(data: bytes) -> list:
+    """Return [(kind, wall time s)] of a recorded run_events message if it is the simulator's pause or resume."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.serialization import deserialize_message
+
+    from iguana_ros.ros.run_events import EVENT_PAUSED, EVENT_RESUMED, run_event_from_msg
+    try:
+        event = run_event_from_msg(deserialize_message(data, DiagnosticArray))
+    except Exception:  # noqa: BLE001 -- a damaged message (any decoder error): the figures stand without it
+        return []
+    return [(event.kind, event.wall_time)] if event.kind in (EVENT_PAUSED, EVENT_RESUMED) else []
+
+
+def paused_seconds(pauses: list, start: float, end: float) -> float:
+    """
+    Return the wall seconds within [`start`, `end`] s spent paused, from pause and resume events [(kind, time s)].
+
+    A pause lasts until the next resume, or until `end`; a repeated pause or resume changes nothing.
+    """
+    total, since = 0.0, None
+    for kind, at in sorted(pauses, key=lambda event: event[1]):
+        at = min(max(at, start), end)
+        if kind == 'paused' and since is None:
+            since = at
+        elif kind == 'resumed' and since is not None:
+            total, since = total + at - since, None
+    return total + (end - since if since is not None else 0.0)
 
 
 @dataclass
@@ -124,11 +165,14 @@ class RunSummary:
     """Start-up phases that finished (supervisor/progress_display.py PhaseTime), from the node processes' run_events."""
     cpu_ms_per_frame: dict = field(default_factory=dict)
     """CPU ms per simulated frame of each process of the run while it stepped (`supervisor/cpu.py`; {} off Linux)."""
+    paused_s: float = 0.0
+    """Wall seconds of `wall_s` during which the simulation was paused (sim/pause, `iguana run --paused`)."""
 
     @property
     def realtime_factor(self) -> float:
-        """Return simulated seconds per wall second of the simulation loop."""
-        return self.simulated_s / self.wall_s if self.wall_s > 0 else 0.0
+        """Return simulated seconds per wall second of the simulation loop while it was not paused."""
+        running = self.wall_s - self.paused_s
+        return self.simulated_s / running if running > 0 else 0.0
 
     def progress(self) -> str:
         """'3.40 of 60.00 s simulated' (or '3.40 s simulated' when the planned duration is unknown)."""
@@ -166,7 +210,8 @@ class RunSummary:
         bag = f'bag: {self.bag}' + (f' ({self.bag_note})' if self.bag_note else '')
         return [f'scene {self.scene}: {goal}', self.outcome_text(),
                 f'simulated {self.simulated_s:.2f} s in {self.wall_s:.2f} s wall '
-                f'(realtime factor {self.realtime_factor:.2f}{total})',
+                + (f'({self.paused_s:.1f} s of it paused; ' if self.paused_s > 0 else '(')
+                + f'realtime factor {self.realtime_factor:.2f}{total})',
                 *([startup_line(self.phases)] if self.phases else []),
                 *([cpu_line(self.cpu_ms_per_frame)] if self.cpu_ms_per_frame else []),
                 *gait, *detail, bag, f'logs: {self.logs}']
