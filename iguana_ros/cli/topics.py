@@ -22,7 +22,8 @@ from iguana_ros.topics import default_interfaces, default_topics
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `topics` sub-command."""
-    parser = subparsers.add_parser('topics', help='list every topic (name, type, QoS, rate, who talks), service, action')
+    parser = subparsers.add_parser('topics',
+                                   help='list every topic (name, type, QoS, rate, who talks), service and action')
     parser.set_defaults(func=run)
 
 
