@@ -143,9 +143,9 @@ def test_iguana_run_gives_each_node_the_params_file_then_its_own_values():
             assert nodes == (set(NODE_EXECUTABLES) if single else {name})
             assert 'simulator_node:wait_for_recorder:=true' in values or name != 'simulator_node'
     params = yaml.safe_load(params_file().read_text())
-    assert params['planner_node']['ros__parameters']['use_sim_time'] is True
+    assert params['/**/planner_node']['ros__parameters']['use_sim_time'] is True
     assert 'use_sim_time' not in params['/**']['ros__parameters']
-    assert params['simulator_node']['ros__parameters']['wait_for_recorder'] is False
+    assert params['/**/simulator_node']['ros__parameters']['wait_for_recorder'] is False
 
 
 def test_installed_console_scripts_are_the_nodes_and_the_cli():

@@ -29,7 +29,7 @@ def test_params_file_holds_every_declared_default():
     assert common == {name: spec.default for name, spec in declared['common'].items()}
     assert set(declared) == {'common', *NODE_EXECUTABLES}
     for node in NODE_EXECUTABLES:
-        values = (params.get(node) or {}).get('ros__parameters', {})
+        values = (params.get(f'/**/{node}') or {}).get('ros__parameters', {})
         # plus rclpy's own use_sim_time (every node declares it by itself) for the nodes that read their clock
         assert values.pop('use_sim_time', False) is (node in SIM_TIME_NODES), node
         assert values == {name: spec.default for name, spec in declared[node].items()}, node
@@ -55,3 +55,21 @@ def test_bad_declaration_file_is_named(tmp_path):
     bad.write_text('planner_node: {goal_radius: {type: float, default: 1}}')
     with pytest.raises(InputError, match='p.yaml.*goal_radius'):
         load_parameters(bad)
+
+
+@pytest.mark.parametrize('namespace', ['', '/iguana1', '/zoo/iguana2'])
+def test_the_params_file_sections_match_the_nodes_in_any_namespace(namespace):
+    import rclpy
+    context = rclpy.Context()
+    remap = ['-r', f'__ns:={namespace}'] if namespace else []
+    rclpy.init(args=['--ros-args', '--params-file', str(config_path('params', 'iguana.yaml')), *remap],
+               context=context)
+    try:
+        node = rclpy.create_node('planner_node', context=context, automatically_declare_parameters_from_overrides=True)
+        assert node.get_fully_qualified_name() == f'{namespace}/planner_node'
+        assert node.get_parameter('use_sim_time').value is True                  # the planner's own section
+        assert node.get_parameter('blend_frames').value == node_parameters('planner_node')['blend_frames'].default
+        assert node.get_parameter('scene').value == 'hills'                      # the section of every node
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
