@@ -89,6 +89,7 @@ class SimulatorNode(IguanaNode):
         self.goals: list[np.ndarray] = [np.array([g.x, g.y]) for g in scene.goals + scene.route]
         self.started = False
         self.control = SimControl(paused=self.param('start_paused'))
+        self.health.paused = self.control.paused
         self.step_waiters: list[Future] = []
         self.goals_received = 0
         self.timeouts = 0
@@ -322,6 +323,7 @@ class SimulatorNode(IguanaNode):
     def on_pause(self, request, response):
         """sim/pause: hold at the current frame."""
         self.control.pause()
+        self.health.paused = True
         self._answer_steps()
         self.report(EVENT_PAUSED, frame=self.stage.frame)
         self.get_logger().info(f'paused at {self._at()}')
@@ -331,6 +333,7 @@ class SimulatorNode(IguanaNode):
     def on_resume(self, request, response):
         """sim/resume: advance again."""
         self.control.resume()
+        self.health.paused = False
         self._answer_steps()
         self.wait_since = time.monotonic()
         self.advance_signal.trigger()                    # lengths of the current frame may be waiting

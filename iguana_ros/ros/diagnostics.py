@@ -43,7 +43,7 @@ class NodeHealth:
     A node's counters since its start.
 
     Input frames handled, stale inputs dropped, inputs rejected (and the last reason), simulated seconds (the
-    simulator; NaN for the others).
+    simulator; NaN for the others) and whether the simulation is paused (the simulator's sim/pause).
     """
 
     frames: int = 0
@@ -51,6 +51,7 @@ class NodeHealth:
     rejected: int = 0
     last_rejected: str = ''
     sim_time: float = math.nan
+    paused: bool = False
 
     def reject(self, why: str) -> None:
         """Count a rejected input and keep its reason."""
@@ -88,8 +89,9 @@ def health_status(node: str, health: NodeHealth, since: HealthSample, now: Healt
     problems = [f'{rejected} input{"s" * (rejected != 1)} rejected'] if rejected else []
     problems += [f'{late} stale input{"s" * (late != 1)} dropped'] if late else []
     level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
+    state = 'paused' if health.paused else 'running'
     return DiagnosticStatus(level=level, name=node, hardware_id=HARDWARE_ID,
-                            message='; '.join(problems) + ' in the last report' if problems else 'running',
+                            message='; '.join(problems) + ' in the last report' if problems else state,
                             values=[KeyValue(key=k, value=v) for k, v in values.items()])
 
 

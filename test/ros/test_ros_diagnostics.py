@@ -35,6 +35,14 @@ def test_a_quiet_second_is_ok_with_its_rate_and_realtime_factor():
     assert float(values['realtime_factor']) == pytest.approx(2.0) and values['simulated_s'] == '3.000'
 
 
+def test_a_paused_simulator_says_so_with_a_zero_realtime_factor():
+    health = NodeHealth(frames=30, sim_time=1.0, paused=True)
+    same = HealthSample.of(health, 10.0)
+    status = health_status('/simulator_node', health, same, HealthSample.of(health, 11.0))
+    assert status.level == DiagnosticStatus.OK and status.message == 'paused'
+    assert float(_values(status)['realtime_factor']) == 0.0
+
+
 def test_rejections_and_stale_inputs_warn_only_in_the_report_they_happened_in():
     health = NodeHealth()
     first = HealthSample.of(health, 0.0)
