@@ -140,7 +140,6 @@ class PlannerNode(IguanaNode):
             task = goal_task(handle.request, self.stage, self.half_extent)
         except IguanaError as exc:
             self.health.reject(f'go_to_pose: {exc}')
-            self.get_logger().error(f'refused go_to_pose goal: {exc}')
             return self.finish_goal(handle, refused_goal(str(exc)))
         heading = 'any heading' if task.target.yaw is None else f'heading {task.target.yaw:.2f} rad'
         self._accepted([handle.request.pose], time_from_msg(handle.request.pose.header.stamp), task.at,
@@ -162,7 +161,8 @@ class PlannerNode(IguanaNode):
             handle.canceled()
         else:
             handle.abort()
-        self.get_logger().info(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
+        log = self.get_logger().info if outcome.kind in ('succeeded', 'canceled') else self.get_logger().warning
+        log(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
         return result_msg(outcome)
 
     def update_tasks(self, stride_end: bool) -> None:
