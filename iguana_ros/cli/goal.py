@@ -100,13 +100,16 @@ def _send(node, args: argparse.Namespace) -> int:
     from iguana_ros.nodes.goal_sender import goal_message
 
     msg = goal_message(args.x, args.y, args.yaw, args.at, args.frame or WORLD_FRAME)
-    client = GoToPoseClient(node, on_feedback=_print_feedback if args.wait else lambda fb: None)
+    client = GoToPoseClient(node)
     client.send(goal_request(msg, args.tolerance, math.radians(args.yaw_tolerance)), args.timeout)
     heading = 'any heading' if args.yaw is None else f'yaw={args.yaw:g} deg'
     print(f'goal accepted by the planner on {client.name}: x={args.x:g} y={args.y:g} {heading} '
           f'frame={msg.header.frame_id}', flush=True)
     if not args.wait:
         return 0
+    client.on_feedback = _print_feedback                # the feedback from now on, after the one that came first
+    if client.latest is not None:
+        _print_feedback(client.latest)
     result = client.result(math.inf)
     print(f'{"reached" if result.reached else "not reached"} ({result.outcome}): {result.reason}; '
           f'{result.distance_remaining:.2f} m from the goal after {result.time_elapsed:.1f} s', flush=True)

@@ -161,8 +161,10 @@ class PlannerNode(IguanaNode):
             handle.canceled()
         else:
             handle.abort()
-        log = self.get_logger().info if outcome.kind in ('succeeded', 'canceled') else self.get_logger().warning
-        log(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
+        if outcome.kind in ('succeeded', 'canceled'):      # one call site per severity (rclpy's rule)
+            self.get_logger().info(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
+        else:
+            self.get_logger().warning(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
         return result_msg(outcome)
 
     def update_tasks(self, stride_end: bool) -> None:
