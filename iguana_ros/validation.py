@@ -169,12 +169,12 @@ MAX_GOAL_TOLERANCE = 10.0
 
 
 def check_goal_tolerances(position_tolerance: float, yaw_tolerance: float) -> None:
-    """InputError unless a goal's tolerances are in [0, MAX_GOAL_TOLERANCE] m and [0, pi] rad (0 = the default)."""
+    """Check a goal's tolerances: InputError unless in [0, MAX_GOAL_TOLERANCE] m and [0, pi] rad (0 = default)."""
     if not 0.0 <= position_tolerance <= MAX_GOAL_TOLERANCE:
-        raise InputError(f'goal position tolerance is {position_tolerance:g} m; expected 0 (the planner\'s goal '
+        raise InputError(f"goal position tolerance is {position_tolerance:g} m; expected 0 (the planner's goal "
                          f'radius) to {MAX_GOAL_TOLERANCE:g} m')
     if not 0.0 <= yaw_tolerance <= np.pi:
-        raise InputError(f'goal yaw tolerance is {yaw_tolerance:g} rad; expected 0 (the planner\'s yaw tolerance) '
+        raise InputError(f"goal yaw tolerance is {yaw_tolerance:g} rad; expected 0 (the planner's yaw tolerance) "
                          'to pi rad')
 
 

@@ -35,7 +35,8 @@ The commander is an rclpy node of its own (its own context, so it can live besid
 process). A goal goes through the planner's go_to_pose action like `iguana goal`'s (`GoToPoseClient`): `feedback()`
 is the action's latest feedback, `result()` its result, `cancel()` cancels it. A route goes out on the route topic
 (`publish_goals`: the planner must list it on `accepted_goals`); then `feedback()` is the planner's `planner_status`
-(state, current waypoint, distance, heading error), which `planner_status()` returns at any time; a push is a WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`.
+(state, current waypoint, distance, heading error), which `planner_status()` returns at any time; a push is a
+WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`.
 """
 from __future__ import annotations
 

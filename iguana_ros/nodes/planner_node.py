@@ -39,8 +39,8 @@ from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
-from iguana_ros.ros.endpoints import resolve, resolve_action, volatile_readers
 from iguana_ros.ros.conversions import time_from_msg
+from iguana_ros.ros.endpoints import resolve, resolve_action, volatile_readers
 from iguana_ros.ros.go_to_pose import feedback_msg, goal_task, result_msg
 from iguana_ros.ros.messages import (clip_to_cdr, goal_from_msg, planner_status_msg, reference_stance_to_cdr,
                                      route_from_msg, state_from_cdr)

@@ -13,8 +13,9 @@
 # limitations under the License.
 
 """
-The planner's go_to_pose action on a real `iguana run` (four node processes over DDS), through IguanaCommander,
-GoToPoseClient and `iguana goal`.
+The planner's go_to_pose action on a real `iguana run` (four node processes over DDS).
+
+Through IguanaCommander, GoToPoseClient and `iguana goal`.
 
 A refused goal has its reason within 1 s; a goal is reached with SUCCEEDED and feedback at stride ends; a newer goal
 replaces an older one; a cancelled goal stops the iguana.
