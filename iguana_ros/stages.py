@@ -155,6 +155,8 @@ class PlannerStage:
         self.events: list[PlannerEvent] = []
         self.plan_seconds: list[float] = []
         self._scheduled: list[tuple[float, int, tuple]] = []
+        self._routes = 0                              # goals and routes scheduled so far: the next one's number
+        self.route_number = -1                        # the number of the goal or route adopted last (-1: none)
         self._stride_start: np.ndarray | None = None
         self._early: tuple | None = None
         self._progress = ProgressWindow(recovery.window, recovery.progress)
@@ -165,10 +167,11 @@ class PlannerStage:
         self._rest = rest_steps(planner.table)
 
     # ----------------------------------------------------------------------------------------- goals, routes
-    def target(self, x: float, y: float, yaw: float | None = None, final: bool = True) -> Target:
-        """Return a Target at (x, y) m, heading `yaw` rad (None: any), with this planner's radius and tolerance."""
-        return Target((float(x), float(y)), None if yaw is None else float(yaw), self.goal_radius,
-                      self.yaw_tolerance, final)
+    def target(self, x: float, y: float, yaw: float | None = None, final: bool = True, radius: float = 0.0,
+               yaw_tolerance: float = 0.0) -> Target:
+        """Return a Target at (x, y) m, heading `yaw` rad (None: any), within `radius` m and `yaw_tolerance` rad."""
+        return Target((float(x), float(y)), None if yaw is None else float(yaw), float(radius or self.goal_radius),
+                      float(yaw_tolerance or self.yaw_tolerance), final)
 
     def set_route(self, targets: tuple) -> None:
         """Follow `targets` (Target, the last final) from the next stride on; () = stop."""
@@ -188,7 +191,8 @@ class PlannerStage:
 
     def schedule_route(self, targets: tuple, at: float = 0.0) -> None:
         """Make `targets` the route once simulated time reaches `at` s (0 = at the next frame)."""
-        entry = (float(at), len(self._scheduled), tuple(targets))
+        entry = (float(at), self._routes, tuple(targets))
+        self._routes += 1
         self._scheduled = sorted(self._scheduled + [entry], key=lambda e: (e[0], e[1]))
 
     def schedule_goal(self, goal_xy: np.ndarray, at: float = 0.0, yaw: float | None = None) -> None:
@@ -214,7 +218,26 @@ class PlannerStage:
     def activate_due_goals(self, time: float) -> None:
         """Apply, in time order, every scheduled goal or route due at simulated `time` s."""
         while self._scheduled and self._scheduled[0][0] <= time + 1e-9:
-            self.set_route(self._scheduled.pop(0)[2])
+            _, number, targets = self._scheduled.pop(0)
+            self.set_route(targets)
+            self.route_number = number
+
+    @property
+    def last_route(self) -> int:
+        """Return the number of the goal or route scheduled last (-1: none yet)."""
+        return self._routes - 1
+
+    def route_state(self, number: int) -> str:
+        """Return whether goal or route `number` is 'scheduled', 'active' (adopted last) or 'done' (replaced)."""
+        if any(entry[1] == number for entry in self._scheduled):
+            return 'scheduled'
+        return 'active' if number == self.route_number else 'done'
+
+    def drop_route(self, number: int) -> None:
+        """Drop goal or route `number`: off the schedule, or if adopted, stop (to rest from the next stride)."""
+        self._scheduled = [entry for entry in self._scheduled if entry[1] != number]
+        if number == self.route_number and self.targets:
+            self.set_route(())
 
     @property
     def finished(self) -> bool:
@@ -413,6 +436,107 @@ def planner_stage(scene: Scene, library: dict | None = None, blend_frames: int |
                             scene_terrain(scene) if terrain is None else terrain)
     return PlannerStage(graph, planner, goal_radius or scene.goal_radius,
                         yaw_tolerance or np.radians(scene.goal_yaw_tolerance_deg))
+
+
+# -------------------------------------------------------------------------------------------- goal tasks
+
+GOAL_OUTCOMES = ('succeeded', 'refused', 'canceled', 'replaced', 'no_progress', 'planner_stopped')
+"""How a goal with an answer (`GoalTask`) ends; the GoToPose action's result codes are these names in upper case."""
+
+GIVE_UP_RECOVERY = 4
+"""Recovery level at which a goal task ends with 'no_progress' (`PlannerStage`: each level is a window of strides
+without progress; a level-4 task has tried a detour to either side and the slow walk)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class GoalProgress:
+    """How a goal task goes: distance m of the root to the goal, simulated s since it was sent, strides, status."""
+
+    distance: float
+    time_elapsed: float
+    strides: int
+    status: str
+
+
+@dataclasses.dataclass(frozen=True)
+class GoalOutcome:
+    """How a goal task ended: `kind` (one of GOAL_OUTCOMES), a one-line `reason`, distance m and simulated s."""
+
+    kind: str
+    reason: str
+    distance: float = 0.0
+    time_elapsed: float = 0.0
+
+    @property
+    def reached(self) -> bool:
+        """Whether the goal was reached."""
+        return self.kind == 'succeeded'
+
+
+def refused_goal(reason: str) -> GoalOutcome:
+    """Return the outcome of a goal refused before it started (its validation's `reason`)."""
+    return GoalOutcome('refused', reason)
+
+
+class GoalTask:
+    """
+    One goal given to a `PlannerStage` with an answer (the GoToPose action): its progress and how it ends.
+
+    Scheduled like a goal_pose goal (tolerances 0 = the planner's). It ends 'succeeded' once the planner rests at it,
+    'replaced' once a newer goal or route is adopted, 'no_progress' (and the planner drops it) at recovery level
+    GIVE_UP_RECOVERY, 'canceled' by `cancel` (the planner drops it: the body comes to rest from the next stride).
+    """
+
+    def __init__(self, stage: PlannerStage, xy: Sequence, at: float, yaw: float | None = None,
+                 radius: float = 0.0, yaw_tolerance: float = 0.0) -> None:
+        """Schedule a goal at `xy` (2,) m stamped `at` s, heading `yaw` rad (None: any), on `stage`."""
+        self.stage = stage
+        self.target = stage.target(xy[0], xy[1], yaw, radius=radius, yaw_tolerance=yaw_tolerance)
+        self.at = stage.accept_route((self.target,), at)
+        self.number = stage.last_route
+        self.start_time = max(stage.frame, 0) / FRAME_RATE
+        self.start_strides = len(stage.history)
+        self.outcome: GoalOutcome | None = None
+
+    def elapsed(self) -> float:
+        """Return simulated seconds since the goal was sent (to the planner's last frame)."""
+        return max(self.stage.frame, 0) / FRAME_RATE - self.start_time
+
+    def progress(self, root_xy: Sequence) -> GoalProgress:
+        """Return the task's progress with the root at `root_xy` (2,) m."""
+        state = self.stage.route_state(self.number)
+        if state == 'scheduled':
+            status = f'scheduled for t={self.at:.2f} s'
+        else:
+            planner = self.stage.status()
+            status = planner.state if not planner.recovery else f'recovering (level {planner.recovery})'
+        return GoalProgress(self.target.distance(root_xy), self.elapsed(), len(self.stage.history) - self.start_strides,
+                            status)
+
+    def update(self, root_xy: Sequence) -> GoalOutcome | None:
+        """Return how the task ended (decided once, from the planner's state), None while it goes on."""
+        if self.outcome is None:
+            state = self.stage.route_state(self.number)
+            if state == 'done':
+                self._end('replaced', 'replaced by a newer goal or route', root_xy)
+            elif state == 'active' and self.stage.settled:
+                self._end('succeeded', f'goal ({self.target.xy[0]:.2f}, {self.target.xy[1]:.2f}) reached', root_xy)
+            elif state == 'active' and self.stage.recovery >= GIVE_UP_RECOVERY:
+                self.stage.drop_route(self.number)
+                self._end('no_progress', f'no progress after {self.stage.recovery_params.window * GIVE_UP_RECOVERY} '
+                                         f'strides of recovery; the planner dropped the goal and rests', root_xy)
+        return self.outcome
+
+    def cancel(self, root_xy: Sequence) -> GoalOutcome:
+        """Cancel the task unless it has ended: the planner drops the goal and comes to rest; return the outcome."""
+        if self.update(root_xy) is None:
+            self.stage.drop_route(self.number)
+            self._end('canceled', 'cancelled on request; the planner dropped the goal and rests', root_xy)
+        return self.outcome
+
+    def _end(self, kind: str, reason: str, root_xy: Sequence) -> None:
+        """Note the outcome."""
+        self.outcome = GoalOutcome(kind, reason, self.target.distance(root_xy), self.elapsed())
 
 
 # -------------------------------------------------------------------------------------------- adaptation

@@ -164,6 +164,20 @@ def check_goal(position: np.ndarray, orientation: np.ndarray, at: float, half_ex
     return GoalRequest(xy, float(at), yaw)
 
 
+MAX_GOAL_TOLERANCE = 10.0
+"""Largest position tolerance of a goal, m."""
+
+
+def check_goal_tolerances(position_tolerance: float, yaw_tolerance: float) -> None:
+    """Check a goal's tolerances: InputError unless in [0, MAX_GOAL_TOLERANCE] m and [0, pi] rad (0 = default)."""
+    if not 0.0 <= position_tolerance <= MAX_GOAL_TOLERANCE:
+        raise InputError(f"goal position tolerance is {position_tolerance:g} m; expected 0 (the planner's goal "
+                         f'radius) to {MAX_GOAL_TOLERANCE:g} m')
+    if not 0.0 <= yaw_tolerance <= np.pi:
+        raise InputError(f"goal yaw tolerance is {yaw_tolerance:g} rad; expected 0 (the planner's yaw tolerance) "
+                         'to pi rad')
+
+
 def check_route(positions: np.ndarray, orientations: np.ndarray, at: float, half_extent: float) -> RouteRequest:
     """
     route: the RouteRequest of waypoints at `positions (k, 3)` with `orientations (k, 4)` stamped `at` s.

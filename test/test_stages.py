@@ -265,3 +265,53 @@ def test_a_new_goal_replaces_a_route_and_a_scheduled_one_waits_for_its_time():
     assert stage.targets[0].yaw is None                         # only the last waypoint keeps its heading
     stage.activate_due_goals(2.0)
     assert len(stage.targets) == 1 and stage.targets[0].xy == (-1.0, 0.0) and stage.targets[0].yaw == 1.0
+
+
+def test_a_goal_task_succeeds_where_the_planner_rests_with_its_own_tolerance():
+    stage = stages.planner_stage(_scene(terrain={'kind': 'flat'}), goal_radius=0.2)
+    task = stages.GoalTask(stage, (1.0, 0.0), 0.0, radius=0.3)
+    assert task.target.radius == 0.3 and task.target.yaw_tolerance == stage.yaw_tolerance
+    assert task.progress((0.0, 0.0)) == stages.GoalProgress(1.0, 0.0, 0, 'scheduled for t=0.00 s')
+    pose = _drive(stage, moves=True, strides=60)
+    outcome = task.update(pose[:2])
+    assert outcome.kind == 'succeeded' and outcome.reached and outcome.distance <= 0.3, outcome
+    assert outcome.time_elapsed == stage.frame / FRAME_RATE > 0 and task.progress(pose[:2]).strides > 2
+
+
+def _stride(stage, frame: int) -> int:
+    """Play one stride of `stage` with the body standing at the origin; return the next stride's first frame."""
+    from iguana_ros.geometry import quat_from_yaw
+    clip = stage.update(frame, np.array([0.0, 0.0, 0.1]), quat_from_yaw(0.0))
+    return frame + len(clip.root_positions) - 1
+
+
+def test_a_newer_goal_replaces_a_task_and_a_cancelled_task_brings_the_planner_to_rest():
+    stage = stages.planner_stage(_scene(terrain={'kind': 'flat'}), goal_radius=0.2)
+    first = stages.GoalTask(stage, (2.0, 0.0), 0.0)
+    frame = _stride(stage, _stride(stage, 0))
+    assert first.update((0.5, 0.0)) is None and first.progress((0.5, 0.0)).status == 'walking'
+    stage.accept_goal(np.array([0.0, 2.0]), 0.0)                     # a goal_pose goal
+    second = stages.GoalTask(stage, (-2.0, 0.0), 0.0, yaw=0.5)
+    frame = _stride(stage, frame)
+    assert first.update((0.5, 0.0)).kind == 'replaced' and second.update((0.5, 0.0)) is None
+    outcome = second.cancel((0.5, 0.0))
+    assert outcome.kind == 'canceled' and not outcome.reached and outcome.distance == 2.5
+    assert second.cancel((0.0, 0.0)) is outcome and not stage.targets   # decided once; the planner has no goal
+    for _ in range(6):
+        frame = _stride(stage, frame)
+    assert stage.history[-1][1] == 'idle' and stage.status().state == 'idle'
+    later = stages.GoalTask(stage, (1.0, 1.0), 100.0)
+    assert later.cancel((0.0, 0.0)).kind == 'canceled' and stage.route_state(later.number) == 'done'
+
+
+def test_a_goal_task_without_progress_ends_and_the_planner_drops_it():
+    stage = stages.planner_stage(_scene(terrain={'kind': 'flat'}), goal_radius=0.2)
+    task = stages.GoalTask(stage, (2.0, 0.0), 0.0)
+    frame, outcome = 0, None
+    from iguana_ros.geometry import quat_from_yaw
+    while outcome is None and frame < 3000:
+        clip = stage.update(frame, np.array([0.0, 0.0, 0.1]), quat_from_yaw(0.0))   # the body never moves
+        frame += 1
+        outcome = task.update((0.0, 0.0)) if clip is not None else None
+    assert outcome.kind == 'no_progress' and not stage.targets, outcome
+    assert stage.recovery_params.window * stages.GIVE_UP_RECOVERY == 32 and '32 strides' in outcome.reason

@@ -12,7 +12,11 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana goal X Y`: publish one PoseStamped on the goal topic and wait until the planner has accepted it."""
+"""
+`iguana goal X Y`: send a goal through the planner's go_to_pose action; say whether it was accepted or refused and why.
+
+`--wait` prints its feedback and result (exit 0 reached, 1 not); `iguana goal --cancel` cancels the running goals.
+"""
 from __future__ import annotations
 
 import argparse
@@ -22,27 +26,40 @@ import math
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `goal` sub-command."""
     parser = subparsers.add_parser(
-        'goal', help='send a walking goal (geometry_msgs/PoseStamped) once and wait until the planner accepts it')
-    parser.add_argument('x', type=float, help='goal x in the frame, m')
-    parser.add_argument('y', type=float, help='goal y in the frame, m')
+        'goal', help="send a walking goal through the planner's go_to_pose action (accepted, or refused with the "
+                     'reason); --wait follows it to its result, --cancel cancels the running goals')
+    parser.add_argument('x', type=float, nargs='?', help='goal x in the frame, m')
+    parser.add_argument('y', type=float, nargs='?', help='goal y in the frame, m')
     parser.add_argument('--yaw', type=float, default=None, metavar='DEG',
                         help="heading to arrive in, degrees about +z (honoured within the planner's yaw tolerance; "
                              'default: any heading)')
     parser.add_argument('--frame', default=None, help='frame_id (default: the world frame)')
     parser.add_argument('--at', type=float, default=0.0, metavar='S',
                         help='simulated time at which the planner adopts the goal (default 0: at once)')
+    parser.add_argument('--tolerance', type=float, default=0.0, metavar='M',
+                        help="how close counts as arrived, m (default 0: the planner's goal_radius)")
+    parser.add_argument('--yaw-tolerance', type=float, default=0.0, metavar='DEG',
+                        help="heading tolerance, degrees (default 0: the planner's yaw_tolerance)")
+    parser.add_argument('--wait', action='store_true',
+                        help='print the feedback at every stride end and the result; exit 0 only if reached')
+    parser.add_argument('--cancel', action='store_true', help='cancel the running goals (X and Y not given)')
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
-                        help='give up if the planner has not accepted the goal within S s (default 10)')
+                        help='give up if the planner has not answered within S s (default 10); with --wait, the '
+                             'result is awaited without a limit')
     parser.set_defaults(func=run)
 
 
-def _check_finite(args: argparse.Namespace) -> None:
-    """`InputError` naming the first non-finite number."""
+def _check_args(args: argparse.Namespace) -> None:
+    """`InputError` naming the first missing or non-finite number."""
     from iguana_ros.errors import InputError
-    for name in ('x', 'y', 'yaw', 'at'):
+    if args.cancel != (args.x is None):
+        raise InputError('expected X and Y, or --cancel without them')
+    for name in ('x', 'y', 'yaw', 'at', 'tolerance', 'yaw_tolerance'):
         value = getattr(args, name)
         if value is not None and not math.isfinite(value):
             raise InputError(f'goal {name} is {value}; expected a finite number')
+    if args.x is not None and args.y is None:
+        raise InputError('expected X and Y')
     if not (args.timeout > 0 and math.isfinite(args.timeout)):
         raise InputError(f'--timeout is {args.timeout}; expected a positive number of seconds')
     if args.at < 0:
@@ -50,21 +67,56 @@ def _check_finite(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """
-    Publish the goal once the planner listens, wait until it lists the goal on accepted_goals.
-
-    Exit 1 if it does not (no planner, or the goal rejected) within the timeout.
-    """
-    _check_finite(args)
-    from iguana_ros.constants import WORLD_FRAME
+    """Send the goal (or the cancel request) to the planner; with --wait, follow it to its result."""
+    _check_args(args)
     from iguana_ros.doctor.checks import require_ros
 
     require_ros()  # before rclpy is imported: a bad ROS environment is one line naming it, not rcl's or Fast DDS's
-    from iguana_ros.nodes.goal_sender import goal_message, send_goals
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('iguana_goal', context=context, start_parameter_services=False)
+        return _cancel(node, args) if args.cancel else _send(node, args)
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+def _cancel(node, args: argparse.Namespace) -> int:
+    """Cancel every running goal of the planner's action; print how many."""
+    from iguana_ros.nodes.go_to_pose import GoToPoseClient
+
+    count = GoToPoseClient(node).cancel_all(args.timeout)
+    print(f'cancelled {count} goal{"" if count == 1 else "s"}' if count else 'no running goal to cancel', flush=True)
+    return 0
+
+
+def _send(node, args: argparse.Namespace) -> int:
+    """Send the goal; print accepted (or raise 'refused: <reason>'); with --wait, its feedback and result."""
+    from iguana_ros.constants import WORLD_FRAME
+    from iguana_ros.nodes.go_to_pose import goal_request, GoToPoseClient
+    from iguana_ros.nodes.goal_sender import goal_message
 
     msg = goal_message(args.x, args.y, args.yaw, args.at, args.frame or WORLD_FRAME)
-    delivery = send_goals([msg], min_subscribers=1, timeout=args.timeout)
+    client = GoToPoseClient(node)
+    client.send(goal_request(msg, args.tolerance, math.radians(args.yaw_tolerance)), args.timeout)
     heading = 'any heading' if args.yaw is None else f'yaw={args.yaw:g} deg'
-    print(f'goal accepted by the planner on {delivery.topic}: x={args.x:g} y={args.y:g} {heading} '
-          f'frame={msg.header.frame_id} ({delivery.subscribers} subscribers acknowledged)', flush=True)
-    return 0
+    print(f'goal accepted by the planner on {client.name}: x={args.x:g} y={args.y:g} {heading} '
+          f'frame={msg.header.frame_id}', flush=True)
+    if not args.wait:
+        return 0
+    client.on_feedback = _print_feedback                # the feedback from now on, after the one that came first
+    if client.latest is not None:
+        _print_feedback(client.latest)
+    result = client.result(math.inf)
+    print(f'{"reached" if result.reached else "not reached"} ({result.outcome}): {result.reason}; '
+          f'{result.distance_remaining:.2f} m from the goal after {result.time_elapsed:.1f} s', flush=True)
+    return 0 if result.reached else 1
+
+
+def _print_feedback(feedback) -> None:
+    """Print one feedback line."""
+    print(f't={feedback.time_elapsed:.1f} s strides={feedback.strides} distance={feedback.distance_remaining:.2f} m '
+          f'at ({feedback.position[0]:.2f}, {feedback.position[1]:.2f}): {feedback.status}', flush=True)

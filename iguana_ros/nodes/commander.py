@@ -18,9 +18,13 @@ Driving a running iguana_ros system from Python, in the style of nav2_simple_com
     from iguana_ros.nodes.commander import IguanaCommander
 
     with IguanaCommander() as iguana:          # joins the ROS graph of ROS_DOMAIN_ID
-        iguana.go_to(2.0, 0.5, yaw=0.0)        # returns once the planner accepted the goal (yaw=None: any heading)
-        if iguana.wait_until_reached(timeout=60.0):
-            print('reached at', iguana.state().time, 's simulated')
+        iguana.go_to(2.0, 0.5, yaw=0.0)        # returns once the planner scheduled it; IguanaError('refused: ...')
+        while not iguana.is_task_complete():
+            print(iguana.feedback().distance_remaining, 'm to go')
+        result = iguana.result()               # reached, code, reason, distance_remaining, time_elapsed
+        print(result.reached, result.outcome, result.reason)
+        iguana.go_to(-1.0, 0.0)
+        iguana.cancel()                        # the planner drops the goal; the iguana comes to rest
         iguana.follow_waypoints([(1.0, 0.0), (1.0, 1.0), (0.0, 1.0)])
         while not iguana.wait_until_reached(timeout=1.0):
             print('heading for waypoint', iguana.feedback().waypoint)
@@ -32,10 +36,12 @@ Driving a running iguana_ros system from Python, in the style of nav2_simple_com
         iguana.resume()
 
 The commander is an rclpy node of its own (its own context, so it can live beside other nodes of the same
-process). Goals and routes go out like `iguana goal`'s (`publish_goals`: the planner must list them on
-`accepted_goals`); the planner's `planner_status` is the feedback (state, current waypoint, distance, heading error);
-a push is a WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`; `pause`,
-`resume`, `step` and `reset` call the simulator's sim/* services (`nodes.sim_control`).
+process). A goal goes through the planner's go_to_pose action like `iguana goal`'s (`GoToPoseClient`): `feedback()`
+is the action's latest feedback, `result()` its result, `cancel()` cancels it. A route goes out on the route topic
+(`publish_goals`: the planner must list it on `accepted_goals`); then `feedback()` is the planner's `planner_status`
+(state, current waypoint, distance, heading error), which `planner_status()` returns at any time; a push is a
+WrenchStamped on `push`, its duration set first on the simulator's dynamic `push_duration`; `pause`, `resume`,
+`step` and `reset` call the simulator's sim/* services (`nodes.sim_control`).
 """
 from __future__ import annotations
 
@@ -52,10 +58,12 @@ from rclpy.signals import SignalHandlerOptions
 from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import yaw_of
+from iguana_ros.nodes.go_to_pose import goal_request, GoalFeedback, GoToPoseClient
 from iguana_ros.nodes.goal_sender import goal_message, publish_goals, route_message, wait_spinning
 from iguana_ros.nodes.sim_control import SimControlClient, SimReply
 from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_msg
 from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.go_to_pose import GoalResult
 from iguana_ros.ros.messages import planner_status_from_msg
 from iguana_ros.scene import Scene
 from iguana_ros.stages import PlannerStatus
@@ -125,6 +133,8 @@ class IguanaCommander:
         self._push_pub = self.node.create_publisher(cls, name, qos)
         self._push_duration: float | None = None
         self._sim_control: SimControlClient | None = None
+        self._goals = GoToPoseClient(self.node)
+        self._action = False                   # whether the last goal went through the action (go_to)
 
     def __enter__(self) -> IguanaCommander:
         return self
@@ -156,18 +166,34 @@ class IguanaCommander:
         wait_spinning(condition, self.node, timeout, lambda: None, lambda: failure)
 
     def go_to(self, x: float, y: float, yaw: float | None = None, timeout: float = 10.0,
-              frame_id: str = WORLD_FRAME) -> None:
+              frame_id: str = WORLD_FRAME, position_tolerance: float = 0.0, yaw_tolerance: float = 0.0) -> None:
         """
-        Send a goal at (x, y) m, to arrive heading `yaw` rad (None: any heading).
+        Send a goal at (x, y) m through the go_to_pose action, to arrive heading `yaw` rad (None: any heading).
 
-        Returns once the planner accepted it (IguanaError if it rejects it, e.g. off the terrain, or no planner answers
-        within `timeout` s).
+        Tolerances m and rad (0: the planner's). Returns once the planner scheduled it; IguanaError('refused: <reason>')
+        if it refused it (e.g. off the terrain), or if no planner answers within `timeout` s.
         """
         if not all(math.isfinite(v) for v in (x, y, 0.0 if yaw is None else yaw)):
             raise IguanaError(f'goal ({x}, {y}, yaw {yaw}) is not finite')
-        self._send([goal_message(x, y, None if yaw is None else math.degrees(yaw), frame_id=frame_id)], 'goal_pose',
-                   timeout)
-        self.goal, self._planner_decides = np.array([x, y], dtype=float), yaw is not None
+        msg = goal_message(x, y, None if yaw is None else math.degrees(yaw), frame_id=frame_id)
+        self._goals.send(goal_request(msg, position_tolerance, yaw_tolerance), timeout)
+        self.goal, self._planner_decides, self._action = np.array([x, y], dtype=float), True, True
+
+    def cancel(self, timeout: float = 10.0) -> GoalResult:
+        """Cancel the goal sent last by go_to (the iguana comes to rest); return its result (CANCELED if it ran)."""
+        return self._goals.cancel(timeout)
+
+    def result(self, timeout: float = 60.0) -> GoalResult:
+        """Spin until the goal sent last by go_to has a result and return it; IguanaError after `timeout` s."""
+        return self._goals.result(timeout)
+
+    def is_task_complete(self) -> bool:
+        """Whether the goal sent last has ended: go_to's has a result, a route's is arrived (spins briefly)."""
+        try:
+            self._spin_until(lambda: False, 0.02, '')
+        except IguanaError:
+            pass
+        return self._goals.done() if self._action else self.arrived()
 
     def follow_waypoints(self, waypoints: list, yaw: float | None = None, timeout: float = 10.0,
                          frame_id: str = WORLD_FRAME) -> None:
@@ -183,7 +209,7 @@ class IguanaCommander:
             raise IguanaError(f'route {waypoints!r} (yaw {yaw}) needs one or more finite waypoints')
         self._send([route_message(points, None if yaw is None else math.degrees(yaw), frame_id=frame_id)], 'route',
                    timeout)
-        self.goal, self._planner_decides = np.array(points[-1]), True
+        self.goal, self._planner_decides, self._action = np.array(points[-1]), True, False
 
     def _send(self, messages: list, topic_key: str, timeout: float) -> None:
         """Publish a goal or route once the planner listens and wait until it accepted it; note its request number."""
@@ -193,7 +219,24 @@ class IguanaCommander:
         publish_goals(self.node, messages, timeout=timeout, topic_key=topic_key)
         self._request = before + 1
 
-    def feedback(self, timeout: float = 5.0) -> Feedback:
+    def feedback(self, timeout: float = 5.0) -> GoalFeedback | Feedback:
+        """
+        Return the go_to goal's latest action feedback, or after follow_waypoints the planner's latest status.
+
+        Spins briefly for news; IguanaError if there has been none within `timeout` s.
+        """
+        if not self._action:
+            return self.planner_status(timeout)
+        seen = self._goals.latest
+        try:
+            self._spin_until(lambda: self._goals.latest is not seen, min(timeout, 0.1), '')
+        except IguanaError:
+            pass
+        if self._goals.latest is None:
+            self._spin_until(lambda: self._goals.latest is not None, timeout, f'no feedback within {timeout:g} s')
+        return self._goals.latest
+
+    def planner_status(self, timeout: float = 5.0) -> Feedback:
         """Return the planner's latest status (spins briefly for news); IguanaError if there has been none."""
         seen = self._feedback
         try:
@@ -220,11 +263,16 @@ class IguanaCommander:
         """
         Spin until the last goal is reached (True) or `timeout` wall seconds pass (False).
 
-        A goal without a heading: the root within goal_radius of it; a goal with a heading or a route: the planner
-        reports it done (`arrived`).
+        A go_to goal: its result says reached (False at once if it ended otherwise); a route: the planner reports it
+        done (`arrived`).
         """
         if self.goal is None:
             raise IguanaError('wait_until_reached: no goal sent yet (call go_to or follow_waypoints first)')
+        if self._action:
+            try:
+                return self._goals.result(timeout).reached
+            except IguanaError:
+                return False
 
         def reached() -> bool:
             return self.arrived() or (not self._planner_decides and self.distance_to_goal() < self.goal_radius)

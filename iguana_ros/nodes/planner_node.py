@@ -19,24 +19,56 @@ Its inputs are goal_pose, route and iguana_state; its outputs are one motion_cli
 per frame (reference_stance), the goals and route waypoints it accepted on accepted_goals (latched, for their senders),
 where it is on planner_status (latched: state, waypoint, distance, heading error, recovery) and what it noticed
 (waypoints passed, arrival, no progress and the recovery taken) on run_events.
+
+Goals with an answer come through the go_to_pose action (GoToPose): every goal is accepted, then checked like a
+goal_pose message; a bad one is aborted at once with code REFUSED and the reason, a good one scheduled like a goal_pose
+goal (listed on accepted_goals too) as a `stages.GoalTask`, with feedback at every stride end and a result when the
+task ends (reached, replaced by a newer goal or route, no progress, or cancelled: the iguana then comes to rest).
 """
 from __future__ import annotations
 
+from typing import Callable, NamedTuple
+
 from nav_msgs.msg import Path
+import numpy as np
+from rclpy.action import ActionServer, CancelResponse
 from rclpy.clock import Clock, ClockType
 
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import FRAME_RATE, WORLD_FRAME
+from iguana_ros.errors import IguanaError
+from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main
-from iguana_ros.ros.endpoints import resolve, volatile_readers
+from iguana_ros.ros.conversions import time_from_msg
+from iguana_ros.ros.endpoints import resolve, resolve_action, volatile_readers
+from iguana_ros.ros.go_to_pose import feedback_msg, goal_task, result_msg
 from iguana_ros.ros.messages import (clip_to_cdr, goal_from_msg, planner_status_msg, reference_stance_to_cdr,
                                      route_from_msg, state_from_cdr)
 from iguana_ros.ros.run_events import EVENT_CLIP
-from iguana_ros.stages import planner_stage
+from iguana_ros.stages import GoalOutcome, GoalTask, planner_stage, refused_goal
 from iguana_ros.validation import world_bound
 
 READERS_PERIOD_S = 0.5
 """Wall seconds between two counts of the goal topics' readers (published on planner_status when they change)."""
+
+
+class RunningGoal(NamedTuple):
+    """A go_to_pose goal under way: its task and its action goal handle."""
+
+    task: GoalTask
+    handle: object
+
+
+class Until:
+    """An awaitable for an rclpy coroutine callback: done once `condition()` (checked whenever the executor wakes)."""
+
+    def __init__(self, condition: Callable[[], bool]) -> None:
+        """Wait for `condition`."""
+        self.condition = condition
+
+    def __await__(self):
+        while not self.condition():
+            yield
 
 
 class PlannerNode(IguanaNode):
@@ -68,6 +100,10 @@ class PlannerNode(IguanaNode):
         self.accepted_pub = self.publisher('accepted_goals')
         self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
+        self.root = (np.array([self.scene.start.x, self.scene.start.y, 0.0]), quat_from_yaw(0.0))
+        self.running: dict[bytes, RunningGoal] = {}
+        name, cls = resolve_action('go_to_pose')
+        self.action_server = ActionServer(self, cls, name, self.execute_goal, cancel_callback=self.cancel_goal)
         self.readers: dict[str, int] = {}
         self.status_frame = 0
         self.count_readers()
@@ -93,6 +129,49 @@ class PlannerNode(IguanaNode):
         at = self.stage.accept_route(self.stage.route_targets(list(route.waypoints)), route.at)
         poses = [self._stamped(pose, msg.header) for pose in msg.poses]
         self._accepted(poses, route.at, at, f'route of {len(route.waypoints)} waypoints')
+
+    def cancel_goal(self, _handle) -> CancelResponse:
+        """Accept a cancel request: the goal's execution ends it ('canceled') and the planner comes to rest."""
+        return CancelResponse.ACCEPT
+
+    async def execute_goal(self, handle):
+        """Run a go_to_pose goal: refuse it with the reason, or schedule it and answer when its task ends."""
+        try:
+            task = goal_task(handle.request, self.stage, self.half_extent)
+        except IguanaError as exc:
+            self.health.reject(f'go_to_pose: {exc}')
+            return self.finish_goal(handle, refused_goal(str(exc)))
+        heading = 'any heading' if task.target.yaw is None else f'heading {task.target.yaw:.2f} rad'
+        self._accepted([handle.request.pose], time_from_msg(handle.request.pose.header.stamp), task.at,
+                       f'go_to_pose goal ({task.target.xy[0]:.2f}, {task.target.xy[1]:.2f}), {heading}')
+        key = bytes(handle.goal_id.uuid)
+        self.running[key] = RunningGoal(task, handle)
+        handle.publish_feedback(feedback_msg(task.progress(self.root[0][:2]), *self.root))  # says: scheduled
+        try:
+            await Until(lambda: task.outcome is not None or handle.is_cancel_requested)
+        finally:
+            del self.running[key]
+        return self.finish_goal(handle, task.outcome or task.cancel(self.root[0][:2]))
+
+    def finish_goal(self, handle, outcome: GoalOutcome):
+        """Set a go_to_pose goal's final state from its outcome, log it, and return its result message."""
+        if outcome.kind == 'succeeded':
+            handle.succeed()
+        elif outcome.kind == 'canceled' and handle.is_cancel_requested:
+            handle.canceled()
+        else:
+            handle.abort()
+        if outcome.kind in ('succeeded', 'canceled'):      # one call site per severity (rclpy's rule)
+            self.get_logger().info(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
+        else:
+            self.get_logger().warning(f'go_to_pose goal {outcome.kind}: {outcome.reason}')
+        return result_msg(outcome)
+
+    def update_tasks(self, stride_end: bool) -> None:
+        """Decide the running go_to_pose goals' outcomes; at a stride end, publish the feedback of the rest."""
+        for task, handle in list(self.running.values()):
+            if task.update(self.root[0][:2]) is None and stride_end:
+                handle.publish_feedback(feedback_msg(task.progress(self.root[0][:2]), *self.root))
 
     @staticmethod
     def _stamped(pose, header):
@@ -125,6 +204,8 @@ class PlannerNode(IguanaNode):
             return
         self.state_gate.handled(frame)
         clip = self.stage.update(frame, root, orientation)
+        self.root = (root, orientation)
+        self.update_tasks(clip is not None)
         if clip is not None:
             self.clip_pub.publish(clip_to_cdr(clip, self.skeleton, frame))   # serialized from numpy: 21 x 34 bones
             self.get_logger().info(f'frame {frame}: clip {clip.name!r} ({len(clip.root_positions)} frames)')

@@ -15,13 +15,11 @@
 """
 `iguana goal`.
 
-The planner (a real node process) accepts the PoseStamped and the command says so; bad numbers, no planner and a goal
-the planner rejects exit 1 with one line.
+The planner (a real node process) accepts the goal through its go_to_pose action and the command says so; bad numbers,
+no planner and a goal the planner refuses exit 1 with one line (a refusal with its reason).
 """
-import math
 import sys
 
-import numpy as np
 import pytest
 
 from iguana_ros.cli import main
@@ -33,6 +31,8 @@ from ros_harness import IGUANA, NodeProcess, spin_until
     (['goal', '1', 'inf'], 'goal y is inf; expected a finite number'),
     (['goal', '1', '2', '--yaw', 'nan'], 'goal yaw is nan'),
     (['goal', '1', '2', '--timeout', '0'], '--timeout is 0.0'),
+    (['goal', '1'], 'expected X and Y'),
+    (['goal', '1', '2', '--cancel'], 'expected X and Y, or --cancel without them'),
 ])
 def test_non_finite_goal_is_one_line_exit_1(capsys, argv, message):
     assert main(argv) == 1
@@ -44,7 +44,7 @@ def test_non_finite_goal_is_one_line_exit_1(capsys, argv, message):
 def test_no_planner_times_out_with_clear_message(capsys):
     assert main(['goal', '1', '2', '--timeout', '0.5']) == 1
     assert capsys.readouterr().err.strip() == (
-        'iguana goal: error: no planner on /goal_pose within 0.5 s (nothing published /accepted_goals); '
+        'iguana goal: error: no planner answers the go_to_pose action within 0.5 s; '
         'is planner_node running on this ROS_DOMAIN_ID?')
 
 
@@ -79,7 +79,7 @@ def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_
         assert spin_until(executor, lambda: not goal.running, 20)
     assert goal.proc.returncode == 1, goal.output
     assert goal.output.strip().splitlines() == [
-        'iguana goal: error: no planner on /goal_pose within 2 s (nothing published /accepted_goals); '
+        'iguana goal: error: no planner answers the go_to_pose action within 2 s; '
         'is planner_node running on this ROS_DOMAIN_ID?']
     assert received == []  # nothing went out: the goal was not sent to a listener in the planner's place
 
@@ -87,43 +87,28 @@ def test_another_subscriber_without_a_planner_is_not_a_sent_goal(tmp_path, make_
 @pytest.mark.ros
 @pytest.mark.long
 @pytest.mark.timeout(150)
-def test_goal_waits_for_a_planner_that_starts_after_another_subscriber(tmp_path, make_node, executor):
+def test_goal_waits_for_a_planner_that_starts_later(tmp_path):
     """
-    `iguana goal` waits for a planner that starts after another subscriber on goal_pose.
+    `iguana goal` waits for a planner that starts after it, through the go_to_pose action.
 
-    The defect: with a second subscriber on goal_pose, `iguana goal` said 'goal sent' while the planner (not yet
-    listening) never got the goal. Now it waits until the planner lists the goal as accepted; a goal the planner rejects
-    is reported (exit 1). The planner starts once the listener has matched the sender's publisher: a subscriber the
-    sender has not discovered yet cannot be waited for (CI once saw the planner's process discovered before this one's).
+    A goal the planner refuses exits 1 with the reason; a goal stamped in simulated time is scheduled for then.
     """
-    from iguana_ros.ros.conversions import pose_stamped_to_numpy
-    received, sub = _listener(make_node, executor)
     goal = NodeProcess([*IGUANA, 'goal', '1.5', '-2', '--yaw', '90', '--timeout', '90'], 'goal', tmp_path).start()
     with goal:
-        assert spin_until(executor, lambda: sub.get_publisher_count() > 0, 60), goal.output
         with _planner(tmp_path).start() as planner:
-            assert spin_until(executor, lambda: not goal.running, 100), goal.output
-            assert goal.proc.returncode == 0, goal.output + planner.output
-            assert 'goal (1.50, -2.00), heading 1.57 rad scheduled for t=0.000 s' in planner.output
-            # the listener acknowledged the goal before the sender exited; its callback runs when this process spins
-            assert spin_until(executor, lambda: received, 10), f'the second subscriber got no goal: {goal.output}'
+            assert goal.wait(100) == 0, goal.output + planner.output
+            assert 'go_to_pose goal (1.50, -2.00), heading 1.57 rad scheduled for t=0.000 s' in planner.output
             rejected = NodeProcess([*IGUANA, 'goal', '1e9', '0', '--timeout', '8'], 'rejected', tmp_path).start()
             assert rejected.wait(30) == 1
             later = NodeProcess([*IGUANA, 'goal', '1', '0.5', '--at', '2', '--timeout', '30'], 'later', tmp_path)
             later.start()
             assert later.wait(40) == 0, later.output
             assert planner.running
-    assert ('goal accepted by the planner on /goal_pose: x=1.5 y=-2 yaw=90 deg frame=world (2 subscribers acknowledged)'
-            in goal.output)
-    pos, quat = pose_stamped_to_numpy(received[0])
-    np.testing.assert_allclose(pos, [1.5, -2.0, 0.0])
-    np.testing.assert_allclose(quat, [0, 0, math.sqrt(0.5), math.sqrt(0.5)])
-    stamp = received[0].header.stamp
-    assert stamp.sec == 0 and stamp.nanosec == 0  # 0 = adopt at once (--at schedules in sim time)
-    assert rejected.output.strip() == ('iguana goal: error: the planner did not accept the goal within 8 s (rejected: '
-                                       'see the planner log for "rejected goal_pose", e.g. a goal off the terrain)')
-    assert 'rejected goal_pose: goal (1e+09, 0) is off the terrain' in planner.output
-    assert 'goal (1.00, 0.50), any heading scheduled for t=2.000 s' in planner.output
+    assert 'goal accepted by the planner on go_to_pose: x=1.5 y=-2 yaw=90 deg frame=world' in goal.output
+    assert rejected.output.strip() == ('iguana goal: error: refused: goal (1e+09, 0) is off the terrain '
+                                       '(|x|, |y| <= 5 m)')
+    assert 'go_to_pose goal refused: goal (1e+09, 0) is off the terrain' in planner.output
+    assert 'go_to_pose goal (1.00, 0.50), any heading scheduled for t=2.000 s' in planner.output
 
 
 @pytest.mark.ros
@@ -133,8 +118,8 @@ def test_every_goal_the_planner_accepted_during_a_recorded_run_is_in_the_bag(tmp
     """
     Issue 30, item 4: 6 goals sent with `iguana goal` during `iguana run --record` each exited 0, 2 reached the bag.
 
-    `iguana goal` exited before the recorder had matched its short-lived publisher; it now waits until the goal
-    topic's subscriptions have stayed the same for GRAPH_SETTLE_S and all acknowledged the goal.
+    `iguana goal` exited before the recorder had matched its short-lived publisher. Goals now go through the
+    go_to_pose action; the planner lists each one it accepted on the latched accepted_goals, which the bag records.
     """
     import yaml
     from iguana_ros.bag.storage import BagReader
@@ -150,5 +135,8 @@ def test_every_goal_the_planner_accepted_during_a_recorded_run_is_in_the_bag(tmp
                                tmp_path).start()
             assert goal.wait(60) == 0, goal.output
         run.stop()
-    sent = [m for m in BagReader(bag).messages() if m.topic == '/goal_pose']
-    assert len(sent) == 7, f'{len(sent)} goal_pose messages in the bag, expected the scene goal and 6 sent'
+    from nav_msgs.msg import Path
+    from rclpy.serialization import deserialize_message
+    lists = [m for m in BagReader(bag).messages() if m.topic == '/accepted_goals']
+    accepted = deserialize_message(lists[-1].data, Path).poses
+    assert len(accepted) == 7, f'{len(accepted)} accepted goals in the bag, expected the scene goal and 6 sent'

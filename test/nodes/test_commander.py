@@ -106,8 +106,8 @@ def test_refusals_are_one_clear_error(running):
     _, iguana = running
     with pytest.raises(IguanaError, match='push_duration'):
         iguana.push('trunk_left', (0.0, -10.0, 0.0), duration=100.0)   # outside its declared [0.001, 10] s
-    with pytest.raises(IguanaError, match='did not accept'):
-        iguana.go_to(500.0, 0.0, timeout=5.0)   # off the terrain: the planner rejects it
+    with pytest.raises(IguanaError, match=r'refused: goal \(500, 0\) is off the terrain'):
+        iguana.go_to(500.0, 0.0, timeout=5.0)   # off the terrain: the planner refuses it with the reason
     with pytest.raises(IguanaError, match='not finite'):
         iguana.go_to(float('nan'), 0.0)
     with pytest.raises(IguanaError, match='did not accept'):
