@@ -59,8 +59,8 @@ MAP_FRAME = 'map'
 GOAL_FRAMES = (WORLD_FRAME, MAP_FRAME, ODOM_FRAME)
 """frame_ids a goal or route may have: frames that coincide with the world frame, so no transform is needed."""
 
-BASE_FRAME = 'iguana/base_link'
-"""child_frame_id of the iguana's root (pelvis) in odometry."""
+BASE_FRAME = 'base_link'
+"""REP-105 frame of the iguana's root (pelvis): child_frame_id of iguana_state, on /tf (under the frame_prefix)."""
 
 # --- soft-body simulator (iguana_ros.physics) -------------------------------------------------------------------
 CONTACT_STIFFNESS = 1.0e6

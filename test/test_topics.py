@@ -28,11 +28,13 @@ and where it is on it (the commander's feedback)."""
 EVENT_KEYS = {'run_events', 'diagnostics'}
 """What the node processes report about themselves (start-up milestones, clips) for iguana run's progress."""
 DOCTOR_KEYS = {'doctor_ping', 'doctor_pong'}
+TF_KEYS = {'tf', 'tf_static'}
+"""The iguana's frames, as tf2 expects them (absolute names)."""
 """`iguana doctor`'s loopback between two processes."""
 
 
 def test_table_has_every_design_topic():
-    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS | EVENT_KEYS | DOCTOR_KEYS
+    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS | EVENT_KEYS | DOCTOR_KEYS | TF_KEYS
 
 
 def test_latched_topics_are_transient_local():

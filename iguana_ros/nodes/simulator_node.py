@@ -16,9 +16,10 @@
 Simulator node (Section V).
 
 Its inputs are spring_rest_lengths and push; its outputs are mesh_marker, scene_markers, iguana_state, foot_state,
-foot_positions and /clock. `lockstep` advances a frame only when that frame's lengths arrive; `realtime` paces to the
-wall clock with the latest lengths. Its services sim/pause, sim/resume, sim/step and sim/reset control the frame loop
-in both modes (`stages.SimControl`, `SimulatorStage.reset`).
+foot_positions, /clock, /tf (odom -> base_link and the feet) and /tf_static (world -> odom). `lockstep` advances a
+frame only when that frame's lengths arrive; `realtime` paces to the wall clock with the latest lengths. Its services
+sim/pause, sim/resume, sim/step and sim/reset control the frame loop in both modes (`stages.SimControl`,
+`SimulatorStage.reset`).
 """
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ from iguana_ros.ros.endpoints import RECORDER_NODE_NAME, resolve, resolve_servic
 from iguana_ros.ros.messages import (clock_to_cdr, foot_positions_to_cdr, foot_state_to_cdr, frame_of_cdr,
                                      goal_from_msg, lengths_from_cdr, push_from_cdr, route_from_msg, state_to_cdr)
 from iguana_ros.ros.run_events import EVENT_BODY_LOST, EVENT_PAUSED, EVENT_RESET, EVENT_RESUMED
+from iguana_ros.ros.tf import body_tf_to_cdr, static_tf_to_cdr, tf_frames
 from iguana_ros.stages import SimControl, simulator_stage
 from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_STALE
@@ -56,7 +58,7 @@ GOAL_MARKER_RADIUS = 0.05
 """Radius of the goal sphere in scene_markers, m."""
 
 RECORDED_FROM_START = ('iguana_state', 'mesh_marker', 'clock', 'foot_state', 'foot_positions', 'motion_clip',
-                       'reference_pose', 'reference_stance')
+                       'reference_pose', 'reference_stance', 'tf')
 """Topics the bag recorder must subscribe to before frame 0 (with wait_for_recorder): the run's summary reads
 the gait figures from them."""
 
@@ -82,6 +84,7 @@ class SimulatorNode(IguanaNode):
         self.half_extent = scene.terrain.extent / 2.0
         self.peers_listed_since: float | None = None
         self.probe = FootProbe(self.model, self.terrain)
+        self.frames = tf_frames(self.param('frame_prefix'))
         self.mesh_writer = TriangleListMarkerWriter(self.model.surface_triangles, self.model.n_nodes, WORLD_FRAME,
                                                     'iguana')
         self.latest_lengths: np.ndarray | None = None
@@ -111,6 +114,8 @@ class SimulatorNode(IguanaNode):
         self.state_readers = ReaderCount(self, 'iguana_state')
         self.state_pub = self.state_readers.publisher
         self.clock_pub = self.publisher('clock')
+        self.tf_pub = self.publisher('tf')
+        self.publisher('tf_static').publish(static_tf_to_cdr(self.frames))    # latched: world -> odom
         self.mesh_pub = self.publisher('mesh_marker')
         self.scene_pub = self.publisher('scene_markers')
         self.foot_pub = self.publisher('foot_state')
@@ -311,7 +316,7 @@ class SimulatorNode(IguanaNode):
         from rclpy.duration import Duration
         self.exit_code = code
         self.timer.cancel()
-        for pub in (self.state_pub, self.clock_pub, self.mesh_pub, self.foot_pub, self.foot_positions_pub):
+        for pub in (self.state_pub, self.clock_pub, self.mesh_pub, self.foot_pub, self.foot_positions_pub, self.tf_pub):
             pub.wait_for_all_acked(Duration(seconds=FINISH_ACK_TIMEOUT))
         rclpy.try_shutdown(context=self.context)
 
@@ -386,8 +391,9 @@ class SimulatorNode(IguanaNode):
         root, orientation = self.stage.root_pose()
         linear, angular = self.stage.root_twist()
         self.clock_pub.publish(clock_to_cdr(frame))
-        self.state_pub.publish(state_to_cdr(root, orientation, linear, angular, frame))
+        self.state_pub.publish(state_to_cdr(root, orientation, linear, angular, frame, self.frames.base))
         heights, contact, soles = self.probe.body(self.stage.sim.positions, self.stage.sim.in_contact)
+        self.tf_pub.publish(body_tf_to_cdr(self.frames, root, orientation, soles, frame))
         self.foot_pub.publish(foot_state_to_cdr(heights, contact, frame))
         self.foot_positions_pub.publish(foot_positions_to_cdr(soles, frame))
         if frame % self.param('mesh_every_n_frames') == 0:

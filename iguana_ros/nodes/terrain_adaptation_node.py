@@ -12,12 +12,13 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose out for every frame."""
+"""Terrain adaptation node (Section VI): motion_clip + iguana_state in, reference_pose (and its bones on /tf) out."""
 from __future__ import annotations
 
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.nodes.base import FrameGate, IguanaNode, node_main, ReaderHold, RESEND_FRAMES
 from iguana_ros.ros.messages import clip_from_cdr, reference_pose_to_cdr, state_from_cdr
+from iguana_ros.ros.tf import bones_tf_to_cdr, tf_frames
 from iguana_ros.stages import adaptation_stage, StrideLookahead
 from iguana_ros.validation import check_frame, FRAME_NEW, world_bound
 
@@ -56,6 +57,8 @@ class TerrainAdaptationNode(IguanaNode):
         self.sent: dict[int, object] = {}
         self.reader_hold = ReaderHold(self, 'reference_pose', retry=self.publish_ready)
         self.pose_pub = self.reader_hold.publisher
+        self.tf_pub = self.publisher('tf')
+        self.frames = tf_frames(self.param('frame_prefix'), self.skeleton.names)
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)
@@ -104,6 +107,7 @@ class TerrainAdaptationNode(IguanaNode):
             while len(self.sent) > RESEND_FRAMES:
                 del self.sent[next(iter(self.sent))]
             self.pose_pub.publish(self.sent[frame])
+            self.tf_pub.publish(bones_tf_to_cdr(self.frames, reference.joints, reference.rotations, frame))
 
     def destroy_node(self) -> None:
         """Stop the lookahead's worker thread, then leave the graph."""

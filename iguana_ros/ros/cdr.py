@@ -344,6 +344,39 @@ def odometry_cdr(stamp: tuple, frame_id: str, child_frame_id: str, pose: np.ndar
                                    'twist': np.asarray(twist, np.float64).tolist()})
 
 
+def tf_message_cdr(stamp: tuple, parents: list, children: list, translations: np.ndarray,
+                   rotations: np.ndarray) -> bytes:
+    """
+    Return serialized tf2_msgs/TFMessage bytes: one TransformStamped per child, all stamped (sec, nanosec).
+
+    `parents` and `children` are frame names `(n,)`, `translations` `(n, 3)` m and `rotations` `(n, 4)` xyzw.
+    """
+    rows = np.concatenate([np.asarray(translations, np.float64), np.asarray(rotations, np.float64)], axis=1)
+    writer = CdrWriter()
+    writer.pack('I', len(rows))
+    for parent, child, row in zip(parents, children, rows):
+        writer.pack('iI', *stamp)
+        writer.string(parent)
+        writer.string(child)
+        writer.pack('7d', *row)
+    return writer.to_bytes()
+
+
+def tf_message_from_cdr(data: bytes, what: str = 'TFMessage') -> list[tuple]:
+    """Return [(stamp (sec, nanosec), parent, child, translation `(3,)`, rotation `(4,)` xyzw)] of TFMessage bytes."""
+    try:
+        reader = CdrReader(data, what)
+        transforms = []
+        for _ in range(reader.take('I')[0]):
+            stamp = reader.take('iI')
+            parent, child = reader.string(), reader.string()
+            row = np.array(reader.take('7d'))
+            transforms.append((stamp, parent, child, row[:3], row[3:]))
+    except (struct.error, ValueError) as exc:
+        raise InputError(f'{what}: message is truncated or not a TFMessage: {exc}') from exc
+    return transforms
+
+
 def joint_state_cdr(stamp: tuple, frame_id: str, names: list, position: np.ndarray,
                     effort: np.ndarray | None = None) -> bytes:
     """Return serialized JointState bytes: `names`, position `(n,)`, no velocity, effort `(m,)` (None = empty)."""

@@ -177,12 +177,12 @@ def _checked_lengths(values: np.ndarray, n_springs: int, rest_lengths: np.ndarra
 
 
 def state_to_cdr(root: np.ndarray, orientation: np.ndarray, linear: np.ndarray, angular: np.ndarray,
-                 frame: int) -> bytes:
+                 frame: int, child_frame_id: str = BASE_FRAME) -> bytes:
     """Return the serialized iguana_state (Odometry) of the iguana root at the start of `frame` (the simulator's)."""
     pose = np.concatenate([validate_array('position', root, (3,)), validate_array('quaternion', orientation, (4,))])
     twist = np.concatenate([validate_array('linear_velocity', linear, (3,)),
                             validate_array('angular_velocity', angular, (3,))])
-    return odometry_cdr(_frame_stamp_pair(frame), WORLD_FRAME, BASE_FRAME, pose, twist)
+    return odometry_cdr(_frame_stamp_pair(frame), WORLD_FRAME, child_frame_id, pose, twist)
 
 
 def clock_to_cdr(frame: int) -> bytes:

@@ -193,7 +193,7 @@ def _lengths_msg(lengths, frame: int):
 
 
 def _state_msg(root, orientation, linear, angular, frame: int):
-    """iguana_state as an Odometry object (world, iguana/base_link)."""
+    """iguana_state as an Odometry object (world, base_link)."""
     from iguana_ros.ros.conversions import odometry_msg
     return odometry_msg(root, orientation, linear, angular, stamp=frame_stamp(frame))
 
