@@ -28,7 +28,7 @@ import runpy
 import pytest
 import yaml
 
-from iguana_ros.constants import WORLD_FRAME
+from iguana_ros.constants import BASE_FRAME, WORLD_FRAME
 from iguana_ros.topics import default_topics
 from ros_harness import REPO
 
@@ -45,8 +45,8 @@ RVIZ_TYPES = {
 }
 """Message type of each RViz2 display or tool class with a topic (rviz_default_plugins' plugin description)."""
 
-RVIZ_NO_TOPIC = {'rviz_default_plugins/Grid', 'rviz_default_plugins/Interact', 'rviz_default_plugins/MoveCamera',
-                 'rviz_default_plugins/Select', 'rviz_default_plugins/FocusCamera', 'rviz_default_plugins/Measure'}
+RVIZ_NO_TOPIC = {'rviz_default_plugins/Grid', 'rviz_default_plugins/TF', 'rviz_default_plugins/Interact',
+                 'rviz_default_plugins/MoveCamera', 'rviz_default_plugins/Select', 'rviz_default_plugins/FocusCamera', 'rviz_default_plugins/Measure'}
 
 RVIZ_QOS = {'Durability Policy': ('durability', {'Volatile': 'volatile', 'Transient Local': 'transient_local'}),
             'Reliability Policy': ('reliability', {'Reliable': 'reliable', 'Best Effort': 'best_effort'}),
@@ -119,7 +119,7 @@ def test_foxglove_layout_parses_and_names_declared_topics_and_fields():
     table = table_by_name()
     panels = layout['configById']
     three_d = panels['3D!iguana']
-    assert three_d['followTf'] == WORLD_FRAME
+    assert three_d['followTf'] == BASE_FRAME
     assert {'/mesh_marker', '/scene_markers', '/iguana_state'} <= set(three_d['topics'])
     for name in three_d['topics']:
         assert name in table, f'{name} is not in msg_configs/topics.yaml'
@@ -188,6 +188,17 @@ def test_layouts_are_installed_under_share(monkeypatch, capsys):
 
 
 @pytest.mark.parametrize('layout', [RVIZ, FOXGLOVE])
-def test_layouts_name_the_world_frame_only(layout):
-    frames = set(re.findall(r'"?(?:Fixed Frame|frame_id|followTf|frameId)"?:\s*"?([\w/]+)', layout.read_text()))
+def test_layouts_draw_in_the_world_frame_and_follow_base_link(layout):
+    text = layout.read_text()
+    frames = set(re.findall(r'"?(?:Fixed Frame|frame_id|frameId)"?:\s*"?([\w/]+)', text))
     assert frames == {WORLD_FRAME}, frames
+    followed = set(re.findall(r'"?(?:Target Frame|followTf)"?:\s*"?([\w/]+)', text))
+    assert followed == {BASE_FRAME}, followed              # the camera follows the simulated root on /tf
+
+
+def test_rviz_shows_the_tf_tree_and_foxglove_follows_the_pose_of_base_link():
+    config = yaml.safe_load(RVIZ.read_text())['Visualization Manager']
+    assert any(item['Class'] == 'rviz_default_plugins/TF' and item['Enabled'] for item in config['Displays'])
+    assert config['Views']['Current']['Target Frame'] == BASE_FRAME
+    panel = next(c for c in json.loads(FOXGLOVE.read_text())['configById'].values() if 'followTf' in c)
+    assert (panel['followTf'], panel['followMode']) == (BASE_FRAME, 'follow-pose')
