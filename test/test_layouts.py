@@ -46,7 +46,8 @@ RVIZ_TYPES = {
 """Message type of each RViz2 display or tool class with a topic (rviz_default_plugins' plugin description)."""
 
 RVIZ_NO_TOPIC = {'rviz_default_plugins/Grid', 'rviz_default_plugins/TF', 'rviz_default_plugins/Interact',
-                 'rviz_default_plugins/MoveCamera', 'rviz_default_plugins/Select', 'rviz_default_plugins/FocusCamera', 'rviz_default_plugins/Measure'}
+                 'rviz_default_plugins/MoveCamera', 'rviz_default_plugins/Select', 'rviz_default_plugins/FocusCamera',
+                 'rviz_default_plugins/Measure'}
 
 RVIZ_QOS = {'Durability Policy': ('durability', {'Volatile': 'volatile', 'Transient Local': 'transient_local'}),
             'Reliability Policy': ('reliability', {'Reliable': 'reliable', 'Best Effort': 'best_effort'}),
