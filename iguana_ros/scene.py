@@ -342,10 +342,15 @@ def _check_topics(value: list, source: str, path: str) -> tuple:
     """Validate record.topics: 'all' or topic keys of msg_configs/topics.yaml."""
     from iguana_ros.topics import default_topics
 
+    import difflib
+
     known = default_topics()
     for i, key in enumerate(value):
         if not isinstance(key, str) or (key != 'all' and key not in known):
-            _fail(source, f'{path}[{i}]', f'expected all or a topic key ({", ".join(known)}), got {_show(key)}')
+            close = difflib.get_close_matches(str(key), list(known), n=3) if isinstance(key, str) else []
+            hint = f'; close: {", ".join(close)}' if close else ''
+            _fail(source, f'{path}[{i}]', f'expected all or a topic key of msg_configs/topics.yaml (e.g. '
+                                          f'iguana_state, mesh_marker, clock, tf){hint}, got {_show(key)}')
     return tuple(value)
 
 

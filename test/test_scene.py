@@ -138,7 +138,7 @@ def test_terrain_grid_size_is_bounded_by_the_schema(terrain, field):
     ({'start': {'x': 1.0e300}}, "'start'", 'off the terrain'),
     ({'start': {'yaw_deg': 1.0e300}}, "'start.yaw_deg'", '360'),
     ({'record': {'mesh_every_n_frames': 10 ** 12}}, "'record.mesh_every_n_frames'", 'at most'),
-    ({'record': {'topics': ['all', 'no_such_topic']}}, "'record.topics[1]'", 'goal_pose'),
+    ({'record': {'topics': ['all', 'no_such_topic']}}, "'record.topics[1]'", 'topics.yaml (e.g. iguana_state'),
     ({'name': '../../escape'}, "'name'", 'letters'),
     ({'pushes': [{'at': 1.0, 'force': [600.0, 0.0, 0.0]}, {'at': 1.05, 'force': [0.0, 600.0, 0.0]}]},
      "'pushes[1].force'", f'{MAX_PUSH_FORCE:g} N'),                                         # 1200 N acting at once

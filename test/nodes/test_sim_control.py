@@ -81,9 +81,9 @@ def _run_events(bag) -> list:
 
 @pytest.fixture(scope='module')
 def lockstep(tmp_path_factory):
-    """Start a paused lockstep run and a commander on its domain; stop the run after the module's tests."""
+    """Start a commander, then a paused lockstep run on its domain; stop the run after the module's tests."""
+    iguana = IguanaCommander()             # first: its subscription is matched when frame 0 goes out, once
     scene, bag, run = _start(tmp_path_factory.mktemp('lockstep'), 'lockstep')
-    iguana = IguanaCommander()
     try:
         yield scene, bag, run, iguana
     finally:
@@ -150,9 +150,9 @@ def walk_library_run(lockstep):
 
 
 def test_a_realtime_run_pauses_steps_and_resumes(tmp_path):
-    _, _, run = _start(tmp_path, 'realtime')
-    try:
-        with IguanaCommander() as iguana:
+    with IguanaCommander() as iguana:      # first: its subscription is matched when frame 0 goes out, once
+        _, _, run = _start(tmp_path, 'realtime')
+        try:
             iguana.state(timeout=120.0)
             assert iguana.step(30).frame == 30
             assert _held_for(iguana, 1.0) == []
@@ -165,5 +165,5 @@ def test_a_realtime_run_pauses_steps_and_resumes(tmp_path):
             iguana.state(timeout=0.3)                # a state in flight when the pause arrived
             frozen = iguana.state()
             assert _held_for(iguana, 1.0) == [] and f'frame {round(frozen.time * FRAME_RATE)}' in paused.message
-    finally:
-        _stop(run)
+        finally:
+            _stop(run)
