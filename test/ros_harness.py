@@ -20,8 +20,12 @@ from collections.abc import Callable
 import importlib.util
 import json
 from pathlib import Path
+import signal
 import sys
 import time
+import typing
+
+import yaml
 
 from iguana_ros.supervisor.process import NodeProcess as _PackageNodeProcess
 from iguana_ros.supervisor.process import wait_for  # noqa: F401 (re-exported for tests)
@@ -58,6 +62,31 @@ class NodeProcess(_PackageNodeProcess):
     def __init__(self, args: list[str], name: str = 'proc', log_dir: str | Path | None = None,
                  env: dict | None = None) -> None:
         super().__init__(args, name, log_dir, env, cwd=REPO)
+
+
+class SceneRun(typing.NamedTuple):
+    """A started `iguana run` of a scene written for a test: its process, scene file and bag directory."""
+
+    process: NodeProcess
+    scene: Path
+    bag: Path
+
+
+def start_scene_run(folder: Path, scene: dict, *args: str) -> SceneRun:
+    """Write `scene` as folder/<name>.yaml and start `iguana run` of it recording folder/bag, with `args`."""
+    path = folder / f'{scene["name"]}.yaml'
+    path.write_text(yaml.safe_dump(scene))
+    run = NodeProcess([*IGUANA, 'run', str(path), *args, '--record', str(folder / 'bag')], 'iguana_run', folder)
+    run.start()
+    return SceneRun(run, path, folder / 'bag')
+
+
+def stop_scene_run(run: NodeProcess) -> None:
+    """SIGTERM the run if it is still going (it finalises its bag), then reap it."""
+    if run.running:
+        run.proc.send_signal(signal.SIGTERM)
+        wait_for(lambda: not run.running, 30.0, 0.1)
+    run.stop()
 
 
 def tool_module(name: str):

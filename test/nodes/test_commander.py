@@ -18,15 +18,13 @@ IguanaCommander drives a real `iguana run` (four node processes over DDS).
 A goal the planner adopts and the body reaches, a push with its duration that moves the body sideways, and refusals as
 one clear error.
 """
-import signal
 
 import numpy as np
 import pytest
-import yaml
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.commander import IguanaCommander
-from ros_harness import IGUANA, NodeProcess, wait_for
+from ros_harness import start_scene_run, stop_scene_run, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -42,21 +40,13 @@ def running(tmp_path_factory):
     Realtime, as a commander drives a running system: in lockstep a fast machine walked the 2 m of the first test in
     ~2.5 s of wall time, before a loaded one had delivered the goal's acceptance to `go_to`.
     """
-    folder = tmp_path_factory.mktemp('commander')
-    scene = folder / 'commanded.yaml'
-    scene.write_text(yaml.safe_dump(SCENE))
-    run = NodeProcess([*IGUANA, 'run', str(scene), '--mode', 'realtime', '--record', str(folder / 'bag')],
-                      'iguana_run', folder)
-    run.start()
+    run = start_scene_run(tmp_path_factory.mktemp('commander'), SCENE, '--mode', 'realtime').process
     commander = IguanaCommander()
     try:
         yield run, commander
     finally:
         commander.close()
-        if run.running:
-            run.proc.send_signal(signal.SIGTERM)
-            wait_for(lambda: not run.running, 30.0, 0.1)
-        run.stop()
+        stop_scene_run(run)
 
 
 def test_go_to_is_adopted_and_reached(running):

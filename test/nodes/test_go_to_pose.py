@@ -21,18 +21,16 @@ A refused goal has its reason within 1 s; a goal is reached with SUCCEEDED and f
 replaces an older one; a cancelled goal stops the iguana.
 """
 import math
-import signal
 import time
 
 import numpy as np
 import pytest
-import yaml
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.commander import IguanaCommander
 from iguana_ros.nodes.go_to_pose import goal_request, GoToPoseClient
 from iguana_ros.nodes.goal_sender import goal_message
-from ros_harness import IGUANA, NodeProcess, wait_for
+from ros_harness import IGUANA, NodeProcess, start_scene_run, stop_scene_run, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -43,22 +41,14 @@ SCENE = {'name': 'go_to_pose', 'description': 'no goals of its own: the tests se
 @pytest.fixture(scope='module')
 def running(tmp_path_factory):
     """`iguana run` of a goal-less flat scene (realtime), a commander and a second action client on its node."""
-    folder = tmp_path_factory.mktemp('go_to_pose')
-    scene = folder / 'go_to_pose.yaml'
-    scene.write_text(yaml.safe_dump(SCENE))
-    run = NodeProcess([*IGUANA, 'run', str(scene), '--mode', 'realtime', '--record', str(folder / 'bag')], 'iguana_run',
-                      folder)
-    run.start()
+    run = start_scene_run(tmp_path_factory.mktemp('go_to_pose'), SCENE, '--mode', 'realtime').process
     commander = IguanaCommander()
     try:
         commander.state(timeout=120.0)
         yield run, commander, GoToPoseClient(commander.node)
     finally:
         commander.close()
-        if run.running:
-            run.proc.send_signal(signal.SIGTERM)
-            wait_for(lambda: not run.running, 30.0, 0.1)
-        run.stop()
+        stop_scene_run(run)
 
 
 def _nan_goal():

@@ -19,13 +19,11 @@ A lockstep run started paused holds frame 0, `step 30` advances exactly 30 frame
 bit for bit, a pause holds the state bit for bit, reset puts the body back at its start pose (recorded on run_events),
 `iguana sim` refuses a bad step in one line; a realtime run pauses and steps the same way.
 """
-import signal
 import subprocess
 import time
 
 import numpy as np
 import pytest
-import yaml
 
 from iguana_ros.bag.trajectory import read_root_trajectory, read_topics
 from iguana_ros.constants import FRAME_RATE
@@ -34,7 +32,7 @@ from iguana_ros.nodes.commander import IguanaCommander
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.ros.run_events import EVENT_PAUSED, EVENT_RESET, run_event_from_msg
 from iguana_ros.scene import load_scene
-from ros_harness import IGUANA, NodeProcess, wait_for
+from ros_harness import IGUANA, start_scene_run, stop_scene_run, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -45,21 +43,8 @@ SCENE = {'name': 'controlled', 'description': 'a short walk on flat ground, driv
 
 def _start(folder, mode: str) -> tuple:
     """Start `iguana run SCENE --paused` in `mode` with a bag; return (scene path, bag path, process)."""
-    scene = folder / 'controlled.yaml'
-    scene.write_text(yaml.safe_dump(SCENE))
-    bag = folder / 'bag'
-    run = NodeProcess([*IGUANA, 'run', str(scene), '--mode', mode, '--paused', '--record', str(bag)], 'iguana_run',
-                      folder)
-    run.start()
-    return scene, bag, run
-
-
-def _stop(run) -> None:
-    """SIGTERM the run if it is still going; reap it."""
-    if run.running:
-        run.proc.send_signal(signal.SIGTERM)
-        wait_for(lambda: not run.running, 30.0, 0.1)
-    run.stop()
+    run = start_scene_run(folder, SCENE, '--mode', mode, '--paused')
+    return run.scene, run.bag, run.process
 
 
 def _held_for(iguana: IguanaCommander, seconds: float) -> list:
@@ -88,7 +73,7 @@ def lockstep(tmp_path_factory):
         yield scene, bag, run, iguana
     finally:
         iguana.close()
-        _stop(run)
+        stop_scene_run(run)
 
 
 def test_a_paused_start_holds_frame_0_and_step_30_advances_exactly_30_frames(lockstep):
@@ -166,4 +151,4 @@ def test_a_realtime_run_pauses_steps_and_resumes(tmp_path):
             frozen = iguana.state()
             assert _held_for(iguana, 1.0) == [] and f'frame {round(frozen.time * FRAME_RATE)}' in paused.message
         finally:
-            _stop(run)
+            stop_scene_run(run)

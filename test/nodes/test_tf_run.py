@@ -27,13 +27,12 @@ import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from tf2_msgs.msg import TFMessage
-import yaml
 
 from iguana_ros.bag.trajectory import read_root_trajectory
 from iguana_ros.body.skeleton import iguana_skeleton
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.ros.tf import tf_frames
-from ros_harness import IGUANA, NodeProcess, wait_for
+from ros_harness import IGUANA, start_scene_run, wait_for
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -79,13 +78,8 @@ class TfListener:
 @pytest.fixture(scope='module')
 def followed(tmp_path_factory):
     """Run the scene paused, let a TfListener match, resume; return (listener's transforms, bag) after the run."""
-    folder = tmp_path_factory.mktemp('tf')
-    scene = folder / 'framed.yaml'
-    scene.write_text(yaml.safe_dump(SCENE))
-    bag = folder / 'bag'
-    run = NodeProcess([*IGUANA, 'run', str(scene), '--paused', '--record', str(bag)], 'iguana_run', folder)
-    run.start()
-    listener = TfListener()
+    listener = TfListener()                # first: matched when frame 0 (sent once, paused) goes out
+    run, _, bag = start_scene_run(tmp_path_factory.mktemp('tf'), SCENE, '--paused')
     try:
         assert wait_for(lambda: listener.spin() or any(t.child_frame_id == 'base_link' for t in listener.dynamic),
                         120.0, 0.0), run.output[-2000:]         # frame 0 is published at the start, paused
