@@ -219,8 +219,11 @@ class PlannerNode(IguanaNode):
         """Send the stage's new events (waypoint, arrived, stuck, circling, recovered) on run_events and the log."""
         for event in self.stage.events[self.events_sent:]:
             self.report(event.kind, detail=event.detail, frame=event.frame)
-            log = self.get_logger().warning if event.kind in ('stuck', 'circling') else self.get_logger().info
-            log(f'frame {event.frame}: {event.kind}: {event.detail}')
+            line = f'frame {event.frame}: {event.kind}: {event.detail}'
+            if event.kind in ('stuck', 'circling'):     # one call site per severity: rclpy refuses a second
+                self.get_logger().warning(line)
+            else:
+                self.get_logger().info(line)
         self.events_sent = len(self.stage.events)
 
     def publish_status(self, frame: int) -> None:
