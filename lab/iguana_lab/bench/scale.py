@@ -174,7 +174,7 @@ def format_scale(result: dict) -> str:
         lines += ['', _body_table(result)]
     before, after = result['load_average_before'][0], result['load_average_after'][0]
     lines += ['', f"CPU {result['cpu_model']} ({result['cpus_available']} available); 1-min load average "
-                  f"{before:.1f} before, {after:.1f} after: wall figures are indicative, CPU ms/step less noisy"]
+                  f'{before:.1f} before, {after:.1f} after: wall figures are indicative, CPU ms/step less noisy']
     return '\n'.join(lines)
 
 
@@ -207,5 +207,5 @@ def _body_table(result: dict) -> str:
     if hit:
         met = 'met' if hit[0]['realtime_factor'] >= rtf else 'not met'
         out.append(f"issue 34 target, {n} {mesh} bodies at >= {rtf:g}x real time: RTF {hit[0]['realtime_factor']:.2f}"
-                   f" ({met})")
+                   f' ({met})')
     return '\n'.join(out)

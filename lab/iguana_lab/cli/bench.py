@@ -16,8 +16,9 @@
 `iguana bench sim|scale|tradeoff|stability|pipeline|adaptation|locomotion|statics|pushes|faults`.
 
 Simulator speed, its growth with the mesh and the number of bodies, speed–accuracy trade, stability at the extremes,
-the node pipeline's realtime factor next to the library loop (here); terrain adaptation per frame, the randomized locomotion benchmark, the statics diagnostics of a
-model variant, the push experiment and the fault suites (their handlers in cli/bench_*.py).
+the node pipeline's realtime factor next to the library loop (here); terrain adaptation per frame, the randomized
+locomotion benchmark, the statics diagnostics of a model variant, the push experiment and the fault suites (their
+handlers in cli/bench_*.py).
 """
 from __future__ import annotations
 
