@@ -22,7 +22,8 @@ import pytest
 from iguana_lab.bench.scale import bench_scale, format_scale
 from iguana_ros.cli import main
 
-MEDIANS = ('ms_per_step', 'cpu_ms_per_step', 'realtime_factor', 'cpu_s_per_character_s', 'peak_rss_mb')
+MEDIANS = ('ms_per_step', 'cpu_ms_per_step', 'realtime_factor', 'realtime_factor_cpu', 'cpu_s_per_character_s',
+           'peak_rss_mb')
 
 
 def _check_medians(row: dict) -> None:
@@ -52,10 +53,12 @@ def test_bench_scale_json_is_computed_from_its_runs(capsys):
         _check_medians(row)
         [run] = row['runs']
         assert row['realtime_factor'] == pytest.approx(row['simulated_s'] / run['wall_s'])
+        assert row['realtime_factor_cpu'] == pytest.approx(row['simulated_s'] / run['cpu_s'])
         assert row['cpu_s_per_character_s'] == pytest.approx(run['cpu_s'] / (row['bodies'] * row['simulated_s']))
         assert run['peak_rss_mb'] >= run['baseline_rss_mb'] > 0
     assert two['ms_per_character_step'] == pytest.approx(two['ms_per_step'] / 2)
     assert two['cost_per_character_vs_1'] == pytest.approx(two['ms_per_step'] / 2 / one['ms_per_step'])
+    assert two['cpu_cost_per_character_vs_1'] == pytest.approx(two['cpu_ms_per_step'] / 2 / one['cpu_ms_per_step'])
     assert 'independent' in result['bodies_note'] and result['cpus_available'] >= 1
 
 
@@ -70,7 +73,8 @@ def _fake_run(calls: list):
         return {'model': mesh, 'nodes': nodes[mesh], 'tets': 2 * nodes[mesh], 'springs': 6 * nodes[mesh],
                 'dt': 1 / 1200, 'bodies': bodies, 'simulated_s': seconds, 'steps_per_body': steps,
                 'steps': bodies * steps, 'wall_s': ms * steps / 1e3, 'cpu_s': ms * steps / 1e3, 'ms_per_step': ms,
-                'cpu_ms_per_step': ms, 'realtime_factor': seconds / (ms * steps / 1e3),
+                'cpu_ms_per_step': ms / 2, 'realtime_factor': seconds / (ms * steps / 1e3),
+                'realtime_factor_cpu': seconds / (ms * steps / 2e3),
                 'cpu_s_per_character_s': ms * steps / 1e3 / (bodies * seconds), 'peak_rss_mb': 100.0 + len(calls),
                 'baseline_rss_mb': 90.0, 'compile_s': 0.0, 'model_build_s': 0.0}
     return run
@@ -93,6 +97,7 @@ def test_bench_scale_medians_and_growth_are_the_runs_own():
     assert growth['exponent_in_nodes'] == pytest.approx(math.log(ms_ratio) / math.log(4.0))
     two = result['bodies'][1]
     assert two['cost_per_character_vs_1'] == pytest.approx(two['ms_per_step'] / 2 / medium['ms_per_step'])
+    assert two['cpu_cost_per_character_vs_1'] == pytest.approx(two['cpu_ms_per_step'] / 2 / medium['cpu_ms_per_step'])
     text = format_scale(result)
     assert 'coarse -> medium' in text and 'independent' in text
 
