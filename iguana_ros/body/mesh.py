@@ -74,8 +74,12 @@ RESOLUTIONS = {
     'fine': MeshParams(main_axial=1.2, main_ring=1.0, main_min_ring=5, limb_ring=6, limb_axial=1.3,
                        max_spacing=0.016, min_spacing=0.004, fill_rounds=3, inner_ring=1.2,
                        improve_rounds=30, improve_deg=15.0),
+    'finer': MeshParams(main_axial=0.85, main_ring=1.0, main_min_ring=6, limb_ring=8, limb_axial=1.0,
+                        max_spacing=0.011, min_spacing=0.003, fill_rounds=3, inner_ring=1.2,
+                        improve_rounds=30, improve_deg=15.0),
 }
-"""Named resolutions: roughly 150, 400 and 1,200 nodes."""
+"""Named resolutions: roughly 150, 400, 1,200 and 2,300 nodes ('finer' is for `iguana bench scale`; scenes take
+the first three)."""
 
 
 @dataclass(frozen=True)

@@ -120,7 +120,7 @@ class IguanaModel:
 
 def build_model(resolution: str = 'medium', stiffness: str = 'normal', cache: bool = True) -> IguanaModel:
     """
-    Return the iguana model at `resolution` (coarse|medium|fine) with stiffness preset `stiffness` (normal|softer).
+    Return the iguana model at `resolution` (coarse|medium|fine|finer), stiffness preset `stiffness` (normal|softer).
 
     Cached in memory and on disk unless `cache` is False (then always rebuilt, nothing written).
     """

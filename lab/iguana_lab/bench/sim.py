@@ -65,15 +65,22 @@ def make_scene(resolution: str = 'medium', preset='balanced', **overrides) -> tu
     return sim, gait_for(model), name, build_s
 
 
+def warm_up(sim, gait) -> float:
+    """Run one step (JIT compile or cache load) and put `sim` back where it was; returns the seconds it took."""
+    start = sim.positions
+    t0 = time.perf_counter()
+    sim.advance_frame(gait.desired_lengths(0.0), n_steps=1)
+    compile_s = time.perf_counter() - t0
+    sim.reset(start)
+    return compile_s
+
+
 def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced', profile: bool = False,
               **overrides) -> dict:
     """Run the gait scene for `seconds` of simulated time; speed, sizes, memory and compile time."""
     sim, gait, name, build_s = make_scene(resolution, preset, **overrides)
     start = sim.positions
-    t0 = time.perf_counter()
-    sim.advance_frame(gait.desired_lengths(0.0), n_steps=1)          # JIT compile or cache load
-    compile_s = time.perf_counter() - t0
-    sim.reset(start)
+    compile_s = warm_up(sim, gait)
     cpu0 = time.process_time()
     timing = run_gait(sim, gait, seconds)
     cpu_s = time.process_time() - cpu0
@@ -326,8 +333,7 @@ def gait_run(resolution: str, seconds: float, settings: dict) -> dict:
     settings = dict(settings)
     preset = settings.pop('preset', 'balanced')
     sim, gait, _, _ = make_scene(resolution, preset, **settings)
-    sim.advance_frame(gait.desired_lengths(0.0), n_steps=1)         # compile outside the timing
-    sim.reset(place_on_terrain(sim.rest_positions, sim.terrain, clearance=START_CLEARANCE))
+    warm_up(sim, gait)                                              # compile outside the timing
     cpu0 = time.process_time()
     try:
         timing = run_gait(sim, gait, seconds)

@@ -24,8 +24,8 @@ from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
 from iguana_ros.physics.meshes import box_mesh
 
-STAND_IN_CELLS = {'coarse': (16, 2, 2), 'medium': (44, 2, 2), 'fine': (48, 4, 4)}
-"""Cells of the box stand-in used while `iguana_ros.body.model` is unavailable (153, 405, 1225 nodes)."""
+STAND_IN_CELLS = {'coarse': (16, 2, 2), 'medium': (44, 2, 2), 'fine': (48, 4, 4), 'finer': (64, 6, 4)}
+"""Cells of the box stand-in used while `iguana_ros.body.model` is unavailable (153, 405, 1225, 2275 nodes)."""
 
 
 def bench_model(resolution: str = 'medium', stiffness: str = 'normal'):
@@ -84,14 +84,20 @@ def gait_for(model, **kwargs) -> LateralBendGait:
 
 def run_gait(sim, gait: LateralBendGait, seconds: float) -> dict:
     """Drive `sim` with `gait` for `seconds` (whole frames); returns wall times of simulation and gait."""
+    return run_gaits([sim], gait, seconds)
+
+
+def run_gaits(sims: list, gait: LateralBendGait, seconds: float) -> dict:
+    """Drive each of `sims` with `gait` for `seconds`, one frame of each in turn; wall times of simulation and gait."""
     n_frames = int(round(seconds * FRAME_RATE))
     sim_wall = 0.0
     gait_wall = 0.0
     for _ in range(n_frames):  # one Python iteration per 1/30 s frame; the steps run inside one compiled call
-        t0 = time.perf_counter()
-        lengths = gait.desired_lengths(sim.time)
-        t1 = time.perf_counter()
-        sim.advance_frame(lengths)
-        sim_wall += time.perf_counter() - t1
-        gait_wall += t1 - t0
+        for sim in sims:
+            t0 = time.perf_counter()
+            lengths = gait.desired_lengths(sim.time)
+            t1 = time.perf_counter()
+            sim.advance_frame(lengths)
+            sim_wall += time.perf_counter() - t1
+            gait_wall += t1 - t0
     return {'frames': n_frames, 'sim_wall_s': sim_wall, 'gait_wall_s': gait_wall}

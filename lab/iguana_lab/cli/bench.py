@@ -13,11 +13,12 @@
 # limitations under the License.
 
 """
-`iguana bench sim|tradeoff|stability|pipeline|adaptation|locomotion|statics|pushes|faults`.
+`iguana bench sim|scale|tradeoff|stability|pipeline|adaptation|locomotion|statics|pushes|faults`.
 
-Simulator speed, speed–accuracy trade, stability at the extremes, the node pipeline's realtime factor next to the
-library loop (here); terrain adaptation per frame, the randomized locomotion benchmark, the statics diagnostics of a
-model variant, the push experiment and the fault suites (their handlers in cli/bench_*.py).
+Simulator speed, its growth with the mesh and the number of bodies, speed–accuracy trade, stability at the extremes,
+the node pipeline's realtime factor next to the library loop (here); terrain adaptation per frame, the randomized
+locomotion benchmark, the statics diagnostics of a model variant, the push experiment and the fault suites (their
+handlers in cli/bench_*.py).
 """
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ from fractions import Fraction
 import json
 
 from iguana_lab.cli import bench_adaptation, bench_faults, bench_locomotion, bench_pushes, bench_statics
-from iguana_ros.cli.argtypes import count
+from iguana_ros.cli.argtypes import count, positive
+from iguana_ros.errors import InputError
 
 
 def _time_step(text: str) -> float:
@@ -60,6 +62,7 @@ def register(subparsers) -> None:
     sim.add_argument('--profile', action='store_true', help='also time each part of a step')
     sim.add_argument('--json', action='store_true', help='print one JSON object')
     sim.set_defaults(func=run_sim)
+    _register_scale(sub)
     trade = sub.add_parser('tradeoff', help='sweep dt, solver settings and mesh; error against the finest run')
     trade.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
     trade.add_argument('--seconds', type=float, default=2.0, help='simulated seconds per run (default 2)')
@@ -129,6 +132,40 @@ def run_sim(args) -> int:
           f"peak RSS {result['peak_rss_mb']:.0f} MB; CPU {result['cpu_model']}")
     for name, us in result.get('profile_us', {}).items():
         print(f'  {name:38s} {us:9.1f} us')
+    return 0
+
+
+def _register_scale(sub) -> None:
+    """Add `scale`; its values are checked by `run_scale` (a bad one: one line, exit 1)."""
+    scale = sub.add_parser('scale', help='ms/step and realtime factor against the mesh and the number of bodies')
+    scale.add_argument('--meshes', nargs='+', default=None, metavar='MESH',
+                       help='meshes of the 1-body table (default: coarse medium fine finer)')
+    scale.add_argument('--bodies', nargs='+', default=None, metavar='N',
+                       help='body counts of the bodies table (default: 1 2 4 8)')
+    scale.add_argument('--bodies-mesh', default='medium', help='mesh of the bodies table (default medium)')
+    scale.add_argument('--seconds', default='2', help='simulated seconds per run (default 2)')
+    scale.add_argument('--repeats', default='3', help='runs per configuration, each in a fresh process (default 3)')
+    scale.add_argument('--json', action='store_true', help='print one JSON object')
+    scale.set_defaults(func=run_scale)
+
+
+def _value(parse, option: str, text: str):
+    """Return `parse(text)`; InputError naming `option` if it fails."""
+    try:
+        return parse(text)
+    except argparse.ArgumentTypeError as exc:
+        raise InputError(f'{option}: {exc}') from None
+
+
+def run_scale(args) -> int:
+    """`iguana bench scale`."""
+    from iguana_lab.bench.scale import BODIES, bench_scale, format_scale, MESHES
+
+    bodies = tuple(_value(count(1), '--bodies', n) for n in args.bodies) if args.bodies else BODIES
+    result = bench_scale(tuple(args.meshes or MESHES), bodies, args.bodies_mesh,
+                         _value(positive('seconds'), '--seconds', args.seconds),
+                         repeats=_value(count(1), '--repeats', args.repeats))
+    print(json.dumps(result, indent=1) if args.json else format_scale(result))
     return 0
 
 
