@@ -48,7 +48,7 @@ def register(subparsers) -> None:
                                                  'node pipeline, randomized locomotion, statics of a model')
     sub = parser.add_subparsers(dest='bench', metavar='BENCH', required=True)
     sim = sub.add_parser('sim', help='simulate the iguana walking (lateral-bend gait) on hills; report speed')
-    sim.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
+    sim.add_argument('--mesh', choices=('coarse', 'medium', 'fine', 'finer'), default='medium')
     sim.add_argument('--dt', type=_time_step, default=None, help='time step, e.g. 1/1200 (default: the preset)')
     sim.add_argument('--seconds', type=float, default=5.0, help='simulated seconds (default 5)')
     sim.add_argument('--preset', choices=('fast', 'balanced', 'accurate'), default='balanced')
