@@ -85,6 +85,7 @@ class SimulatorNode(IguanaNode):
         self.peers_listed_since: float | None = None
         self.probe = FootProbe(self.model, self.terrain)
         self.frames = tf_frames(self.param('frame_prefix'))
+        self.tf_frame = -1                            # newest frame on /tf: a re-sent state sends no repeated stamp
         self.mesh_writer = TriangleListMarkerWriter(self.model.surface_triangles, self.model.n_nodes, WORLD_FRAME,
                                                     'iguana')
         self.latest_lengths: np.ndarray | None = None
@@ -393,7 +394,9 @@ class SimulatorNode(IguanaNode):
         self.clock_pub.publish(clock_to_cdr(frame))
         self.state_pub.publish(state_to_cdr(root, orientation, linear, angular, frame, self.frames.base))
         heights, contact, soles = self.probe.body(self.stage.sim.positions, self.stage.sim.in_contact)
-        self.tf_pub.publish(body_tf_to_cdr(self.frames, root, orientation, soles, frame))
+        if frame > self.tf_frame:                     # tf2 warns on a repeated stamp (TF_REPEATED_DATA)
+            self.tf_frame = frame
+            self.tf_pub.publish(body_tf_to_cdr(self.frames, root, orientation, soles, frame))
         self.foot_pub.publish(foot_state_to_cdr(heights, contact, frame))
         self.foot_positions_pub.publish(foot_positions_to_cdr(soles, frame))
         if frame % self.param('mesh_every_n_frames') == 0:
