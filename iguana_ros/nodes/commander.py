@@ -236,6 +236,10 @@ class IguanaCommander:
             self._spin_until(lambda: self._goals.latest is not None, timeout, f'no feedback within {timeout:g} s')
         return self._goals.latest
 
+    def feedback_history(self) -> list[GoalFeedback]:
+        """Return every action feedback of the goal sent last by go_to, in order (`feedback()` is the latest)."""
+        return list(self._goals.history)
+
     def planner_status(self, timeout: float = 5.0) -> Feedback:
         """Return the planner's latest status (spins briefly for news); IguanaError if there has been none."""
         seen = self._feedback

@@ -77,6 +77,7 @@ class GoToPoseClient:
         self.handle = None
         self._result = None
         self.latest: GoalFeedback | None = None
+        self.history: list[GoalFeedback] = []        # every feedback of the goal sent last, in order
         self.outcome: GoalResult | None = None
 
     def wait_for_server(self, timeout: float) -> None:
@@ -87,7 +88,7 @@ class GoToPoseClient:
     def send(self, goal, timeout: float) -> None:
         """Send GoToPose `goal`; return once the planner scheduled it. IguanaError('refused: <reason>') if refused."""
         self.wait_for_server(timeout)
-        self.handle, self._result, self.latest, self.outcome = None, None, None, None
+        self.handle, self._result, self.latest, self.outcome, self.history = None, None, None, None, []
         future = self.client.send_goal_async(goal, feedback_callback=self._on_feedback)
         wait_spinning(future.done, self.node, timeout, lambda: None,
                       lambda: f'the planner did not answer the goal within {timeout:g} s; {NO_PLANNER}')
@@ -104,6 +105,7 @@ class GoToPoseClient:
         """Keep a feedback of the goal sent last and pass it on."""
         if self.handle is None or bytes(msg.goal_id.uuid) == bytes(self.handle.goal_id.uuid):
             self.latest = feedback_from_msg(msg.feedback)
+            self.history.append(self.latest)
             self.on_feedback(self.latest)
 
     def done(self) -> bool:

@@ -83,6 +83,7 @@ class SimulatorNode(IguanaNode):
         self.n_springs = len(self.model.springs)
         self.half_extent = scene.terrain.extent / 2.0
         self.peers_listed_since: float | None = None
+        self.recorder_listed_since: float | None = None
         self.probe = FootProbe(self.model, self.terrain)
         self.frames = tf_frames(self.param('frame_prefix'))
         self.tf_frame = -1                            # newest frame on /tf: a re-sent state sends no repeated stamp
@@ -116,11 +117,14 @@ class SimulatorNode(IguanaNode):
         self.state_pub = self.state_readers.publisher
         self.clock_pub = self.publisher('clock')
         self.tf_pub = self.publisher('tf')
+        self.publishers_by_key = {'iguana_state': self.state_pub, 'clock': self.clock_pub, 'tf': self.tf_pub}
         self.publisher('tf_static').publish(static_tf_to_cdr(self.frames))    # latched: world -> odom
         self.mesh_pub = self.publisher('mesh_marker')
         self.scene_pub = self.publisher('scene_markers')
         self.foot_pub = self.publisher('foot_state')
         self.foot_positions_pub = self.publisher('foot_positions')
+        self.publishers_by_key.update(mesh_marker=self.mesh_pub, foot_state=self.foot_pub,
+                                      foot_positions=self.foot_positions_pub)
         on_lengths = self.guarded('spring_rest_lengths', self.on_lengths)
         self.lengths_sub = self.subscription('spring_rest_lengths', on_lengths, raw=True)
         self.subscription('push', self.guarded('push', self.on_push), raw=True)
@@ -240,10 +244,26 @@ class SimulatorNode(IguanaNode):
             return 'the planner, terrain adaptation and spring-length nodes'
         if self.goals_received < self.param('wait_for_goals'):
             return f'{self.param("wait_for_goals")} goals on goal_pose or route ({self.goals_received} so far)'
-        recorder_ok = not self.param('wait_for_recorder') or all(
-            any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(resolve(k)[0]))
-            for k in RECORDED_FROM_START)
+        recorder_ok = not self.param('wait_for_recorder') or self.recorder_matched()
         return '' if recorder_ok else 'the bag recorder'
+
+    def recorder_matched(self) -> bool:
+        """
+        Return whether the bag recorder is listed on every topic it must record from frame 0, and matched on ours.
+
+        Listed is not enough: a writer loses what it publishes before it has matched a reader the graph already lists
+        (the bag then misses the first frames). Each of this node's publishers of those topics must have matched every
+        reader listed; one that does not (a stranger with an incompatible QoS) holds the start READER_HOLD_LIMIT_S only.
+        """
+        if not all(any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(
+                resolve(key)[0])) for key in RECORDED_FROM_START):
+            self.recorder_listed_since = None
+            return False
+        now = time.monotonic()
+        self.recorder_listed_since = self.recorder_listed_since or now
+        own = [pub for key, pub in self.publishers_by_key.items() if key in RECORDED_FROM_START]
+        return (all(pub.get_subscription_count() >= self.count_subscribers(pub.topic_name) for pub in own)
+                or now - self.recorder_listed_since >= READER_HOLD_LIMIT_S)
 
     def lockstep_peers_ready(self) -> bool:
         """

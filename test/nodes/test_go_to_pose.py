@@ -79,11 +79,9 @@ def test_a_goal_is_reached_with_feedback_at_stride_ends(running):
     run, iguana, _ = running
     start = iguana.state().position[:2]
     iguana.go_to(*(start + [0.8, 0.0]), position_tolerance=0.2, timeout=30.0)
-    seen = []
     while not iguana.is_task_complete():
-        fb = iguana.feedback()
-        if not seen or fb is not seen[-1]:
-            seen.append(fb)
+        iguana.feedback()
+    seen = iguana.feedback_history()           # feedback() is the latest: a busy machine may skip one between calls
     result = iguana.result(1.0)
     assert result.reached and result.outcome == 'succeeded' and result.distance_remaining <= 0.2, (
         result, run.output[-2000:])

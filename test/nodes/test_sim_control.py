@@ -56,6 +56,14 @@ def _held_for(iguana: IguanaCommander, seconds: float) -> list:
     return [s.time for s in iguana.states_since(0.0)[len(before):]]
 
 
+def _newest_time(iguana: IguanaCommander) -> float | None:
+    """Return the simulated time of the newest iguana_state (spinning up to 0.5 s for news), None before any."""
+    try:
+        return iguana.state(timeout=0.5).time
+    except IguanaError:
+        return None
+
+
 def _run_events(bag) -> list:
     """Return the RunEvents recorded in `bag`."""
     from diagnostic_msgs.msg import DiagnosticArray
@@ -138,8 +146,8 @@ def test_a_realtime_run_pauses_steps_and_resumes(tmp_path):
     with IguanaCommander() as iguana:      # first: its subscription is matched when frame 0 goes out, once
         _, _, run = _start(tmp_path, 'realtime')
         try:
-            iguana.state(timeout=120.0)
-            assert iguana.step(30).frame == 30
+            assert iguana.step(30, timeout=120.0).frame == 30     # answered once frame 30 is simulated
+            assert wait_for(lambda: _newest_time(iguana) == pytest.approx(1.0), 30.0, 0.0), run.output[-2000:]
             assert _held_for(iguana, 1.0) == []
             held = iguana.state()
             assert held.time == pytest.approx(1.0)

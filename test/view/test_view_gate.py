@@ -65,6 +65,15 @@ class FakeLive:
         """Return False: no planner here."""
         return False
 
+    def send_sim(self, command: str, frames: int = 1) -> str:
+        """Keep a simulation-control call."""
+        self.sent.append(('sim', (command, frames)))
+        return f'{command} sent'
+
+    def sim_answers(self) -> list[str]:
+        """Return no answers: no simulator here."""
+        return []
+
 
 @pytest.fixture
 def page_with(request):
