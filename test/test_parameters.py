@@ -60,6 +60,8 @@ def test_bad_declaration_file_is_named(tmp_path):
 @pytest.mark.parametrize('namespace', ['', '/iguana1', '/zoo/iguana2'])
 def test_the_params_file_sections_match_the_nodes_in_any_namespace(namespace):
     import rclpy
+
+    from iguana_ros.ros.endpoints import release_context
     context = rclpy.Context()
     remap = ['-r', f'__ns:={namespace}'] if namespace else []
     rclpy.init(args=['--ros-args', '--params-file', str(config_path('params', 'iguana.yaml')), *remap],
@@ -72,4 +74,4 @@ def test_the_params_file_sections_match_the_nodes_in_any_namespace(namespace):
         assert node.get_parameter('scene').value == 'hills'                      # the section of every node
         node.destroy_node()
     finally:
-        rclpy.try_shutdown(context=context)
+        release_context(context)

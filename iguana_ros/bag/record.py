@@ -36,7 +36,7 @@ from iguana_ros.bag.schema import message_definition
 from iguana_ros.bag.sim_time import CLOCK_TOPIC, SimTimeStamper, TIME_BASE_SIMULATED, TIME_BASE_WALL
 from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
-from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, tool_node
+from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, release_context, tool_node
 from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
 from iguana_ros.topics import default_topics
 
@@ -221,4 +221,4 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
             writer.close()
         print(f'wrote {sum(t.message_count for t in writer.topics)} messages on '
               f'{len(writer.topics)} topics to {writer.path}', flush=True)
-        rclpy.try_shutdown(context=context)
+        release_context(context)

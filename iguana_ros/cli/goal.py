@@ -75,13 +75,15 @@ def run(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
+    from iguana_ros.ros.endpoints import release_context
+
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('iguana_goal', context=context, start_parameter_services=False)
         return _cancel(node, args) if args.cancel else _send(node, args)
     finally:
-        rclpy.try_shutdown(context=context)
+        release_context(context)
 
 
 def _cancel(node, args: argparse.Namespace) -> int:

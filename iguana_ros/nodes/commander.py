@@ -62,7 +62,7 @@ from iguana_ros.nodes.go_to_pose import goal_request, GoalFeedback, GoToPoseClie
 from iguana_ros.nodes.goal_sender import goal_message, publish_goals, route_message, wait_spinning
 from iguana_ros.nodes.sim_control import SimControlClient, SimReply
 from iguana_ros.ros.conversions import odometry_to_numpy, push_msg, time_from_msg
-from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.endpoints import release_context, resolve
 from iguana_ros.ros.go_to_pose import GoalResult
 from iguana_ros.ros.messages import planner_status_from_msg
 from iguana_ros.scene import Scene
@@ -146,7 +146,7 @@ class IguanaCommander:
         """Leave the ROS graph."""
         if self._context.ok():
             self.node.destroy_node()
-            rclpy.try_shutdown(context=self._context)
+            release_context(self._context)
 
     def _on_state(self, msg) -> None:
         """Keep the latest iguana_state."""

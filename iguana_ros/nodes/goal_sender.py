@@ -38,7 +38,7 @@ from iguana_ros.constants import WORLD_FRAME
 from iguana_ros.errors import IguanaError
 from iguana_ros.geometry import quat_from_yaw
 from iguana_ros.ros.conversions import pose_stamped_msg
-from iguana_ros.ros.endpoints import resolve, volatile_readers
+from iguana_ros.ros.endpoints import release_context, resolve, volatile_readers
 from iguana_ros.ros.messages import goal_readers_from_msg
 
 POLL_S = 0.02
@@ -136,7 +136,7 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
         node = rclpy.create_node('iguana_goal', context=context)
         return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm, topic_key, readers)
     finally:
-        rclpy.try_shutdown(context=context)
+        release_context(context)
 
 
 def publish_goals(node, goals: list, min_subscribers: int = 1, timeout: float = 10.0,

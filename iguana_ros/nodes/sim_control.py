@@ -27,7 +27,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.goal_sender import wait_spinning
-from iguana_ros.ros.endpoints import resolve_service
+from iguana_ros.ros.endpoints import release_context, resolve_service
 
 SIM_COMMANDS = ('pause', 'resume', 'step', 'reset')
 """What the simulator's control services do, one service each (`sim_<command>` in topics.yaml)."""
@@ -95,4 +95,4 @@ def call_sim(command: str, frames: int = 1, timeout: float = 10.0, namespace: st
         node = rclpy.create_node('iguana_sim', namespace=namespace, context=context)
         return SimControlClient(node).call(command, frames, timeout)
     finally:
-        rclpy.try_shutdown(context=context)
+        release_context(context)

@@ -70,6 +70,21 @@ def resolve_action(key: str) -> tuple[str, type]:
     return spec.name, message_class(spec.type)
 
 
+def release_context(context) -> None:
+    """
+    Shut rclpy `context` down and free its DDS participant now, so its nodes leave every peer's graph at once.
+
+    rmw keeps a destroyed node on the graph for as long as its participant lives, and a shut-down context keeps its
+    participant until it is garbage-collected: a stale `planner_node` made the next run on the domain refuse to start.
+    """
+    import gc
+
+    import rclpy
+    rclpy.try_shutdown(context=context)
+    context.destroy()
+    gc.collect()          # nodes hold the context's handle through reference cycles
+
+
 def tool_node(name: str, context):
     """
     Return an rclpy node for an internal tool (recorder, run monitor): no parameter services.

@@ -192,11 +192,11 @@ class DomainWatch:
 
     def close(self) -> None:
         """Leave the graph."""
-        import rclpy
+        from iguana_ros.ros.endpoints import release_context
         try:
             self.node.destroy_node()
         finally:
-            rclpy.try_shutdown(context=self.context)
+            release_context(self.context)
 
 
 def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LISTEN_S,

@@ -32,7 +32,7 @@ import numpy as np
 from iguana_ros.constants import FRAME_RATE, MAX_SCHEDULE_AHEAD
 from iguana_ros.errors import IguanaError
 from iguana_ros.ros.conversions import time_from_msg
-from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, resolve, tool_node
+from iguana_ros.ros.endpoints import listener, MONITOR_NODE_NAME, release_context, resolve, tool_node
 from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.ros.run_events import EVENT_BODY_LOST, EVENT_CLIP
 from iguana_ros.ros.run_events import run_event_from_msg
@@ -128,7 +128,6 @@ class RunMonitor:
 
     def close(self) -> None:
         """Finish the display and leave the graph (once; the clock and status stay readable)."""
-        import rclpy
         if self.display is not None:
             self.display.close()
         if self.node is None:
@@ -138,4 +137,4 @@ class RunMonitor:
             self.node.destroy_node()
         finally:
             self.node = None
-            rclpy.try_shutdown(context=self.context)
+            release_context(self.context)

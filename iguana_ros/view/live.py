@@ -35,7 +35,7 @@ from iguana_ros.errors import IguanaError
 from iguana_ros.nodes.goal_sender import goal_message, same_goal
 from iguana_ros.nodes.sim_control import SimControlClient
 from iguana_ros.ros.conversions import time_to_msg
-from iguana_ros.ros.endpoints import resolve
+from iguana_ros.ros.endpoints import release_context, resolve
 from iguana_ros.view import decode
 from iguana_ros.view.scene import RunView
 
@@ -157,4 +157,4 @@ class LiveSource:
             self.executor.shutdown()
             self.node.destroy_node()
         finally:
-            rclpy.try_shutdown(context=self.context)
+            release_context(self.context)
