@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import lru_cache
+import re
 from pathlib import Path
 
 import yaml
@@ -192,3 +193,40 @@ def topic(key: str) -> TopicSpec:
     if key not in table:
         raise KeyError(f'unknown topic key {key!r}; known: {sorted(table)}')
     return table[key]
+
+
+RUN_CLOCK = '/clock'
+"""The absolute topic that is a run's own all the same: a run in a namespace publishes and follows `<ns>/clock`
+(`iguana run --namespace` remaps it for every node), so two runs on one domain keep two clocks."""
+
+_NAME_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
+
+
+def check_namespace(text: str) -> str:
+    """Return ROS namespace `text` as '/a/b' ('' for the root); InputError naming the rule it breaks."""
+    from iguana_ros.errors import InputError
+    tokens = text.strip().strip('/').split('/') if text.strip().strip('/') else []
+    for token in tokens:
+        if not _NAME_TOKEN.fullmatch(token):
+            raise InputError(f'namespace {text!r}: each part must be letters, digits and underscores, not starting '
+                             'with a digit (e.g. iguana1 or zoo/iguana1)')
+    return '/' + '/'.join(tokens) if tokens else ''
+
+
+def topic_name(key: str, namespace: str = '') -> str:
+    """Return the absolute name of topic `key` for a run in `namespace` ('' root; see RUN_CLOCK)."""
+    name = topic(key).name
+    if name.startswith('/') and name != RUN_CLOCK:
+        return name
+    return f'{namespace}/{name.lstrip("/")}'
+
+
+def shared_topic(key: str) -> bool:
+    """Whether every run on the domain publishes topic `key` under one absolute name (/tf, /diagnostics)."""
+    name = topic(key).name
+    return name.startswith('/') and name != RUN_CLOCK
+
+
+def frame_prefix_of(namespace: str) -> str:
+    """Return the TF frame prefix of a run in `namespace` ('iguana1/' for '/iguana1', '' for the root)."""
+    return f'{namespace.strip("/")}/' if namespace.strip('/') else ''

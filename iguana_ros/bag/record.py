@@ -38,7 +38,7 @@ from iguana_ros.bag.storage import BagWriter, CHUNK_AGE_S, qos_profiles_yaml
 from iguana_ros.errors import IguanaError
 from iguana_ros.ros.endpoints import listener, message_class, RECORDER_NODE_NAME, release_context, tool_node
 from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
-from iguana_ros.topics import default_topics
+from iguana_ros.topics import default_topics, topic_name
 
 BATCH_S = 0.02
 """Seconds the recorder lets messages gather after a wake that took some: each wake waits on every subscription
@@ -55,9 +55,14 @@ def absolute_name(name: str) -> str:
     return name if name.startswith('/') else '/' + name
 
 
-def default_topic_names() -> list[str]:
-    """Absolute names of every topic of msg_configs/topics.yaml."""
-    return [absolute_name(spec.name) for spec in default_topics().values()]
+def default_topic_names(namespace: str = '') -> list[str]:
+    """Absolute names of every topic of msg_configs/topics.yaml for a run in ROS `namespace` ('' the root)."""
+    return [topic_name(key, namespace) for key in default_topics()]
+
+
+def names_in(topics: list[str], namespace: str) -> list[str]:
+    """Return topic names as given on the command line, the relative ones under `namespace` ('' the root)."""
+    return [t if t.startswith('/') else f'{namespace}/{t}' for t in topics]
 
 
 class Recorder:
@@ -71,8 +76,8 @@ class Recorder:
     def __init__(self, node: Node, writer: BagWriter, topics: list[str] | None,
                  log: Callable[[str], None] = print,
                  error: Callable[[str], None] = lambda m: print(m, file=sys.stderr, flush=True),
-                 stamper: SimTimeStamper | None = None) -> None:
-        self.node, self.writer = node, writer
+                 stamper: SimTimeStamper | None = None, clock_topic: str = CLOCK_TOPIC) -> None:
+        self.node, self.writer, self.clock_topic = node, writer, clock_topic
         # a remap given to the recorder (`--ros-args -r a:=b`, as `iguana run` passes its nodes') renames what it wants
         self.wanted = None if topics is None else [node.resolve_topic_name(absolute_name(t)) for t in topics]
         self.log, self.error = log, error
@@ -85,8 +90,8 @@ class Recorder:
     def _names(self, types: dict) -> list[str]:
         """Topics to subscribe to: the wanted ones (every one for -a), and /clock on simulated time."""
         names = list(self.wanted) if self.wanted is not None else sorted(types)
-        if self.stamper is not None and CLOCK_TOPIC not in names:
-            names.insert(0, CLOCK_TOPIC)
+        if self.stamper is not None and self.clock_topic not in names:
+            names.insert(0, self.clock_topic)
         return names
 
     def poll_discovery(self) -> None:
@@ -116,7 +121,7 @@ class Recorder:
             type_hash = str(getattr(endpoints[0], 'topic_type_hash', '') or '')
             channel = self.writer.add_topic(name, type_name, schema, qos_yaml, type_hash)
         qos = table_request_profile(name) or request_profile(offered)
-        handle = self._on_clock if self.stamper is not None and name == CLOCK_TOPIC else self._on_message
+        handle = self._on_clock if self.stamper is not None and name == self.clock_topic else self._on_message
         listener(self.node, cls, name, lambda data, info, ch=channel, h=handle: h(ch, data, info), qos, raw=True)
         self.subscriptions[name] = channel
         self.log(f'subscribed {name} [{type_name}] {qos.reliability.name.lower()}/'
@@ -147,7 +152,7 @@ class Recorder:
         try:
             self.stamper.clock(received, bytes(data))
         except ValueError as exc:
-            self.error(f'iguana bag record: warning: {CLOCK_TOPIC} message ignored as a clock: {exc}')
+            self.error(f'iguana bag record: warning: {self.clock_topic} message ignored as a clock: {exc}')
         if channel is not None:
             self._on_message(channel, data, info)
 
@@ -171,9 +176,12 @@ def _install_stop_handlers(stop: list[bool]) -> None:
 
 
 def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CHUNK_AGE_S,
-           duration_s: float | None = None, use_sim_time: bool = False, ros_args: tuple = ()) -> int:
+           duration_s: float | None = None, use_sim_time: bool = False, ros_args: tuple = (),
+           namespace: str = '') -> int:
     """
     Record `topics` (None = every discovered topic) into bag directory `output` until SIGINT/SIGTERM.
+
+    The recorder's node is in ROS `namespace`, and on simulated time its clock is that run's (`<namespace>/clock`).
 
     `ros_args` (`--ros-args ...`) apply to the recorder's node: a remap records the topic under its new name.
 
@@ -181,21 +189,23 @@ def record(output: str | Path, topics: list[str] | None, chunk_age_s: float = CH
     on every exit path except SIGKILL, after which every completed chunk remains readable. With `use_sim_time` the log
     times are simulated time from /clock (module docstring), and the bag says so.
     """
+    clock = topic_name('clock', namespace)
     writer = BagWriter(output, chunk_age_s=chunk_age_s,
-                       time_base=TIME_BASE_SIMULATED if use_sim_time else TIME_BASE_WALL)
+                       time_base=TIME_BASE_SIMULATED if use_sim_time else TIME_BASE_WALL, clock_topic=clock)
     stop = [False]
     _install_stop_handlers(stop)
     context = rclpy.Context()
     rclpy.init(args=['iguana', *ros_args], context=context, signal_handler_options=SignalHandlerOptions.NO)
     loop = recorder = None
     try:
-        node = tool_node(RECORDER_NODE_NAME, context)
+        node = tool_node(RECORDER_NODE_NAME, context, namespace)
         loop = ListenerLoop(node)
         stamper = SimTimeStamper(writer.write, warn=lambda m: print(m, file=sys.stderr, flush=True)) \
             if use_sim_time else None
-        recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True), stamper=stamper)
+        recorder = Recorder(node, writer, topics, log=lambda m: print(m, flush=True), stamper=stamper,
+                            clock_topic=clock)
         settle_heap()
-        print(f'recording to {writer.path}' + (f' on simulated time ({CLOCK_TOPIC})' if use_sim_time else ''),
+        print(f'recording to {writer.path}' + (f' on simulated time ({clock})' if use_sim_time else ''),
               flush=True)
         chores = [(DISCOVERY_PERIOD_S, recorder.poll_discovery),
                   (min(0.25, chunk_age_s / 2), writer.close_chunk_if_old)]

@@ -168,10 +168,11 @@ class BagWriter:
     """
 
     def __init__(self, directory: str | Path, chunk_bytes: int = CHUNK_BYTES,
-                 chunk_age_s: float = CHUNK_AGE_S, time_base: str = TIME_BASE_WALL) -> None:
+                 chunk_age_s: float = CHUNK_AGE_S, time_base: str = TIME_BASE_WALL,
+                 clock_topic: str = CLOCK_TOPIC) -> None:
         if time_base not in TIME_BASES:
             raise ValueError(f'time_base must be one of {TIME_BASES}, got {time_base!r}')
-        self.time_base = time_base
+        self.time_base, self.clock_topic = time_base, clock_topic
         self.directory = Path(directory)
         if self.directory.exists():
             raise InputError(f'output {self.directory} already exists; choose a new bag directory')
@@ -206,7 +207,7 @@ class BagWriter:
 
     def time_base_record(self) -> dict[str, str]:
         """Return the map of the `iguana_ros` Metadata record: time_base and clock_topic."""
-        return {'time_base': self.time_base, 'clock_topic': CLOCK_TOPIC}
+        return {'time_base': self.time_base, 'clock_topic': self.clock_topic}
 
     def add_topic(self, name: str, type_name: str, schema_text: str,
                   offered_qos_profiles: str = '', type_hash: str = '') -> int:

@@ -22,8 +22,8 @@ import numpy as np
 
 from iguana_ros.bag.storage import BagReader
 from iguana_ros.errors import InputError
-from iguana_ros.ros.endpoints import resolve
 from iguana_ros.ros.messages import stamp_of_cdr, state_from_cdr
+from iguana_ros.topics import check_namespace, shared_topic, topic_name
 
 
 @dataclass
@@ -40,23 +40,47 @@ class RecordedTopics:
     problem: str = ''
 
 
-def read_topics(bag: str | Path, keys: list[str] | tuple[str, ...]) -> RecordedTopics:
+def read_topics(bag: str | Path, keys: list[str] | tuple[str, ...], namespace: str | None = None) -> RecordedTopics:
     """
     Every message of the topics `keys` (topic-table keys) of `bag`, in one pass over the file.
 
-    A key whose topic is not in the bag has an empty list. Raises InputError for a missing or non-MCAP bag.
+    The run's topics in ROS `namespace` ('' the root), or with None in whichever namespace the bag's run had
+    (`iguana run --namespace`). A key whose topic is not in the bag has an empty list. Raises InputError for a
+    missing or non-MCAP bag.
     """
-    wanted = {}
-    for key in keys:
-        name = resolve(key)[0]
-        wanted[name if name.startswith('/') else '/' + name] = key
+    key_of: dict[str, str | None] = {}
     out = RecordedTopics({key: [] for key in keys})
     reader = BagReader(bag)
     for record in reader.messages():
-        if record.topic in wanted:
-            out.messages[wanted[record.topic]].append(bytes(record.data))
+        if record.topic not in key_of:
+            key_of[record.topic] = recorded_key(record.topic, keys, namespace)
+        key = key_of[record.topic]
+        if key is not None:
+            out.messages[key].append(bytes(record.data))
     out.truncated, out.problem = reader.truncated, reader.problem
     return out
+
+
+def recorded_key(name: str, keys: list[str] | tuple[str, ...], namespace: str | None = None) -> str | None:
+    """Return which of topic-table `keys` recorded topic `name` is in a run in `namespace` (None: any), else None."""
+    for key in keys:
+        if namespace is not None:
+            if name == topic_name(key, namespace):
+                return key
+            continue
+        root = topic_name(key)
+        if name == root or (not shared_topic(key) and name.endswith(root) and name.startswith('/')
+                            and check_namespace_quietly(name[:-len(root)])):
+            return key
+    return None
+
+
+def check_namespace_quietly(text: str) -> bool:
+    """Whether `text` is a ROS namespace of one or more parts ('/iguana1', '/zoo/iguana1')."""
+    try:
+        return bool(check_namespace(text))
+    except InputError:
+        return False
 
 
 def root_trajectory(messages: list[bytes]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -43,3 +43,19 @@ def positive(what: str):
             raise argparse.ArgumentTypeError(f'{what} must be a positive number, got {text!r}')
         return value
     return parse
+
+
+def namespace(text: str) -> str:
+    """`argparse` type: a ROS namespace ('iguana1', '/zoo/iguana1'), returned as '/iguana1' ('' for the root)."""
+    from iguana_ros.errors import InputError
+    from iguana_ros.topics import check_namespace
+    try:
+        return check_namespace(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_namespace(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add `--namespace NS` to `parser`: the ROS namespace of the run `what` (e.g. 'to send the goal to')."""
+    parser.add_argument('--namespace', type=namespace, default='', metavar='NS',
+                        help=f'ROS namespace of the run {what} (as `iguana run --namespace NS`; default: the root)')

@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from iguana_ros.cli.argtypes import add_namespace
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `bag` sub-command with its record, play and info actions."""
@@ -37,6 +39,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      help='log times from /clock (simulated time), as ros2 bag record --use-sim-time, so the bag '
                           'replays at the simulated pace (default: wall-clock receive times; iguana run always '
                           'records on simulated time)')
+    add_namespace(rec, 'to record (its topics /NS/..., its clock /NS/clock, and the shared /tf and /diagnostics)')
     rec.set_defaults(func=run, takes_ros_args=True)
     rec.epilog = '--ros-args ... at the end goes to the recorder node (e.g. the remaps a run gives its nodes)'
 
@@ -82,18 +85,18 @@ def run(args: argparse.Namespace) -> int:
              wait_for_subscribers_s=args.wait_for_subscribers, allow_damaged=args.allow_damaged)
         return 0
     require(environment_checks())  # the rclpy probe is left out: `iguana run` starts a recorder after its own checks
-    from iguana_ros.bag.record import default_topic_names, record
+    from iguana_ros.bag.record import default_topic_names, names_in, record
     from iguana_ros.bag.storage import CHUNK_AGE_S
     from iguana_ros.errors import InputError
     if args.all and args.topics:
         raise InputError('give either TOPIC names or --all, not both')
     if args.chunk_age is not None and not 0 < args.chunk_age < float('inf'):
         raise InputError(f'--chunk-age must be a positive number of seconds, got {args.chunk_age}')
-    topics = None if args.all else (args.topics or default_topic_names())
+    topics = None if args.all else (names_in(args.topics, args.namespace) or default_topic_names(args.namespace))
     from iguana_ros.bag.storage import BagWriteError, DISK_FULL_EXIT
     try:
         record(args.output, topics, chunk_age_s=args.chunk_age or CHUNK_AGE_S, duration_s=args.duration,
-               use_sim_time=args.use_sim_time, ros_args=getattr(args, 'ros_args', ()))
+               use_sim_time=args.use_sim_time, ros_args=getattr(args, 'ros_args', ()), namespace=args.namespace)
     except BagWriteError as exc:                      # a full disk: one line, the bag finalised from what was written
         print(f'iguana bag record: error: {exc}', file=sys.stderr, flush=True)
         return DISK_FULL_EXIT

@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 import math
 
+from iguana_ros.cli.argtypes import add_namespace
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `goal` sub-command."""
@@ -46,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
                         help='give up if the planner has not answered within S s (default 10); with --wait, the '
                              'result is awaited without a limit')
+    add_namespace(parser, 'to send the goal to')
     parser.set_defaults(func=run)
 
 
@@ -80,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
-        node = rclpy.create_node('iguana_goal', context=context, start_parameter_services=False)
+        node = rclpy.create_node('iguana_goal', namespace=args.namespace, context=context,
+                                 start_parameter_services=False)
         return _cancel(node, args) if args.cancel else _send(node, args)
     finally:
         release_context(context)

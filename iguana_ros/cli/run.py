@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from iguana_ros.cli.argtypes import namespace
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `run` sub-command."""
@@ -36,6 +38,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="simulated seconds to run (default: the scene's duration)")
     parser.add_argument('--paused', action='store_true',
                         help='start paused at frame 0: go on with `iguana sim resume` or `iguana sim step N`')
+    parser.add_argument('--namespace', type=namespace, default='', metavar='NS',
+                        help='ROS namespace of the nodes and topics (/NS/iguana_state, the clock /NS/clock, TF frames '
+                             'NS/base_link); runs in different namespaces share a ROS_DOMAIN_ID (default: the root)')
     add_progress_option(parser)
     parser.add_argument('--view', action='store_true',
                         help='also start `iguana view` (live, in a web browser; it stops with the run)')
@@ -122,5 +127,6 @@ def run(args: argparse.Namespace) -> int:
         view += [] if token is None else ['--token', token]
     return run_and_report(RunOptions(scene=args.scene, mode=args.mode, record=args.record,
                                      single_process=args.single_process, timeout=args.timeout,
-                                     extra_params=extra, view=view, ros_args=getattr(args, 'ros_args', ())),
+                                     extra_params=extra, view=view, ros_args=getattr(args, 'ros_args', ()),
+                                     namespace=args.namespace),
                           'iguana run', display)[1]

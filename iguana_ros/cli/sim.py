@@ -19,6 +19,8 @@ import argparse
 import math
 import sys
 
+from iguana_ros.cli.argtypes import add_namespace
+
 MAX_STEP_FRAMES = 108_000
 """Most frames one `iguana sim step` asks for (an hour of simulated time)."""
 
@@ -35,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
                         help='give up if no simulator answers within S s (default 10; a step waits as long again '
                              'per 30 frames)')
+    add_namespace(parser, 'to control')
     parser.set_defaults(func=run)
 
 
@@ -60,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     from iguana_ros.nodes.sim_control import call_sim
 
     timeout = args.timeout * (1 + frames / 30.0) if args.command == 'step' else args.timeout
-    reply = call_sim(args.command, frames, timeout)
+    reply = call_sim(args.command, frames, timeout, namespace=args.namespace)
     if not reply.success:
         print(f'error: {reply.message}', file=sys.stderr)
         return 1

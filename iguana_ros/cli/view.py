@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from iguana_ros.cli.argtypes import add_namespace
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `view` sub-command."""
@@ -35,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              '(default: $IGUANA_VIEW_TOKEN, else none: every page may steer)')
     parser.add_argument('--rate', type=float, default=None, metavar='HZ',
                         help='redraws of the page per second (default 20; fewer spare a machine without a GPU)')
+    add_namespace(parser, 'to show, live')
     parser.add_argument('--speed', type=float, default=1.0, help='bag mode: playback speed (default 1)')
     parser.add_argument('--loop', action='store_true', help='bag mode: start again at the end')
     parser.add_argument('--paused', action='store_true', help='bag mode: start paused')
@@ -91,11 +94,12 @@ def _serve_live(args: argparse.Namespace) -> int:
     from iguana_ros.view.server import ViewerPage
     library, push_duration = _defaults()
     view = RunView(keep_meshes=1)
-    live = LiveSource(view, library, push_duration)
+    live = LiveSource(view, library, push_duration, namespace=args.namespace)
     try:
         page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live, draw_hz=args.rate,
                           token=args.token)
-        _announce(page, f'live on ROS_DOMAIN_ID {current_domain_id()}', ())
+        where = f' in namespace {args.namespace}' if args.namespace else ''
+        _announce(page, f'live on ROS_DOMAIN_ID {current_domain_id()}{where}', ())
         return _until_stopped(page)
     finally:
         live.close()

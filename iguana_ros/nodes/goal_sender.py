@@ -117,9 +117,11 @@ def wait_spinning(condition: Callable[[], bool], node, timeout: float, keep_goin
 
 def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
                keep_going: Callable[[], None] = lambda: None, confirm: bool = True,
-               topic_key: str = 'goal_pose', readers: frozenset = frozenset()) -> GoalDelivery:
+               topic_key: str = 'goal_pose', readers: frozenset = frozenset(), namespace: str = '') -> GoalDelivery:
     """
     Publish PoseStamped `goals` (or, with `topic_key` 'route', Path routes) once `min_subscribers` listen.
+
+    The topics are those of ROS `namespace` ('' the root).
 
     With `confirm`, it also waits until the planner's accepted_goals list has arrived and every goal_pose subscription
     on the graph is matched, and as many as the planner sees on planner_status; and it waits until the nodes named in
@@ -133,7 +135,7 @@ def send_goals(goals: list, min_subscribers: int = 1, timeout: float = 10.0,
     context = rclpy.Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     try:
-        node = rclpy.create_node('iguana_goal', context=context)
+        node = rclpy.create_node('iguana_goal', namespace=namespace, context=context)
         return publish_goals(node, goals, min_subscribers, timeout, keep_going, confirm, topic_key, readers)
     finally:
         release_context(context)

@@ -255,8 +255,10 @@ class SimulatorNode(IguanaNode):
         (the bag then misses the first frames). Each of this node's publishers of those topics must have matched every
         reader listed; one that does not (a stranger with an incompatible QoS) holds the start READER_HOLD_LIMIT_S only.
         """
-        if not all(any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(
-                resolve(key)[0])) for key in RECORDED_FROM_START):
+        names = [self.publishers_by_key[key].topic_name if key in self.publishers_by_key else resolve(key)[0]
+                 for key in RECORDED_FROM_START]       # ours as remapped (a namespaced run's clock is <ns>/clock)
+        if not all(any(info.node_name == RECORDER_NODE_NAME for info in self.get_subscriptions_info_by_topic(name))
+                   for name in names):
             self.recorder_listed_since = None
             return False
         now = time.monotonic()

@@ -85,7 +85,7 @@ def release_context(context) -> None:
     gc.collect()          # nodes hold the context's handle through reference cycles
 
 
-def tool_node(name: str, context):
+def tool_node(name: str, context, namespace: str = ''):
     """
     Return an rclpy node for an internal tool (recorder, run monitor): no parameter services.
 
@@ -93,7 +93,7 @@ def tool_node(name: str, context):
     a QoS event handler another): a node that only listens keeps its wake cheap by having none it does not use.
     """
     import rclpy
-    return rclpy.create_node(name, context=context, start_parameter_services=False)
+    return rclpy.create_node(name, namespace=namespace, context=context, start_parameter_services=False)
 
 
 def listener(node, cls, name: str, callback, qos: QoSProfile, raw: bool = False):

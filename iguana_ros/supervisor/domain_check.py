@@ -36,7 +36,7 @@ import time
 
 from iguana_ros.errors import IguanaError
 from iguana_ros.supervisor.process import ProcessInfo, run_processes
-from iguana_ros.topics import default_topics
+from iguana_ros.topics import default_topics, shared_topic, topic_name
 
 GRAPH_LISTEN_S = 0.5
 """Wall seconds the first phase listens to the DDS graph when it finds nothing."""
@@ -66,6 +66,7 @@ class DomainReport:
     processes: list[ProcessInfo] = field(default_factory=list)
     nodes: list[str] = field(default_factory=list)
     publishers: dict[str, list[str]] = field(default_factory=dict)
+    namespace: str = ''
 
     @property
     def busy(self) -> bool:
@@ -92,8 +93,11 @@ class DomainReport:
         """One line naming the domain and what is on it."""
         pids = ' '.join(str(p.pid) for p in self.processes)
         stop = f'stop them (kill {pids})' if pids else 'stop them'
+        if self.namespace:
+            return (f'namespace {self.namespace} of ROS_DOMAIN_ID {self.domain_id} is in use: {self.findings()}; '
+                    f'{stop} or run in another --namespace')
         return (f'ROS_DOMAIN_ID {self.domain_id} is in use: {self.findings()}; {stop} or run with another '
-                'ROS_DOMAIN_ID')
+                'ROS_DOMAIN_ID or in a --namespace')
 
 
 def current_domain_id() -> str:
@@ -101,17 +105,18 @@ def current_domain_id() -> str:
     return os.environ.get('ROS_DOMAIN_ID', '').strip() or '0'
 
 
-def output_topics(node_names: tuple[str, ...]) -> dict[str, int]:
+def output_topics(node_names: tuple[str, ...], namespace: str = '') -> dict[str, int]:
     """
-    Return {absolute name: how many of `node_names` publish it} for the topics of msg_configs/topics.yaml.
+    Return {absolute name: how many of `node_names` publish it} for a run's topics in `namespace`.
 
-    Only the topics that one of `node_names` publishes are listed.
+    Only the topics of msg_configs/topics.yaml that one of `node_names` publishes, and not those every run shares
+    (/tf, /diagnostics: many publishers are their purpose).
     """
     counts = {}
-    for spec in default_topics().values():
+    for key, spec in default_topics().items():
         ours = sum(1 for pub in spec.publishers if pub.split()[0] in node_names)
-        if ours:
-            counts[spec.name if spec.name.startswith('/') else '/' + spec.name] = ours
+        if ours and not shared_topic(key):
+            counts[topic_name(key, namespace)] = ours
     return counts
 
 
@@ -121,20 +126,20 @@ def _known_names(names) -> list[str]:
     return known or [UNNAMED]
 
 
-def other_runs(domain_id: str) -> list[ProcessInfo]:
-    """Live processes of other iguana runs on this machine whose ROS_DOMAIN_ID is `domain_id`."""
-    return [p for p in run_processes() if p.domain_id == domain_id]
+def other_runs(domain_id: str, namespace: str = '') -> list[ProcessInfo]:
+    """Live processes of other iguana runs on this machine in ROS_DOMAIN_ID `domain_id` and namespace `namespace`."""
+    return [p for p in run_processes() if p.domain_id == domain_id and p.namespace == namespace]
 
 
 class DomainWatch:
     """
     A DDS participant on this process's domain.
 
-    It looks for nodes named `node_names` and publishers of the topics those nodes publish (`iguana doctor` also lists
-    every other node); `close()` leaves the graph.
+    It looks for nodes named `node_names` in `namespace` and publishers of the topics those nodes publish there
+    (`iguana doctor` also lists every other node); `close()` leaves the graph.
     """
 
-    def __init__(self, node_names: tuple[str, ...], watch_name: str = WATCH_NODE_NAME) -> None:
+    def __init__(self, node_names: tuple[str, ...], watch_name: str = WATCH_NODE_NAME, namespace: str = '') -> None:
         """
         Join the graph as node `watch_name` (rclpy context of its own, no signal handlers).
 
@@ -148,8 +153,8 @@ class DomainWatch:
 
         require(environment_checks())
 
-        self.node_names = tuple(node_names)
-        self.topics = output_topics(self.node_names)
+        self.node_names, self.namespace = tuple(node_names), namespace
+        self.topics = output_topics(self.node_names, namespace)
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(watch_name, context=self.context)
@@ -166,7 +171,8 @@ class DomainWatch:
 
         With `ours_running` one node of each name and the table's publishers of each topic are allowed, else none.
         """
-        names = [name for name, _ in self.node.get_node_names_and_namespaces() if name in self.node_names]
+        names = [name for name, ns in self.node.get_node_names_and_namespaces()
+                 if name in self.node_names and ns.rstrip('/') == self.namespace]
         nodes = sorted({n for n in names if names.count(n) > (1 if ours_running else 0)})
         publishers = {}
         for topic, count in self.topics.items():
@@ -200,21 +206,23 @@ class DomainWatch:
 
 
 def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LISTEN_S,
-                       keep_open: bool = True) -> DomainWatch | None:
+                       keep_open: bool = True, namespace: str = '') -> DomainWatch | None:
     """
     Raise DomainInUse (one line) if other runs' processes or the run's node names or topics are on this domain.
+
+    Only what is in the run's ROS `namespace` counts: runs in other namespaces share the domain.
 
     Processes are found from /proc, at once; nodes named `node_names` or publishers of their topics on the DDS graph,
     within `listen_s`. Returns the watch, still on the graph for `check_while_starting` (None when `listen_s` is 0 or
     not `keep_open`).
     """
     domain = current_domain_id()
-    processes = other_runs(domain)
+    processes = other_runs(domain, namespace)
     if processes:
-        raise DomainInUse(DomainReport(domain, processes=processes).line())
+        raise DomainInUse(DomainReport(domain, processes=processes, namespace=namespace).line())
     if listen_s <= 0:
         return None
-    watch = DomainWatch(node_names)
+    watch = DomainWatch(node_names, namespace=namespace)
     try:
         nodes, publishers = watch.listen(listen_s)
     except BaseException:
@@ -223,7 +231,7 @@ def check_before_start(node_names: tuple[str, ...], listen_s: float = GRAPH_LIST
     if nodes or publishers or not keep_open:
         watch.close()
     if nodes or publishers:
-        raise DomainInUse(DomainReport(domain, nodes=nodes, publishers=publishers).line())
+        raise DomainInUse(DomainReport(domain, nodes=nodes, publishers=publishers, namespace=namespace).line())
     return watch if keep_open else None
 
 
@@ -236,4 +244,5 @@ def check_while_starting(watch: DomainWatch) -> None:
     """
     nodes, publishers = watch.foreign(True)
     if nodes or publishers:
-        raise DomainInUse(DomainReport(current_domain_id(), nodes=nodes, publishers=publishers).line())
+        raise DomainInUse(DomainReport(current_domain_id(), nodes=nodes, publishers=publishers,
+                                       namespace=watch.namespace).line())

@@ -61,6 +61,9 @@ HAS_PARENT_DEATH_SIGNAL = sys.platform.startswith('linux')
 RUN_ID_ENV = 'IGUANA_RUN_ID'
 """Environment variable that marks every process of one `iguana run` (inherited by anything they start)."""
 
+NAMESPACE_ENV = 'IGUANA_RUN_NAMESPACE'
+"""Environment variable with the ROS namespace of the run a process belongs to ('' the root)."""
+
 
 def wait_for(predicate: Callable[[], bool], timeout: float = 10.0, period: float = 0.02) -> bool:
     """Poll `predicate()`; False if `timeout` s pass first."""
@@ -232,6 +235,7 @@ class ProcessInfo:
     command: str
     run_id: str
     domain_id: str
+    namespace: str = ''
 
     def label(self) -> str:
         """'1234 (planner_node)', '1235 (bag record)' or the start of the command line."""
@@ -298,7 +302,7 @@ def processes_with_env(key: str, value: str | None = None) -> list[ProcessInfo]:
         except OSError:
             continue
         found.append(ProcessInfo(int(entry.name), command, env.get(RUN_ID_ENV, ''),
-                                 env.get('ROS_DOMAIN_ID', '').strip() or '0'))
+                                 env.get('ROS_DOMAIN_ID', '').strip() or '0', env.get(NAMESPACE_ENV, '')))
     return sorted(found, key=lambda p: p.pid)
 
 

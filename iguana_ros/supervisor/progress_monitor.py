@@ -37,6 +37,7 @@ from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.ros.run_events import EVENT_BODY_LOST, EVENT_CLIP
 from iguana_ros.ros.run_events import run_event_from_msg
 from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
+from iguana_ros.topics import topic_name
 from iguana_ros.supervisor.progress_display import (active_goal, ProgressDisplay, RateWindow, RunStatus,
                                                     StartupClock)
 
@@ -47,8 +48,9 @@ MAX_TAKES = 500
 class RunMonitor:
     """Listens to a run (see the module docstring); `display` (optional) shows phases and progress."""
 
-    def __init__(self, nodes: tuple, planned_s: float, display: ProgressDisplay | None = None) -> None:
-        """Join the graph and subscribe; nothing is shown until `launched()`."""
+    def __init__(self, nodes: tuple, planned_s: float, display: ProgressDisplay | None = None,
+                 namespace: str = '') -> None:
+        """Join the graph and subscribe to the run's topics in ROS `namespace`; nothing is shown until `launched()`."""
         import rclpy
         from rclpy.signals import SignalHandlerOptions
 
@@ -64,8 +66,8 @@ class RunMonitor:
         self.node = tool_node(MONITOR_NODE_NAME, self.context)
         for key, callback, raw in (('run_events', self._on_event, False), ('iguana_state', self._on_state, True),
                                    ('accepted_goals', self._on_goals, False)):
-            name, cls, qos = resolve(key)
-            listener(self.node, cls, name, callback, qos, raw=raw)
+            _, cls, qos = resolve(key)
+            listener(self.node, cls, topic_name(key, namespace), callback, qos, raw=raw)
         self.loop = ListenerLoop(self.node)
         settle_heap()
 

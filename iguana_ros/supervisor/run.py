@@ -47,9 +47,11 @@ from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
 from iguana_ros.scene import load_scene, Scene, scene_path
 from iguana_ros.supervisor.cpu import CpuWindow
 from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
-from iguana_ros.supervisor.process import describe_exit, NodeProcess, RUN_ID_ENV, run_processes, stop_all
+from iguana_ros.supervisor.process import (describe_exit, NAMESPACE_ENV, NodeProcess, RUN_ID_ENV, run_processes,
+                                           stop_all)
 from iguana_ros.supervisor.run_gait import RunGait
 from iguana_ros.supervisor.run_summary import bag_progress, RunSummary
+from iguana_ros.topics import check_namespace, frame_prefix_of, RUN_CLOCK, topic_name
 
 __all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
            'goal_outcome_of', 'node_commands', 'node_params', 'ros_args', 'stop_signals']
@@ -112,6 +114,9 @@ class RunOptions:
     """Arguments of an `iguana view` (live) started as a child of the run, e.g. ['--port', '8080']; None: none."""
     ros_args: tuple = ()
     """ROS arguments every node gets after the run's own (`iguana run ... --ros-args -r a:=b --log-level ...`)."""
+    namespace: str = ''
+    """ROS namespace of the run's nodes and topics ('/iguana1'; '' the root): its own clock `<ns>/clock`, TF frames
+    under the prefix 'iguana1/', and a domain check that only looks in that namespace."""
 
 
 class RunInterrupted(IguanaError):
@@ -191,7 +196,7 @@ def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -
 
 
 RESERVED_REMAPS = ('__node', '__name', '__ns')
-"""Remaps `iguana run` refuses: the run finds its nodes by name on the graph (one namespace per run: issue 33)."""
+"""Remaps `iguana run` refuses: the run finds its nodes by name on the graph (a namespace: `--namespace`)."""
 
 
 def check_user_ros_args(args: tuple) -> tuple:
@@ -206,14 +211,23 @@ def check_user_ros_args(args: tuple) -> tuple:
     for flag, value in zip(items, items[1:]):
         target = value.split(':=')[0].split(':')[-1]
         if flag in ('-r', '--remap') and target in RESERVED_REMAPS:
-            raise InputError(f'--ros-args {flag} {value}: iguana run finds its nodes by name; renaming them or '
-                             'their namespace is not supported (remap topics instead)')
+            raise InputError(f'--ros-args {flag} {value}: iguana run finds its nodes by name; renaming them is not '
+                             'supported (remap topics instead; a namespace: iguana run --namespace NS)')
     return tuple(items)
+
+
+def namespace_args(namespace: str) -> list[str]:
+    """ROS arguments that put a node in `namespace` with the run's own clock (`<ns>/clock`); none for the root."""
+    if not namespace:
+        return []
+    return ['-r', f'__ns:={namespace}', '-r', f'{RUN_CLOCK}:={topic_name("clock", namespace)}']
 
 
 def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, dict]:
     """Return this run's parameter values of every node, by node name (over the standard params file)."""
     common = {'scene': str(scene_file)}
+    if options.namespace:
+        common['frame_prefix'] = frame_prefix_of(options.namespace)
     goals = {'wait_for_goals': len(scene.goals) + bool(scene.route)}  # both wait for the scene's goals / route
     sim = {**common, **goals, 'mode': options.mode, 'wait_for_recorder': True, **options.extra_params}
     special = {'planner_node': {**common, **goals}, 'simulator_node': sim}
@@ -228,7 +242,7 @@ def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[s
     values, then the user's ROS arguments (`RunOptions.ros_args`, checked by `check_user_ros_args`).
     """
     params, standard = node_params(options, scene, scene_file), params_file()
-    user = list(options.ros_args)
+    user = namespace_args(options.namespace) + list(options.ros_args)
     if options.single_process:
         return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard), *user]}
     return {kind: [sys.executable, '-m', f'{NODE_PACKAGE}.{kind}', *ros_args({kind: params[kind]}, standard), *user]
@@ -252,7 +266,8 @@ class SceneRun:
 
         `display` (a progress.ProgressDisplay, optional) shows the start-up phases and the run's progress.
         """
-        self.options = dataclasses.replace(options, ros_args=check_user_ros_args(options.ros_args))
+        self.options = dataclasses.replace(options, ros_args=check_user_ros_args(options.ros_args),
+                                           namespace=check_namespace(options.namespace))
         self.display = display
         self.monitor = None
         self.nodes_started = math.nan
@@ -291,7 +306,8 @@ class SceneRun:
         """
         from iguana_ros.ros.endpoints import RECORDER_NODE_NAME
         from iguana_ros.supervisor.domain_check import check_before_start
-        self.watch = check_before_start((*NODE_KINDS, RECORDER_NODE_NAME), self.options.domain_check_s)
+        self.watch = check_before_start((*NODE_KINDS, RECORDER_NODE_NAME), self.options.domain_check_s,
+                                        namespace=self.options.namespace)
         self.watch_until = time.monotonic() + DOMAIN_WATCH_S
 
     def watch_domain(self, may_close: bool = False, force: bool = False) -> None:
@@ -335,7 +351,7 @@ class SceneRun:
         """Join the graph as the progress monitor (the start-up phases and the progress come from its messages)."""
         from iguana_ros.jit import kernel_cache
         from iguana_ros.supervisor.progress_monitor import RunMonitor
-        self.monitor = RunMonitor(NODE_KINDS, self.planned_s, self.display)
+        self.monitor = RunMonitor(NODE_KINDS, self.planned_s, self.display, namespace=self.options.namespace)
         self.monitor.clock.details['compiling'] = f'kernel cache {kernel_cache().state}'
 
     def listen(self, timeout: float = 0.0) -> None:
@@ -361,14 +377,16 @@ class SceneRun:
 
     def _child(self, name: str, command: list[str]) -> NodeProcess:
         """Return a child of this run: in the run's process group (the first one leads it), marked with the run id."""
-        child = NodeProcess(command, name, self.logs, env={RUN_ID_ENV: self.run_id},
+        marks = {RUN_ID_ENV: self.run_id, NAMESPACE_ENV: self.options.namespace}
+        child = NodeProcess(command, name, self.logs, env=marks,
                             group=0 if self.group is None else self.group)
         self.children[name] = child
         return child
 
     def start(self) -> None:
         """Start the recorder first (so it sees every topic), then the nodes."""
-        recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '--use-sim-time', '-o', str(self.bag)]
+        recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '--use-sim-time', '-o', str(self.bag),
+                    *(['--namespace', self.options.namespace] if self.options.namespace else [])]
         recorder += ['--ros-args', *self.options.ros_args] if self.options.ros_args else []   # remaps recorded as is
         if self.monitor is not None:
             self.monitor.launched()
@@ -388,7 +406,8 @@ class SceneRun:
     def start_viewer(self) -> None:
         """`iguana view` (live) as a child of the run, like the nodes; prints the page's address once it serves."""
         from iguana_ros.executables import VIEW_URL_PREFIX as URL_PREFIX
-        child = self._child('viewer', [sys.executable, '-m', 'iguana_ros.cli', 'view', *self.options.view])
+        namespace = ['--namespace', self.options.namespace] if self.options.namespace else []
+        child = self._child('viewer', [sys.executable, '-m', 'iguana_ros.cli', 'view', *namespace, *self.options.view])
         child.start()
         if not child.wait_for_output(URL_PREFIX, VIEWER_START_S):
             self.alive_or_raise()
@@ -416,12 +435,12 @@ class SceneRun:
         if self.scene.goals:
             goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in self.scene.goals]
             send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going,
-                       readers=self.goal_readers('goal_pose'))
+                       readers=self.goal_readers('goal_pose'), namespace=self.options.namespace)
         if self.scene.route:
             last = self.scene.route[-1].yaw_deg
             route = route_message([(w.x, w.y) for w in self.scene.route], last)
             send_goals([route], min_subscribers=3, timeout=120.0, keep_going=self.keep_going, topic_key='route',
-                       readers=self.goal_readers('route'))
+                       readers=self.goal_readers('route'), namespace=self.options.namespace)
         self.watch_domain(may_close=True, force=True)
 
     def alive_or_raise(self, simulator_may_end: bool = False) -> None:

@@ -49,12 +49,12 @@ SPIN_TIMEOUT_S = 0.05
 class LiveSource:
     """The viewer's node (see the module docstring); `close()` leaves the graph."""
 
-    def __init__(self, view: RunView, library: dict, push_duration: float) -> None:
-        """Join the graph (rclpy context of its own, no signal handlers), subscribe and start spinning."""
+    def __init__(self, view: RunView, library: dict, push_duration: float, namespace: str = '') -> None:
+        """Join the graph in ROS `namespace` (rclpy context of its own, no signal handlers), subscribe, spin."""
         self.view, self.library, self.push_duration = view, library, push_duration
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node(VIEW_NODE_NAME, context=self.context)
+        self.node = rclpy.create_node(VIEW_NODE_NAME, namespace=namespace, context=self.context)
         self.rejected: dict[str, int] = {}
         self.accepted: list = []
         self.sent: list = []

@@ -136,7 +136,8 @@ def test_a_foreign_publisher_of_a_run_topic_is_refused(tmp_path, make_node):
     scene = tmp_path / 'faults.yaml'
     scene.write_text(yaml.safe_dump(TRIAL_SCENE))
     with pytest.raises(DomainInUse, match=rf'^ROS_DOMAIN_ID {domain()} is in use: publishers of /iguana_state '
-                                          r'\(stray_simulator\); stop them or run with another ROS_DOMAIN_ID$'):
+                                          r'\(stray_simulator\); stop them or run with another ROS_DOMAIN_ID '
+                                          r'or in a --namespace$'):
         run_scene(RunOptions(scene=str(scene), record=tmp_path / 'bag', domain_check_s=8.0))
     assert not (tmp_path / 'bag').exists()
 
