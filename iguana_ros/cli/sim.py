@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `sim` sub-command."""
     parser = subparsers.add_parser(
         'sim', help='pause, resume, step or reset the running simulation (its sim/* services, std_srvs)')
-    parser.add_argument('command', choices=('pause', 'resume', 'step', 'reset'),
+    parser.add_argument('action', choices=('pause', 'resume', 'step', 'reset'), metavar='{pause,resume,step,reset}',
                         help='pause: hold the body; resume: go on; step N: advance N frames (1/30 s) and hold; '
                              "reset: the body back at the scene's start (simulated time goes on)")
     parser.add_argument('frames', nargs='?', type=int, default=None, metavar='N',
@@ -44,8 +44,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _check(args: argparse.Namespace) -> int:
     """Return the frames to step; `InputError` naming what is wrong with the arguments."""
     from iguana_ros.errors import InputError
-    if args.frames is not None and args.command != 'step':
-        raise InputError(f'`iguana sim {args.command}` takes no frame count (only `step N` does)')
+    if args.frames is not None and args.action != 'step':
+        raise InputError(f'`iguana sim {args.action}` takes no frame count (only `step N` does)')
     frames = 1 if args.frames is None else args.frames
     if not 1 <= frames <= MAX_STEP_FRAMES:
         raise InputError(f'step {frames} frames: expected 1 to {MAX_STEP_FRAMES}')
@@ -62,8 +62,8 @@ def run(args: argparse.Namespace) -> int:
     require_ros()
     from iguana_ros.nodes.sim_control import call_sim
 
-    timeout = args.timeout * (1 + frames / 30.0) if args.command == 'step' else args.timeout
-    reply = call_sim(args.command, frames, timeout, namespace=args.namespace)
+    timeout = args.timeout * (1 + frames / 30.0) if args.action == 'step' else args.timeout
+    reply = call_sim(args.action, frames, timeout, namespace=args.namespace)
     if not reply.success:
         print(f'error: {reply.message}', file=sys.stderr)
         return 1

@@ -77,7 +77,7 @@ class SimControlClient:
 
     def call(self, command: str, frames: int = 1, timeout: float = 10.0) -> SimReply:
         """Call `command` and spin the node until it answers; IguanaError if no simulator does within `timeout` s."""
-        name = self.clients[command][0].srv_name
+        name = self.node.resolve_service_name(self.clients[command][0].srv_name)
         wait_spinning(lambda: self.ready(command), self.node, timeout, lambda: None,
                       lambda: f'no simulator offers {name} within {timeout:g} s (is `iguana run` running on this '
                               'ROS_DOMAIN_ID?)')

@@ -37,6 +37,7 @@ import time
 import uuid
 
 import numpy as np
+import yaml
 
 from iguana_ros.bag.storage import DISK_FULL_EXIT
 from iguana_ros.config import params_file
@@ -180,14 +181,18 @@ def stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[SignalStat
             signal.signal(sig, old)
 
 
-def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -> list[str]:
+def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None,
+             run_file: Path | None = None) -> list[str]:
     """
-    `--ros-args [--params-file FILE] -p node:name:=value ...`.
+    `--ros-args [--params-file FILE] -p node:name:=value ...`, or with `run_file` `--params-file FILE RUN_FILE`.
 
-    Each value for its node by name, after the file (a value for every node, `-p name:=value`, would lose to the file's
-    section of that node).
+    Each value for its node by name, after the file (a value for every node, `-p name:=value`, loses to the file's
+    section of that node). rcl matches a node-qualified `-p` only in the root namespace, so a run in a namespace gives
+    its values in a params file of its own (`run_params_yaml`, written to `run_file`) after the standard one.
     """
     args = ['--ros-args'] + (['--params-file', str(params_file)] if params_file is not None else [])
+    if run_file is not None:
+        return args + ['--params-file', str(run_file)]
     for node, params in params_by_node.items():
         for name, value in params.items():
             text = str(value).lower() if isinstance(value, bool) else str(value)
@@ -195,15 +200,25 @@ def ros_args(params_by_node: dict[str, dict], params_file: Path | None = None) -
     return args
 
 
+def run_params_yaml(params_by_node: dict[str, dict]) -> str:
+    """Return a ROS 2 params file with the values of each node under `/**/<node>` (it matches in any namespace)."""
+    return yaml.safe_dump({f'/**/{node}': {'ros__parameters': dict(params)} for node, params in params_by_node.items()},
+                          sort_keys=False)
+
+
+RUN_PARAMS_FILE = 'run_params.yaml'
+"""The params file of a run in a namespace, in its logs folder (see `ros_args`)."""
+
 RESERVED_REMAPS = ('__node', '__name', '__ns')
 """Remaps `iguana run` refuses: the run finds its nodes by name on the graph (a namespace: `--namespace`)."""
 
 
-def check_user_ros_args(args: tuple) -> tuple:
+def check_user_ros_args(args: tuple, namespace: str = '') -> tuple:
     """
     Return the user's ROS arguments for every node, without a leading `--ros-args` or a closing `--`.
 
-    InputError for a node-renaming remap (`-r __node:=...`, `__ns`), which would hide the nodes from the run.
+    InputError for a node-renaming remap (`-r __node:=...`, `__ns`), which would hide the nodes from the run, and in a
+    `namespace` for a node-qualified `-p node:name:=value`, which rcl would ignore there.
     """
     items = list(args)
     items = items[1:] if items[:1] == ['--ros-args'] else items
@@ -213,6 +228,9 @@ def check_user_ros_args(args: tuple) -> tuple:
         if flag in ('-r', '--remap') and target in RESERVED_REMAPS:
             raise InputError(f'--ros-args {flag} {value}: iguana run finds its nodes by name; renaming them is not '
                              'supported (remap topics instead; a namespace: iguana run --namespace NS)')
+        if namespace and flag in ('-p', '--param') and ':' in value.split(':=')[0]:
+            raise InputError(f'--ros-args {flag} {value}: rcl applies a node-qualified parameter only in the root '
+                             f'namespace; in {namespace} give it as -p {value.split(":", 1)[1]} (every node)')
     return tuple(items)
 
 
@@ -234,9 +252,12 @@ def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str
     return {kind: special.get(kind, common) for kind in NODE_KINDS}
 
 
-def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, list[str]]:
+def node_commands(options: RunOptions, scene: Scene, scene_file: Path,
+                  run_file: Path | None = None) -> dict[str, list[str]]:
     """
     Command line of every child node process, by name.
+
+    A run in a namespace gives its values in `run_file` (the caller writes `run_params_yaml` there; see `ros_args`).
 
     The standard params file (as the launch file gives it: use_sim_time and the declared defaults), this run's
     values, then the user's ROS arguments (`RunOptions.ros_args`, checked by `check_user_ros_args`).
@@ -244,8 +265,10 @@ def node_commands(options: RunOptions, scene: Scene, scene_file: Path) -> dict[s
     params, standard = node_params(options, scene, scene_file), params_file()
     user = namespace_args(options.namespace) + list(options.ros_args)
     if options.single_process:
-        return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard), *user]}
-    return {kind: [sys.executable, '-m', f'{NODE_PACKAGE}.{kind}', *ros_args({kind: params[kind]}, standard), *user]
+        return {'nodes': [sys.executable, '-m', 'iguana_ros.nodes.all_nodes', *ros_args(params, standard, run_file),
+                          *user]}
+    return {kind: [sys.executable, '-m', f'{NODE_PACKAGE}.{kind}', *ros_args({kind: params[kind]}, standard, run_file),
+                   *user]
             for kind in NODE_KINDS}
 
 
@@ -266,8 +289,9 @@ class SceneRun:
 
         `display` (a progress.ProgressDisplay, optional) shows the start-up phases and the run's progress.
         """
-        self.options = dataclasses.replace(options, ros_args=check_user_ros_args(options.ros_args),
-                                           namespace=check_namespace(options.namespace))
+        namespace = check_namespace(options.namespace)
+        self.options = dataclasses.replace(options, ros_args=check_user_ros_args(options.ros_args, namespace),
+                                           namespace=namespace)
         self.display = display
         self.monitor = None
         self.nodes_started = math.nan
@@ -399,7 +423,11 @@ class SceneRun:
         if self.options.view is not None:
             self.start_viewer()
         self.nodes_started = time.monotonic()
-        for name, command in node_commands(self.options, self.scene, self.scene_file).items():
+        run_file = None
+        if self.options.namespace:
+            run_file = self.logs / RUN_PARAMS_FILE
+            run_file.write_text(run_params_yaml(node_params(self.options, self.scene, self.scene_file)))
+        for name, command in node_commands(self.options, self.scene, self.scene_file, run_file).items():
             self.keep_going()
             self._child(name, command).start()
 
@@ -552,7 +580,7 @@ class SceneRun:
 
         if code is not None and self.sim_code is None:
             self.sim_code = code
-        progress = bag_progress(self.bag)
+        progress = bag_progress(self.bag, self.options.namespace)
         total = time.monotonic() - self.started
         gait, times, positions, orientations = None, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 4))
         if progress.exists:

@@ -29,12 +29,11 @@ from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
 from iguana_ros.supervisor.cpu import cpu_line
 from iguana_ros.supervisor.progress_display import startup_line
 from iguana_ros.supervisor.run_gait import RunGait
+from iguana_ros.topics import topic_name
 
-STATE_TOPIC = '/iguana_state'
-"""Recorded topic whose stamps say how far the simulation got."""
-
-EVENTS_TOPIC = '/run_events'
-"""Recorded topic whose simulator events say when the simulation was paused and resumed."""
+STATE_KEY, EVENTS_KEY = 'iguana_state', 'run_events'
+"""Recorded topics whose stamps say how far the simulation got, and whose simulator events say when it was paused
+and resumed."""
 
 
 @dataclass
@@ -81,8 +80,8 @@ class BagProgress:
         return f'not finalised ({self.problem or "no summary section"}): {held} recovered from its complete chunks'
 
 
-def bag_progress(bag: Path) -> BagProgress:
-    """`BagProgress` of bag directory `bag` (a missing or unreadable bag gives exists=False / a problem)."""
+def bag_progress(bag: Path, namespace: str = '') -> BagProgress:
+    """`BagProgress` of the bag of a run in `namespace` (a missing or unreadable bag gives exists=False / a problem)."""
     from iguana_ros.bag.storage import BagReader
     from iguana_ros.errors import IguanaError
 
@@ -93,12 +92,13 @@ def bag_progress(bag: Path) -> BagProgress:
         progress.problem = str(exc)
         return progress
     progress.exists = True
+    state_topic, events_topic = topic_name(STATE_KEY, namespace), topic_name(EVENTS_KEY, namespace)
     for msg in reader.messages():
         progress.counts[msg.topic] = progress.counts.get(msg.topic, 0) + 1
-        if msg.topic == STATE_TOPIC:
+        if msg.topic == state_topic:
             progress.state_first_ns = progress.state_first_ns or msg.publish_time
             progress.state_last_ns = msg.publish_time
-        elif msg.topic == EVENTS_TOPIC:
+        elif msg.topic == events_topic:
             progress.pauses.extend(_pause_events(bytes(msg.data)))
     progress.problem = reader.problem
     progress.finalised = not reader.truncated and (Path(bag) / 'metadata.yaml').is_file()

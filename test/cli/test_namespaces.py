@@ -21,6 +21,7 @@ domain; the second completes while the first is held; a third run in /iguana1 is
 `iguana goal`, `iguana sim` and `iguana view` reach the first by --namespace; each bag holds its own run only, on its
 own simulated clock, with TF frames under the namespace's prefix.
 """
+import dataclasses
 import subprocess
 
 import numpy as np
@@ -33,7 +34,9 @@ from iguana_ros.errors import InputError
 from iguana_ros.ros.cdr import tf_message_from_cdr
 from iguana_ros.scene import load_scene
 from iguana_ros.supervisor.domain_check import output_topics
-from iguana_ros.supervisor.run import node_commands, RunOptions
+from iguana_ros.config import params_file
+from iguana_ros.supervisor.run import (check_user_ros_args, node_commands, node_params, RUN_PARAMS_FILE,
+                                       run_params_yaml, RunOptions)
 from iguana_ros.topics import check_namespace, frame_prefix_of, topic_name
 from ros_harness import IGUANA, NodeProcess, start_scene_run, stop_scene_run, wait_for
 
@@ -63,15 +66,39 @@ def test_a_runs_topics_and_clock_go_under_its_namespace_and_tf_stays_shared():
     assert '/tf' not in watched and '/diagnostics' not in watched     # every run publishes them
 
 
-def test_every_node_of_a_namespaced_run_gets_the_namespace_its_clock_and_frame_prefix(tmp_path):
-    scene_file = tmp_path / 's.yaml'
+def test_every_node_of_a_namespaced_run_gets_the_namespace_its_clock_and_its_values_in_a_params_file(tmp_path):
+    scene_file, run_file = tmp_path / 's.yaml', tmp_path / RUN_PARAMS_FILE
     scene_file.write_text('{}')
-    options = RunOptions(scene='flat_walk', namespace='/iguana1', ros_args=('--log-level', 'warn'))
-    commands = node_commands(options, load_scene('flat_walk'), scene_file)
-    for kind, command in commands.items():
-        tail = command[command.index('--ros-args'):]
-        assert tail[-6:] == ['-r', '__ns:=/iguana1', '-r', '/clock:=/iguana1/clock', '--log-level', 'warn'], kind
-        assert f'{kind}:frame_prefix:=iguana1/' in tail
+    options = RunOptions(scene='flat_walk', namespace='/iguana1', ros_args=('--log-level', 'warn'),
+                         extra_params={'start_paused': True})
+    params = node_params(options, load_scene('flat_walk'), scene_file)
+    run_file.write_text(run_params_yaml(params))
+    for single in (False, True):
+        commands = node_commands(dataclasses.replace(options, single_process=single), load_scene('flat_walk'),
+                                 scene_file, run_file)
+        for kind, command in commands.items():
+            tail = command[command.index('--ros-args'):]
+            assert tail[1:5] == ['--params-file', str(params_file()), '--params-file', str(run_file)], kind
+            assert tail[5:] == ['-r', '__ns:=/iguana1', '-r', '/clock:=/iguana1/clock', '--log-level', 'warn'], kind
+    # rcl applies a node-qualified -p only in the root namespace, and a plain -p loses to the file's node section:
+    # a real node in the namespace reads the run's values from the file
+    import rclpy
+
+    from iguana_ros.ros.endpoints import release_context
+    context = rclpy.Context()
+    rclpy.init(context=context, args=['iguana', *commands['nodes'][commands['nodes'].index('--ros-args'):]])
+    try:
+        node = rclpy.create_node('simulator_node', context=context,
+                                 automatically_declare_parameters_from_overrides=True)
+        assert node.get_fully_qualified_name() == '/iguana1/simulator_node'
+        assert node.get_parameter('start_paused').value is True and node.get_parameter('scene').value == str(scene_file)
+        assert node.get_parameter('frame_prefix').value == 'iguana1/'
+        node.destroy_node()
+    finally:
+        release_context(context)
+    with pytest.raises(InputError, match='only in the root namespace; in /iguana1 give it as -p goal_radius:=0.3'):
+        check_user_ros_args(('-p', 'planner_node:goal_radius:=0.3'), '/iguana1')
+    assert check_user_ros_args(('-p', 'goal_radius:=0.3'), '/iguana1') == ('-p', 'goal_radius:=0.3')
 
 
 def test_recorded_topics_are_matched_in_the_runs_namespace_or_any():
@@ -112,7 +139,8 @@ def test_two_runs_in_two_namespaces_share_a_domain_and_the_tools_reach_each(tmp_
     first = start_scene_run(tmp_path / 'one', SCENE, '--namespace', 'iguana1', '--paused', '--progress-every', '0')
     second = None
     try:
-        assert wait_for(lambda: 'simulator ready' in first.process.output or not first.process.running, 120.0, 0.2)
+        held = _cli('sim', '--namespace', 'iguana1', 'pause', '--timeout', '120')      # up, and held at frame 0
+        assert held.returncode == 0 and 'frame 0' in held.stdout, held.stdout + held.stderr + first.process.output
         second = start_scene_run(tmp_path / 'two', SCENE, '--namespace', '/iguana2', '--progress-every', '0')
         assert wait_for(lambda: not second.process.running, 240.0, 0.2), second.process.output[-3000:]
         assert second.process.proc.returncode == 0, second.process.output[-3000:]
