@@ -90,13 +90,17 @@ class Pipeline:
 
     def step(self) -> tuple:
         """One frame; returns (root position, orientation, adapted joint positions, bone rotations)."""
-        root, quat = self.simulator.root_pose()
-        if self.planner.update(self.frame, root, quat) is not None:
-            self.lookahead.start(self.planner.clip, self.planner.clip_start)
-        reference = self.lookahead.take(self.frame)
+        root, quat, reference = self.reference()
         self.simulator.advance(reference.lengths)
         self.frame += 1
         return root, quat, reference.joints, reference.rotations
+
+    def reference(self) -> tuple:
+        """Run the planner's and adaptation's part of a frame; return (root position, orientation, its reference)."""
+        root, quat = self.simulator.root_pose()
+        if self.planner.update(self.frame, root, quat) is not None:
+            self.lookahead.start(self.planner.clip, self.planner.clip_start)
+        return root, quat, self.lookahead.take(self.frame)
 
     def reset(self) -> None:
         """Put the body back at the scene's start (`SimulatorStage.reset`): the simulator node's reset service."""
@@ -163,14 +167,15 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
     pipe = build_pipeline(scene, adaptation, simulator_options=simulator_options)
     total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
     model = pipe.simulator.model
-    rows = _allocate(total, model.n_nodes, model.skeleton.n_bones)
+    rows = allocate_rows(total, model.n_nodes, model.skeleton.n_bones)
     stop_frame = total
     start = _time.perf_counter()
     try:
         for f in range(total):
             _, _, joints, rotations = pipe.step()
             root, quat = pipe.simulator.root_pose()
-            _store(rows, f, root, quat, pipe.simulator.sim, (joints, rotations), pipe.planner.reference_contacts(f))
+            store_frame(rows, f, root, quat, pipe.simulator.sim, (joints, rotations),
+                        pipe.planner.reference_contacts(f))
             if progress is not None:
                 progress(f + 1, total)
             if stop_after_goal is not None and stop_frame == total and pipe.planner.finished:
@@ -188,7 +193,7 @@ def run(scene: Scene, adaptation: bool | None = None, n_frames: int | None = Non
                      plan_seconds=list(pipe.planner.plan_seconds), lost=pipe.simulator.lost, **rows)
 
 
-def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:
+def allocate_rows(n_frames: int, n_nodes: int, n_bones: int) -> dict:
     """Preallocated trajectory arrays."""
     return {'root_positions': np.zeros((n_frames, 3)), 'root_orientations': np.zeros((n_frames, 4)),
             'node_positions': np.zeros((n_frames, n_nodes, 3)), 'contacts': np.zeros((n_frames, n_nodes), bool),
@@ -197,7 +202,7 @@ def _allocate(n_frames: int, n_nodes: int, n_bones: int) -> dict:
             'reference_contacts': np.zeros((n_frames, 4), bool)}
 
 
-def _store(rows: dict, f: int, root, quat, sim: SoftBodySimulator, reference: tuple,
+def store_frame(rows: dict, f: int, root, quat, sim: SoftBodySimulator, reference: tuple,
            reference_contacts: np.ndarray) -> None:
     """Record frame `f`."""
     rows['root_positions'][f] = root

@@ -130,6 +130,18 @@ class RecordSpec:
 
 
 @dataclass(frozen=True)
+class CharacterSpec:
+    """One of several iguanas in a scene: its name (its ROS namespace), body, start, goals or route, adaptation."""
+
+    name: str = 'iguana'
+    model: ModelSpec | None = None
+    start: StartSpec = field(default_factory=StartSpec)
+    goals: tuple = ()
+    route: tuple = ()
+    adaptation: bool = True
+
+
+@dataclass(frozen=True)
 class Scene:
     """A whole scene; every field has a default."""
 
@@ -147,6 +159,7 @@ class Scene:
     fidelity: str = 'balanced'
     adaptation: bool = True
     record: RecordSpec = field(default_factory=RecordSpec)
+    characters: tuple = ()
 
     @property
     def needs_adaptation(self) -> bool:
@@ -158,6 +171,19 @@ class Scene:
         """Push handling is built only when the scene has pushes."""
         return bool(self.pushes)
 
+    def character_scenes(self) -> list[tuple[str, Scene]]:
+        """
+        Return (name, scene of that character alone) per character: the `characters` list, else the scene itself.
+
+        A character's scene is this scene with the character's model (the scene's if none), start, goals, route and
+        adaptation; the terrain, duration, fidelity and goal tolerances are the world's.
+        """
+        if not self.characters:
+            return [(DEFAULT_CHARACTER, self)]
+        return [(c.name, dataclasses.replace(self, model=c.model or self.model, start=c.start, goals=c.goals,
+                                             route=c.route, adaptation=c.adaptation, characters=()))
+                for c in self.characters]
+
     @property
     def destination(self) -> GoalSpec | None:
         """Return the last place the scene sends the iguana: its last goal or route end (None: neither)."""
@@ -167,7 +193,7 @@ class Scene:
         return self.goals[-1] if self.goals else None
 
 
-_ITEM_TYPES = {'goals': GoalSpec, 'pushes': PushSpec, 'route': WaypointSpec}
+_ITEM_TYPES = {'goals': GoalSpec, 'pushes': PushSpec, 'route': WaypointSpec, 'characters': CharacterSpec}
 _CHOICES = {
     'terrain.kind': TERRAIN_KINDS, 'model.resolution': RESOLUTIONS,
     'model.stiffness': STIFFNESS_PRESETS, 'fidelity': FIDELITY_PRESETS,
@@ -187,6 +213,12 @@ MAX_PUSHES = 100
 """Most pushes in a scene."""
 MAX_WAYPOINTS = 100
 """Most waypoints in a scene's route."""
+MAX_CHARACTERS = 16
+"""Most characters in one scene's world."""
+DEFAULT_CHARACTER = 'iguana'
+"""Name of the one character of a scene without a `characters` list."""
+CHARACTER_NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]{0,63}')
+"""A character's name: it is its ROS namespace (`/<name>/iguana_state`) and TF prefix, so a ROS name token."""
 MAX_EXTENT = 1000.0
 """Largest terrain side and length of any terrain feature, m."""
 MAX_RELIEF = 100.0
@@ -214,7 +246,7 @@ _AT_MOST = {
 _WITHIN = {'start.yaw_deg': (MAX_ANGLE_DEG, 'deg'), 'goals.yaw_deg': (MAX_ANGLE_DEG, 'deg'),
            'route.yaw_deg': (MAX_ANGLE_DEG, 'deg'),
            'terrain.direction_deg': (MAX_ANGLE_DEG, 'deg')}
-_MAX_ITEMS = {'goals': MAX_GOALS, 'pushes': MAX_PUSHES, 'route': MAX_WAYPOINTS}
+_MAX_ITEMS = {'goals': MAX_GOALS, 'pushes': MAX_PUSHES, 'route': MAX_WAYPOINTS, 'characters': MAX_CHARACTERS}
 MAY_BE_INFINITE = {'goal_yaw_tolerance_deg'}
 """Number fields that accept .inf: a yaw tolerance of inf ignores a goal's heading."""
 
@@ -277,8 +309,9 @@ def accepts_infinity(path: str) -> bool:
 
 
 def _generic(path: str) -> str:
-    """'pushes[1].at' -> 'pushes.at' (the key used by the value rules)."""
-    return '.'.join(part.split('[')[0] for part in path.split('.'))
+    """'pushes[1].at' -> 'pushes.at', 'characters[0].model.resolution' -> 'model.resolution' (the rules' keys)."""
+    generic = '.'.join(part.split('[')[0] for part in path.split('.'))
+    return generic.removeprefix('characters.')
 
 
 def _check_value(value, annotation, source: str, path: str):
@@ -405,17 +438,43 @@ def _cross_checks(scene: Scene, source: str) -> None:
         _check_grid(terrain.extent, terrain.spacing, 'terrain.spacing', f'spacing {terrain.spacing:g} m', source)
         _check_generated_terrain(terrain, source)
     _check_pushes(scene.pushes, source)
-    half = terrain.extent / 2.0
+    if scene.characters:
+        _check_characters(scene, source)
+    for i, (_, one) in enumerate(scene.character_scenes()):
+        _check_places(one, source, f'characters[{i}].' if scene.characters else '')
+
+
+def _check_places(scene: Scene, source: str, prefix: str) -> None:
+    """Start, goals and waypoints of one character on the terrain; goals or a route, not both."""
+    half = scene.terrain.extent / 2.0
     if max(abs(scene.start.x), abs(scene.start.y)) > half:
-        _fail(source, 'start', f'start ({scene.start.x:g}, {scene.start.y:g}) is off the terrain '
-                               f'(|x|, |y| <= {half:g})')
+        _fail(source, f'{prefix}start', f'start ({scene.start.x:g}, {scene.start.y:g}) is off the terrain '
+                                        f'(|x|, |y| <= {half:g})')
     for key, what, items in (('goals', 'goal', scene.goals), ('route', 'waypoint', scene.route)):
         for i, goal in enumerate(items):
             if max(abs(goal.x), abs(goal.y)) > half:
-                _fail(source, f'{key}[{i}]', f'{what} ({goal.x:g}, {goal.y:g}) is off the terrain '
-                                             f'(|x|, |y| <= {half:g})')
+                _fail(source, f'{prefix}{key}[{i}]', f'{what} ({goal.x:g}, {goal.y:g}) is off the terrain '
+                                                     f'(|x|, |y| <= {half:g})')
     if scene.goals and scene.route:
-        _fail(source, 'route', 'a scene sends either goals or a route, not both')
+        _fail(source, f'{prefix}route', 'a scene sends either goals or a route, not both')
+
+
+def _check_characters(scene: Scene, source: str) -> None:
+    """Names that are ROS name tokens, each once; no single-iguana start, goals or route beside the list."""
+    for field_name in ('goals', 'route', 'pushes'):
+        if getattr(scene, field_name):
+            _fail(source, field_name, f'a scene with characters gives each its own {field_name} (under '
+                                      f'characters[i]), not one list for all')
+    if scene.start != StartSpec():
+        _fail(source, 'start', 'a scene with characters gives each its own start (characters[i].start)')
+    seen = set()
+    for i, character in enumerate(scene.characters):
+        if not CHARACTER_NAME.fullmatch(character.name):
+            _fail(source, f'characters[{i}].name', 'expected letters, digits and underscores, not starting with a '
+                                                   f'digit (it is the ROS namespace), got {_show(character.name)}')
+        if character.name in seen:
+            _fail(source, f'characters[{i}].name', f'{character.name!r} names two characters')
+        seen.add(character.name)
 
 
 def _check_pushes(pushes: tuple, source: str) -> None:

@@ -823,9 +823,16 @@ class SimulatorStage:
         The scene's and the live pushes acting now are applied. Raises SimulationDiverged; `lost` says once the body
         left the terrain or fell (`physics.body_watch`), and a run ends there.
         """
+        self.sim.advance_frame(desired_lengths, self.frame_forces())
+        self.end_frame()
+
+    def frame_forces(self) -> np.ndarray | None:
+        """Return the pushes acting in this frame as node forces `(n_nodes, 3)` N (None: none)."""
         pushes = (*self.pushes, *self.live_pushes)
-        forces = push_forces(self.model, pushes, self.time) if pushes else None
-        self.sim.advance_frame(desired_lengths, forces)
+        return push_forces(self.model, pushes, self.time) if pushes else None
+
+    def end_frame(self) -> None:
+        """Count the frame the simulator has just advanced and watch the body (`advance`; the world's blocks)."""
         self.frame += 1
         root, orientation = self.root_pose()
         self.watch.check(root, orientation, self.time)

@@ -372,6 +372,11 @@ class SoftBodySimulator:
             self._diverged = self._divergence(status)
             raise self._diverged
 
+    @property
+    def held_lengths(self) -> np.ndarray:
+        """Return the desired spring lengths `(n_springs,)` m reached at the end of the last advance."""
+        return self._held_lengths
+
     def load_kernels(self) -> None:
         """Call the compiled step loop for zero steps: numba loads its code now, not in the first frame."""
         if self._direct is None:

@@ -1,0 +1,215 @@
+# Copyright 2026 iguana_ros developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Several iguanas in one world: one pipeline per character, their bodies stepped together with body-body contact.
+
+Each character (a scene's `characters` entry) has its own planner, adaptation and spring lengths (`pipeline.Pipeline`)
+and its own soft body; `World.step` computes every character's reference for the frame, then advances the bodies.
+Bodies whose bounding boxes stay apart by more than they can move in a frame are advanced as a lone body is, in one
+call (bit for bit the single-character loop). Bodies that may touch are advanced together in blocks of
+`BodyContactParams.coupling_steps` steps, the contact forces of `physics.body_contact` held over each block, their
+desired lengths ramped across the blocks as one frame ramps them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import time
+from typing import Callable
+
+import numpy as np
+
+from iguana_ros.constants import FRAME_RATE
+from iguana_ros.physics.body_contact import (bounding_boxes, BodyContactParams, contact_forces, ContactBody,
+                                             load_kernels as load_contact_kernels, near, PairContact)
+from iguana_ros.pipeline import allocate_rows, store_frame, build_pipeline, Pipeline, RunResult
+from iguana_ros.scene import Scene
+from iguana_ros.stages import SimulatorStage
+
+CONTACT_SLACK_M = 0.01
+"""Metres added to the distance two bodies may close in a frame before they are stepped in contact blocks."""
+
+
+@dataclass
+class Character:
+    """One iguana of the world: its name (ROS namespace), its scene alone and its pipeline."""
+
+    name: str
+    scene: Scene
+    pipe: Pipeline
+
+
+@dataclass
+class FrameContact:
+    """The body-body contact of one frame: its number and the deepest and busiest block of each touching pair."""
+
+    frame: int
+    pairs: list[PairContact] = field(default_factory=list)
+
+
+class World:
+    """Characters stepped together (see the module docstring); `contacts` lists the frames with body contact."""
+
+    def __init__(self, characters: list[Character], params: BodyContactParams | None = None) -> None:
+        """Take the characters' pipelines; contact data of each body from its model."""
+        self.characters = characters
+        self.params = params or BodyContactParams()
+        self.bodies = [ContactBody.of_model(c.pipe.simulator.model) for c in characters]
+        self.contacts: list[FrameContact] = []
+        self.frame = 0
+
+    @property
+    def stages(self) -> list[SimulatorStage]:
+        """Return the characters' simulator stages, in order."""
+        return [c.pipe.simulator for c in self.characters]
+
+    def step(self) -> list[tuple]:
+        """One frame of every character; returns each one's (root, orientation, reference joints, rotations)."""
+        frames = [c.pipe.reference() for c in self.characters]
+        self.advance([reference.lengths for _, _, reference in frames])
+        for c in self.characters:
+            c.pipe.frame += 1
+        self.frame += 1
+        return [(root, quat, ref.joints, ref.rotations) for root, quat, ref in frames]
+
+    def advance(self, lengths: list) -> None:
+        """Advance every body one frame with its desired lengths `(n_springs_i,)` (None: rest), in contact if near."""
+        stages = self.stages
+        if not self._may_touch(stages):
+            for stage, ld in zip(stages, lengths):
+                stage.advance(ld)
+            return
+        self._advance_in_contact(stages, lengths)
+
+    def _may_touch(self, stages: list[SimulatorStage]) -> bool:
+        """Whether two bodies' boxes come within what their fastest nodes can close in a frame (and the slack)."""
+        if len(stages) < 2:
+            return False
+        boxes = bounding_boxes([s.sim.positions for s in stages])
+        speeds = [float(np.sqrt((s.sim.velocities ** 2).sum(axis=1).max())) for s in stages]
+        return any(near(boxes, a, b, (speeds[a] + speeds[b]) / FRAME_RATE + CONTACT_SLACK_M)
+                   for a in range(len(stages)) for b in range(a + 1, len(stages)))
+
+    def _advance_in_contact(self, stages: list[SimulatorStage], lengths: list) -> None:
+        """Advance in blocks of held contact forces; the desired lengths ramp across the blocks as over one frame."""
+        sims = [s.sim for s in stages]
+        k = self.params.coupling_steps(sims[0].fidelity.dt)
+        steps = sims[0].steps_per_frame
+        blocks = max(1, steps // k)
+        targets = [s.desired_lengths_rest if ld is None else np.asarray(ld, dtype=np.float64) for s, ld in
+                   zip(sims, lengths)]
+        starts = [s.held_lengths.copy() for s in sims]
+        pushes = [s.frame_forces() for s in stages]
+        record = FrameContact(self.frame)
+        for j in range(blocks):
+            n = k if j < blocks - 1 else steps - k * (blocks - 1)
+            forces, pairs = contact_forces(self.bodies, [s.positions for s in sims], [s.velocities for s in sims],
+                                           self.params, CONTACT_SLACK_M)
+            self._keep(record, pairs)
+            share = (j + 1) / blocks
+            for i, sim in enumerate(sims):
+                ld = targets[i] if sim.length_hold == 'zero' or j == blocks - 1 else \
+                    starts[i] + (targets[i] - starts[i]) * share
+                external = forces[i] if pushes[i] is None else forces[i] + pushes[i]
+                sim.advance_frame(ld, external, n)
+        for stage in stages:
+            stage.end_frame()
+        if record.pairs:
+            self.contacts.append(record)
+
+    @staticmethod
+    def _keep(record: FrameContact, pairs: list[PairContact]) -> None:
+        """Keep, per ordered pair, the block of the frame with the most force."""
+        for pair in pairs:
+            kept = next((p for p in record.pairs if (p.a, p.b) == (pair.a, pair.b)), None)
+            if kept is None:
+                record.pairs.append(pair)
+            elif pair.normal_force > kept.normal_force:
+                record.pairs[record.pairs.index(kept)] = pair
+
+    def load_kernels(self) -> None:
+        """Compile or load the contact kernels (no state changes), so the first contact costs no compilation."""
+        if len(self.bodies) > 1:
+            load_contact_kernels(self.bodies[0], self.stages[0].sim.positions)
+
+    def close(self) -> None:
+        """Stop every character's lookahead thread."""
+        for c in self.characters:
+            c.pipe.close()
+
+
+def build_world(scene: Scene, adaptation: bool | None = None, library: dict | None = None,
+                simulator_options: dict | None = None, lookahead: bool = True) -> World:
+    """Return the world of `scene`: a pipeline per character (`Scene.character_scenes`), its bodies in contact."""
+    characters = [Character(name, one, build_pipeline(one, adaptation, library, simulator_options=simulator_options,
+                                                      lookahead=lookahead))
+                  for name, one in scene.character_scenes()]
+    world = World(characters)
+    world.load_kernels()
+    return world
+
+
+@dataclass
+class WorldResult:
+    """Trajectories of each character (`RunResult`, by name) and the frames with body-body contact."""
+
+    characters: dict[str, RunResult]
+    contacts: list[FrameContact]
+    wall_seconds: float
+
+    @property
+    def outcome(self) -> str:
+        """'completed', or the first lost character's cause."""
+        lost = [r for r in self.characters.values() if r.lost is not None]
+        return lost[0].outcome if lost else 'completed'
+
+
+def run_world(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
+              progress: Callable[[int, int], None] | None = None, simulator_options: dict | None = None,
+              on_frame: Callable[[World], None] | None = None) -> WorldResult:
+    """
+    Run every character of `scene` for its duration (or `n_frames`) in one world; `on_frame(world)` after each frame.
+
+    The run ends early when a character's body is lost (left the terrain or fell).
+    """
+    world = build_world(scene, adaptation, simulator_options=simulator_options)
+    total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
+    rows = [allocate_rows(total, c.pipe.simulator.model.n_nodes, c.pipe.simulator.model.skeleton.n_bones)
+            for c in world.characters]
+    done = 0
+    start = time.perf_counter()
+    try:
+        for f in range(total):
+            for c, row, (_, _, joints, rotations) in zip(world.characters, rows, world.step()):
+                root, quat = c.pipe.simulator.root_pose()
+                store_frame(row, f, root, quat, c.pipe.simulator.sim, (joints, rotations),
+                       c.pipe.planner.reference_contacts(f))
+            done = f + 1
+            if on_frame is not None:
+                on_frame(world)
+            if progress is not None:
+                progress(done, total)
+            if any(s.lost is not None for s in world.stages):
+                break
+    finally:
+        world.close()
+    wall = time.perf_counter() - start
+    results = {}
+    for c, row in zip(world.characters, rows):
+        kept = {k: v[:done] for k, v in row.items()}
+        results[c.name] = RunResult(times=(np.arange(done) + 1) / FRAME_RATE, clip_history=list(c.pipe.planner.history),
+                                    goals=[(g.at, g.x, g.y) for g in c.scene.goals], wall_seconds=wall,
+                                    events=list(c.pipe.planner.events), plan_seconds=list(c.pipe.planner.plan_seconds),
+                                    lost=c.pipe.simulator.lost, **kept)
+    return WorldResult(results, world.contacts, wall)
