@@ -17,8 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import lru_cache
-import re
 from pathlib import Path
+import re
 
 import yaml
 

@@ -40,7 +40,7 @@ from iguana_ros.bag.record import absolute_name
 from iguana_ros.bag.sim_time import time_base_description
 from iguana_ros.bag.storage import accept, BagReader, BagSummary, parse_qos_profiles, summarize
 from iguana_ros.errors import InputError
-from iguana_ros.ros.endpoints import message_class, release_context, resolve
+from iguana_ros.ros.endpoints import message_class, resolve
 from iguana_ros.topics import default_topics
 
 CLOCK_PERIOD_S = 0.025
@@ -214,4 +214,4 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
         print(f'published {total} messages', flush=True)
         return total
     finally:
-        release_context(context)
+        rclpy.try_shutdown(context=context)    # not release_context: best-effort messages may still be in flight

@@ -46,7 +46,7 @@ def positive(what: str):
 
 
 def namespace(text: str) -> str:
-    """`argparse` type: a ROS namespace ('iguana1', '/zoo/iguana1'), returned as '/iguana1' ('' for the root)."""
+    """`argparse` type: a ROS namespace as 'iguana1' or '/zoo/iguana1', returned as '/iguana1' ('' for the root)."""
     from iguana_ros.errors import InputError
     from iguana_ros.topics import check_namespace
     try:

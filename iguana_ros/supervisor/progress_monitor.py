@@ -37,9 +37,9 @@ from iguana_ros.ros.messages import state_from_cdr
 from iguana_ros.ros.run_events import EVENT_BODY_LOST, EVENT_CLIP
 from iguana_ros.ros.run_events import run_event_from_msg
 from iguana_ros.ros.wait_loop import ListenerLoop, settle_heap
-from iguana_ros.topics import topic_name
 from iguana_ros.supervisor.progress_display import (active_goal, ProgressDisplay, RateWindow, RunStatus,
                                                     StartupClock)
+from iguana_ros.topics import topic_name
 
 MAX_TAKES = 500
 """Most messages one `poll` takes in (a burst after a stall is drained over a few polls)."""

@@ -29,12 +29,12 @@ import pytest
 
 from iguana_ros.bag.storage import BagReader, summarize
 from iguana_ros.bag.trajectory import read_root_trajectory, read_topics, recorded_key
+from iguana_ros.config import params_file
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import InputError
 from iguana_ros.ros.cdr import tf_message_from_cdr
 from iguana_ros.scene import load_scene
 from iguana_ros.supervisor.domain_check import output_topics
-from iguana_ros.config import params_file
 from iguana_ros.supervisor.run import (check_user_ros_args, node_commands, node_params, RUN_PARAMS_FILE,
                                        run_params_yaml, RunOptions)
 from iguana_ros.topics import check_namespace, frame_prefix_of, topic_name
