@@ -139,6 +139,8 @@ class CharacterSpec:
     goals: tuple = ()
     route: tuple = ()
     adaptation: bool = True
+    avoid_others: bool = True
+    """Whether its planner keeps clear of the other characters (false: it walks as if alone, and bumps into them)."""
 
 
 @dataclass(frozen=True)

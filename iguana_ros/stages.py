@@ -41,7 +41,7 @@ from iguana_ros.geometry import wrap_angle, yaw_of
 from iguana_ros.metrics import ProgressWindow, remaining_way
 from iguana_ros.motion.clips import ANY_GAIT
 from iguana_ros.motion.motion_graph import AlignedClip, IDLE_CLIP, MotionGraph
-from iguana_ros.motion.planning import clip_table, MotionPlanner, rest_steps, STAND, Target
+from iguana_ros.motion.planning import clip_table, MotionPlanner, MovingObstacles, rest_steps, STAND, Target
 from iguana_ros.motion.tracking import LibraryTracking, load_tracking
 from iguana_ros.parameters import node_parameters
 from iguana_ros.physics.body_watch import BodyLoss, BodyWatch
@@ -124,6 +124,10 @@ class PlannerStatus:
     recovery: int
 
 
+WAY_ROUND_RADIUS = 0.25
+"""Radius (m) within which the way round a standing body counts as passed."""
+
+
 class PlannerStage:
     """
     Section IV: at each stride end, the next clip toward the goal or along the route, aligned to the body.
@@ -165,6 +169,8 @@ class PlannerStage:
         self._stuck_at = np.inf
         self._detour: tuple = ()
         self._rest = rest_steps(planner.table)
+        self.obstacles: MovingObstacles | None = None
+        """Other bodies the search keeps clear of (the world's other characters, updated each frame)."""
 
     # ----------------------------------------------------------------------------------------- goals, routes
     def target(self, x: float, y: float, yaw: float | None = None, final: bool = True, radius: float = 0.0,
@@ -326,8 +332,12 @@ class PlannerStage:
         if self.settled or not self.targets:
             return self._toward_rest(current)
         targets = self._detour + self.targets[self.waypoint:]
+        if self.obstacles is not None and not self._detour:
+            past = self.obstacles.way_round(pose[:2], np.asarray(targets[0].xy), self.planner.params)
+            if past is not None:
+                targets = (self.target(past[0], past[1], final=False, radius=WAY_ROUND_RADIUS),) + tuple(targets)
         start = time.perf_counter()
-        plan = self.planner.plan(pose, current, list(targets), self._allowed())
+        plan = self.planner.plan(pose, current, list(targets), self._allowed(), self.obstacles)
         self.plan_seconds.append(time.perf_counter() - start)
         return plan.first if plan.clips else self._toward_rest(current)
 

@@ -33,6 +33,7 @@ import numpy as np
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.physics.body_contact import (bounding_boxes, BodyContactParams, contact_forces, ContactBody,
                                              load_kernels as load_contact_kernels, near, PairContact)
+from iguana_ros.motion.planning import MovingObstacles
 from iguana_ros.pipeline import allocate_rows, store_frame, build_pipeline, Pipeline, RunResult
 from iguana_ros.scene import Scene
 from iguana_ros.stages import SimulatorStage
@@ -48,6 +49,7 @@ class Character:
     name: str
     scene: Scene
     pipe: Pipeline
+    avoid_others: bool = True
 
 
 @dataclass
@@ -76,12 +78,24 @@ class World:
 
     def step(self) -> list[tuple]:
         """One frame of every character; returns each one's (root, orientation, reference joints, rotations)."""
+        self.show_others()
         frames = [c.pipe.reference() for c in self.characters]
         self.advance([reference.lengths for _, _, reference in frames])
         for c in self.characters:
             c.pipe.frame += 1
         self.frame += 1
         return [(root, quat, ref.joints, ref.rotations) for root, quat, ref in frames]
+
+    def show_others(self) -> None:
+        """Give each character's planner the others' roots and velocities now, as moving obstacles."""
+        if len(self.characters) < 2:
+            return
+        roots = np.array([s.root_pose()[0][:2] for s in self.stages])
+        velocities = np.array([s.root_twist()[0][:2] for s in self.stages])
+        for i, c in enumerate(self.characters):
+            others = np.arange(len(self.characters)) != i
+            if c.avoid_others:
+                c.pipe.planner.obstacles = MovingObstacles(roots[others], velocities[others])
 
     def advance(self, lengths: list) -> None:
         """Advance every body one frame with its desired lengths `(n_springs_i,)` (None: rest), in contact if near."""
@@ -115,7 +129,7 @@ class World:
         for j in range(blocks):
             n = k if j < blocks - 1 else steps - k * (blocks - 1)
             forces, pairs = contact_forces(self.bodies, [s.positions for s in sims], [s.velocities for s in sims],
-                                           self.params, CONTACT_SLACK_M)
+                                           self.params, n * sims[0].fidelity.dt, CONTACT_SLACK_M)
             self._keep(record, pairs)
             share = (j + 1) / blocks
             for i, sim in enumerate(sims):
@@ -152,8 +166,9 @@ class World:
 def build_world(scene: Scene, adaptation: bool | None = None, library: dict | None = None,
                 simulator_options: dict | None = None, lookahead: bool = True) -> World:
     """Return the world of `scene`: a pipeline per character (`Scene.character_scenes`), its bodies in contact."""
+    avoid = {c.name: c.avoid_others for c in scene.characters}
     characters = [Character(name, one, build_pipeline(one, adaptation, library, simulator_options=simulator_options,
-                                                      lookahead=lookahead))
+                                                      lookahead=lookahead), avoid.get(name, True))
                   for name, one in scene.character_scenes()]
     world = World(characters)
     world.load_kernels()

@@ -110,6 +110,13 @@ class PlannerParams:
     """Half-width (m) of the body-scale finite differences that give the terrain gradient."""
     correction_rate: float = 0.5
     """Weight of the newest stride's error in a clip's online correction (exponential average)."""
+    clearance: float = 0.6
+    """Root-to-root distance (m) below which a stride passes too near another body (an iguana is 0.85 m long)."""
+    obstacle_cost: float = 10.0
+    """Cost (s) of a stride that passes through another body's predicted root, falling off quadratically to 0 at
+    `clearance`: a detour of a few strides is cheaper than walking into another iguana."""
+    obstacle_horizon: float = 3.0
+    """Seconds ahead over which another body's motion is extrapolated at its current velocity (held after)."""
     correction_limit: tuple = (0.1, 0.1, 0.8)
     """Largest |online correction| of a clip's stride motion: dx m, dy m, dyaw rad (enough to cancel any clip's motion:
     a turn on the spot whose tail catches on a step turns little or not at all)."""
@@ -299,6 +306,59 @@ class _Targets:
     rest: np.ndarray
 
 
+@dataclass(frozen=True)
+class MovingObstacles:
+    """Other bodies the search keeps clear of (`PlannerParams.clearance`): planar roots `(k, 2)` m, velocities m/s."""
+
+    xy: np.ndarray
+    velocity: np.ndarray
+
+    def cost(self, start: np.ndarray, end: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+             params: PlannerParams) -> np.ndarray:
+        """Return the cost `(m,)` s of strides from `start` to `end` `(m, 3)` over times `t0`..`t1` `(m,)` s."""
+        if not len(self.xy) or not len(start):
+            return np.zeros(len(start))
+        u = np.linspace(0.0, 1.0, 5)[None, :, None]                                   # (1, S, 1)
+        points = start[:, None, :2] + u * (end[:, None, :2] - start[:, None, :2])     # (m, S, 2)
+        when = np.minimum(t0[:, None] + u[..., 0] * (t1 - t0)[:, None], params.obstacle_horizon)   # (m, S)
+        others = self.xy[None, None] + when[..., None, None] * self.velocity[None, None]           # (m, S, k, 2)
+        gap = np.linalg.norm(points[:, :, None, :] - others, axis=-1)                 # (m, S, k)
+        near = np.clip(1.0 - gap / params.clearance, 0.0, 1.0) ** 2
+        return params.obstacle_cost * near.max(axis=1).sum(axis=1)
+
+
+    def way_round(self, xy: np.ndarray, target: np.ndarray, params: PlannerParams) -> np.ndarray | None:
+        """
+        Return a point `(2,)` m beside the nearest standing body that blocks the way from `xy` to `target`, or None.
+
+        The search's horizon of a few strides cannot see round a body standing across the way (every stride toward it
+        costs; standing still does not), so the point is a waypoint past its side, on the side the walker is already
+        on. A moving body is left to the search's costs.
+        """
+        if not len(self.xy):
+            return None
+        way = np.asarray(target, float) - xy
+        length = float(np.hypot(*way))
+        if length < 1e-6:
+            return None
+        ahead = (self.xy - xy) @ way / length
+        side = (way[0] * (self.xy[:, 1] - xy[1]) - way[1] * (self.xy[:, 0] - xy[0])) / length
+        standing = np.hypot(*self.velocity.T) < STANDING_SPEED
+        blocking = standing & (ahead > 0.0) & (ahead < length) & (np.abs(side) < params.clearance)
+        if not blocking.any():
+            return None
+        k = np.flatnonzero(blocking)[np.argmin(ahead[blocking])]
+        normal = np.array([-way[1], way[0]]) / length              # to the left of the way
+        left = side[k] < 0.0                                        # the body is right of the line: pass it left
+        return self.xy[k] + (1.0 if left else -1.0) * normal * (params.clearance + WAY_ROUND_MARGIN)
+
+
+STANDING_SPEED = 0.05
+"""Root speed (m/s) below which another body counts as standing (the planner plans a way round it)."""
+WAY_ROUND_MARGIN = 0.15
+"""Metres beyond the clearance at which the way round a standing body passes its root."""
+
+
 @dataclass
 class _Level:
     """One depth of the search: `(m,)` arrays of the sequences kept."""
@@ -311,6 +371,7 @@ class _Level:
     estimate: np.ndarray      # (m,) s: cost so far plus cost to go
     parent: np.ndarray        # (m,) index into the previous level
     done: np.ndarray          # (m,) bool: it has reached its final target (not expanded further)
+    time: np.ndarray          # (m,) s from now to the end of the sequence
 
 
 @dataclass
@@ -378,24 +439,25 @@ class MotionPlanner:
         self.plan(np.zeros(3), None, [Target((1.0, 0.0))])
 
     # ------------------------------------------------------------------------------------------------ search
-    def plan(self, pose: np.ndarray, current: str | None, targets: list, allowed: np.ndarray | None = None) -> Plan:
+    def plan(self, pose: np.ndarray, current: str | None, targets: list, allowed: np.ndarray | None = None,
+             obstacles: MovingObstacles | None = None) -> Plan:
         """
         Return the best clip sequence from planar `pose (3,)` playing `current` (None: at rest) through `targets`.
 
         The targets are the route's remaining ones in order (the last is final); `allowed (n,)` (optional) masks the
-        clips the search may use. At each depth the `beam_width` open sequences of least estimate are kept, and the
-        cheapest one that arrives; the plan is the cheapest arrival found or, if it costs more, the deepest open
-        sequence of least estimate.
+        clips the search may use; strides near the `obstacles` (other bodies, optional) cost more. At each depth the
+        `beam_width` open sequences of least estimate are kept, and the cheapest one that arrives; the plan is the
+        cheapest arrival found or, if it costs more, the deepest open sequence of least estimate.
         """
         table, p = self.table, self.params
         goals = self._targets(targets)
         allowed = np.ones(len(table.names), bool) if allowed is None else np.asarray(allowed, bool)
         turn = self.last_turn if current is not None else 0.0
         root = _Level(np.asarray(pose, float)[None, :3], np.array([turn]), np.array([table.index(current)]),
-                      np.zeros(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int), np.zeros(1, bool))
+                      np.zeros(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int), np.zeros(1, bool), np.zeros(1))
         levels, best = [root], (np.inf, None)
         for depth in range(1, p.depth + 1):
-            child, arrived = self._expand(levels[-1], goals, allowed)
+            child, arrived = self._expand(levels[-1], goals, allowed, obstacles)
             if not len(child.cost):
                 break
             keep = _smallest(np.where(arrived, np.inf, child.estimate), p.beam_width)
@@ -423,7 +485,8 @@ class MotionPlanner:
                         * self.params.arrive_fraction,
                         final=np.array([t.final for t in targets]), rest=rest)
 
-    def _expand(self, level: _Level, goals: _Targets, allowed: np.ndarray) -> tuple:
+    def _expand(self, level: _Level, goals: _Targets, allowed: np.ndarray,
+                obstacles: MovingObstacles | None = None) -> tuple:
         """Return the children of every open sequence of `level` (one per clip that may follow), and which arrive."""
         table, p = self.table, self.params
         parents, clips = np.nonzero(table.successors[level.clip] & allowed[None, :] & ~level.done[:, None])
@@ -435,12 +498,16 @@ class MotionPlanner:
                 + p.switch_cost * (clips != level.clip[parents]) + self._step_cost(start, end)
                 + p.path_weight * np.hypot(*(end[:, :2] - start[:, :2]).T)
                 + p.reverse_cost * (self._turning[level.clip[parents]] * self._turning[clips] < 0))
+        t0 = level.time[parents]
+        t1 = t0 + table.duration[clips]
+        if obstacles is not None:
+            cost = cost + obstacles.cost(start, end, t0, t1, p)
         target = level.target[parents].copy()
         hit = _arrives(start, end, target, goals, self._resting[clips])
         arrived = hit & goals.final[target]
         target[hit & ~arrived] += 1                          # a waypoint passed: head for the next target
         estimate = cost + np.where(arrived, 0.0, self.heuristic(end, table.exit_gait[clips], target, goals))
-        return _Level(end, motion[:, 2], clips, target, cost, estimate, parents, arrived), arrived
+        return _Level(end, motion[:, 2], clips, target, cost, estimate, parents, arrived, t1), arrived
 
     def _step_cost(self, start: np.ndarray, end: np.ndarray) -> np.ndarray:
         """Cost `(m,)` s of the height steps along each stride's chord (none on level or unknown ground)."""
@@ -551,4 +618,4 @@ def _smallest(values: np.ndarray, k: int) -> np.ndarray:
 def _take(level: _Level, keep: np.ndarray) -> _Level:
     """Return the sequences `keep` of `level`."""
     return _Level(level.pose[keep], level.turn[keep], level.clip[keep], level.target[keep], level.cost[keep],
-                  level.estimate[keep], level.parent[keep], level.done[keep])
+                  level.estimate[keep], level.parent[keep], level.done[keep], level.time[keep])

@@ -36,13 +36,23 @@ from iguana_ros.constants import (BODY_CONTACT_DAMPING_RATIO, BODY_CONTACT_PERIO
 from iguana_ros.physics.meshes import boundary_triangles
 
 
+STABLE_OMEGA_DT = 1.2
+"""Largest (contact angular frequency x block period) allowed for a node of the body's mean mass; explicit penalty
+forces held over a block diverge beyond 2. Long steps (the `fast` preset, 1/200 s) get a softer contact."""
+
+
 @dataclass(frozen=True)
 class ContactBody:
-    """What contact needs of one body: tetrahedra `(n_tets, 4)`, surface triangles `(n_tri, 3)` and nodes, mean mass."""
+    """
+    What contact needs of one body: tetrahedra `(n_tets, 4)`, surface triangles `(n_tri, 3)`, mean node mass kg.
+
+    `contact_nodes` are the nodes tested against other bodies: every node, not only the surface's, so a limb that
+    crossed another between their surface nodes is pushed out too.
+    """
 
     tets: np.ndarray
     triangles: np.ndarray
-    surface_nodes: np.ndarray
+    contact_nodes: np.ndarray
     mean_node_mass: float
 
     @classmethod
@@ -50,7 +60,7 @@ class ContactBody:
         """Return the contact data of an iguana model (`body.model`)."""
         tets = np.ascontiguousarray(model.tets, dtype=np.int64)
         triangles = np.ascontiguousarray(boundary_triangles(model.rest_positions, tets), dtype=np.int64)
-        return cls(tets, triangles, np.unique(triangles), float(np.mean(model.node_mass)))
+        return cls(tets, triangles, np.arange(model.n_nodes, dtype=np.int64), float(np.mean(model.node_mass)))
 
 
 @dataclass(frozen=True)
@@ -65,6 +75,10 @@ class BodyContactParams:
     def coupling_steps(self, dt: float) -> int:
         """Return the simulator steps per block of held contact forces at time step `dt` s (at least 1)."""
         return max(1, int(round(self.period / dt)))
+
+    def stiffness_for(self, body: ContactBody, block: float) -> float:
+        """Return the penalty stiffness N/m of `body`'s nodes for blocks of `block` s: at most the stable one."""
+        return min(self.stiffness, (STABLE_OMEGA_DT / block) ** 2 * body.mean_node_mass)
 
 
 @dataclass
@@ -89,11 +103,13 @@ def bounding_boxes(positions: list[np.ndarray]) -> np.ndarray:
 
 
 def contact_forces(bodies: list[ContactBody], positions: list[np.ndarray], velocities: list[np.ndarray],
-                   params: BodyContactParams, margin: float = 0.0) -> tuple[list[np.ndarray], list[PairContact]]:
+                   params: BodyContactParams, block: float, margin: float = 0.0) -> tuple[list[np.ndarray],
+                                                                                        list[PairContact]]:
     """
     Return the contact force `(n_nodes_i, 3)` N on each body and the contacts of each touching ordered pair.
 
-    Only pairs whose boxes come within `margin` m are examined; positions and velocities `(n_nodes_i, 3)` per body.
+    The forces are held for `block` s. Only pairs whose boxes come within `margin` m are examined; positions and
+    velocities `(n_nodes_i, 3)` per body.
     """
     forces = [np.zeros_like(p) for p in positions]
     pairs = []
@@ -103,9 +119,10 @@ def contact_forces(bodies: list[ContactBody], positions: list[np.ndarray], veloc
             if a == b or not near(boxes, a, b, margin):
                 continue
             out = np.zeros(3)
-            _pair_forces(bodies[a].surface_nodes, bodies[a].mean_node_mass, positions[a], velocities[a],
+            _pair_forces(bodies[a].contact_nodes, bodies[a].mean_node_mass, positions[a], velocities[a],
                          bodies[b].tets, bodies[b].triangles, positions[b], velocities[b], boxes[b, 0], boxes[b, 1],
-                         params.stiffness, params.damping_ratio, params.friction, forces[a], forces[b], out)
+                         params.stiffness_for(bodies[a], block), params.damping_ratio, params.friction, forces[a],
+                         forces[b], out)
             if out[0] > 0:
                 pairs.append(PairContact(a, b, int(out[0]), float(out[1]), float(out[2])))
     return forces, pairs
@@ -115,8 +132,8 @@ def load_kernels(body: ContactBody, positions: np.ndarray) -> None:
     """Compile or load the contact kernels by calling them on no nodes (the first contact then costs no compiling)."""
     box = bounding_boxes([positions])[0]
     none, scratch = np.zeros(0, dtype=np.int64), np.zeros_like(positions)
-    _pair_forces(none, body.mean_node_mass, positions, positions, body.tets, body.triangles, positions, positions, box[0],
-                 box[1], 1.0, 1.0, 1.0, scratch, scratch, np.zeros(3))
+    _pair_forces(none, body.mean_node_mass, positions, positions, body.tets, body.triangles, positions, positions,
+                 box[0], box[1], 1.0, 1.0, 1.0, scratch, scratch, np.zeros(3))
     _depths(positions[:0], body.tets, body.triangles, positions, box[0], box[1], np.zeros(0))
 
 
