@@ -58,8 +58,9 @@ FLOORS = floors(
      "the paper's algorithms, numpy + numba, no ROS; headless drawing of a recorded run; the simulator's colours"),
     ('scene', 'scene validation',
      'the scene description and its limits; the bounds of every topic payload'),
-    ('pipeline stages', 'stages pipeline run_metrics',
-     'each stage built from the scene by one factory; the frame loop; the figures of a run'),
+    ('pipeline stages', 'stages pipeline world run_metrics',
+     'each stage built from the scene by one factory; the frame loop; several characters in one world; the figures '
+     'of a run'),
     ('library tools', 'warmup doctor.checks clip_calibration',
      "ROS-free tools over the library loop: compiling the kernels, the doctor's checks, the clips' tracking "
      'measurement'),

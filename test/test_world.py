@@ -51,7 +51,8 @@ def _bump_scene(with_walker: bool = True, duration: float = 4.0):
     ({'characters': [{'name': '1a'}]}, r"'characters\[0\]\.name'.*ROS namespace"),
     ({'characters': [{'name': 'a'}], 'goals': [{'x': 1.0}]}, "'goals': a scene with characters"),
     ({'characters': [{'name': 'a', 'goals': [{'x': 50.0}]}]}, r"'characters\[0\]\.goals\[0\]'.*off the terrain"),
-    ({'characters': [{'name': 'a', 'model': {'resolution': 'huge'}}]}, r"'characters\[0\]\.model\.resolution'.*expected one of"),
+    ({'characters': [{'name': 'a', 'model': {'resolution': 'huge'}}]},
+     r"'characters\[0\]\.model\.resolution'.*expected one of"),
     ({'characters': [{'name': 'a', 'speed': 1}]}, r"'characters\[0\]\.speed'.*unknown field"),
 ])
 def test_a_bad_character_is_one_error_naming_its_field(raw, field):

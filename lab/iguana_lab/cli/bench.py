@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-`iguana bench sim|scale|tradeoff|stability|pipeline|adaptation|locomotion|statics|pushes|faults`.
+`iguana bench sim|scale|crowd|crossing|tradeoff|stability|pipeline|adaptation|locomotion|statics|pushes|faults`.
 
 Simulator speed, its growth with the mesh and the number of bodies, speed–accuracy trade, stability at the extremes,
 the node pipeline's realtime factor next to the library loop (here); terrain adaptation per frame, the randomized
@@ -63,6 +63,7 @@ def register(subparsers) -> None:
     sim.add_argument('--json', action='store_true', help='print one JSON object')
     sim.set_defaults(func=run_sim)
     _register_scale(sub)
+    _register_crowd(sub)
     trade = sub.add_parser('tradeoff', help='sweep dt, solver settings and mesh; error against the finest run')
     trade.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
     trade.add_argument('--seconds', type=float, default=2.0, help='simulated seconds per run (default 2)')
@@ -155,6 +156,45 @@ def _value(parse, option: str, text: str):
         return parse(text)
     except argparse.ArgumentTypeError as exc:
         raise InputError(f'{option}: {exc}') from None
+
+
+def _register_crowd(sub) -> None:
+    """Add `crowd` and `crossing` (several iguanas in one world)."""
+    crowd = sub.add_parser('crowd', help='several iguanas in one world: realtime factor, CPU per character, memory')
+    crowd.add_argument('--iguanas', nargs='+', default=['1', '2', '4', '8'], metavar='N',
+                       help='crowd sizes (default 1 2 4 8)')
+    crowd.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
+    crowd.add_argument('--seconds', default='2', help='simulated seconds per run (default 2)')
+    crowd.add_argument('--repeats', default='3', help='runs per size, each in a fresh process (default 3)')
+    crowd.add_argument('--json', action='store_true', help='print one JSON object')
+    crowd.set_defaults(func=run_crowd)
+    crossing = sub.add_parser('crossing', help='randomized crossings of 2-4 iguanas: arrivals and body contacts')
+    crossing.add_argument('--seeds', nargs='+', default=[str(s) for s in range(1, 11)], metavar='SEED')
+    crossing.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='coarse')
+    crossing.add_argument('--seconds', default='20', help='simulated seconds per scene (default 20)')
+    crossing.add_argument('--json', action='store_true', help='print one JSON object')
+    crossing.set_defaults(func=run_crossing)
+
+
+def run_crowd(args) -> int:
+    """`iguana bench crowd`."""
+    from iguana_lab.bench.crowd import bench_crowd, format_crowd
+
+    result = bench_crowd(tuple(_value(count(1), '--iguanas', n) for n in args.iguanas), args.mesh,
+                         _value(positive('seconds'), '--seconds', args.seconds),
+                         _value(count(1), '--repeats', args.repeats))
+    print(json.dumps(result, indent=1) if args.json else format_crowd(result))
+    return 0
+
+
+def run_crossing(args) -> int:
+    """`iguana bench crossing`: exit 1 unless every iguana of every scene arrived."""
+    from iguana_lab.bench.crowd import crossing_suite, format_crossings
+
+    result = crossing_suite(tuple(_value(count(0), '--seeds', s) for s in args.seeds), args.mesh,
+                            _value(positive('seconds'), '--seconds', args.seconds))
+    print(json.dumps(result, indent=1) if args.json else format_crossings(result))
+    return 0 if result['all_arrived'] == result['scenes'] else 1
 
 
 def run_scale(args) -> int:
