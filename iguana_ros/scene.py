@@ -543,6 +543,15 @@ def parse_scene(raw, source: str = '<scene>') -> Scene:
     return scene
 
 
+def check_one_character(scene: Scene, what: str) -> Scene:
+    """Return `scene` if it has one iguana; SceneError naming `what` (e.g. 'iguana run') for a scene of several."""
+    if scene.characters:
+        raise SceneError(f'{what}: scene {scene.name} has {len(scene.characters)} characters; a node run of several '
+                         'iguanas is not built yet: run it with `iguana simulate`, or one iguana per '
+                         '`iguana run --namespace NS`')
+    return scene
+
+
 def scene_path(name_or_path: str) -> Path:
     """Return a scene file: an existing path, or the name of a scene under msg_configs/scenes/."""
     path = Path(name_or_path)

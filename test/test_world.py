@@ -141,6 +141,12 @@ def test_four_iguanas_crossing_all_arrive_walking_round_each_other(cli, tmp_path
     assert metrics['body_contact_frames'] <= 60 and metrics['body_contact_max_depth'] <= 0.005, metrics
 
 
+def test_a_node_run_of_several_is_refused_in_one_line_before_anything_starts(cli, tmp_path):
+    status, out, err = cli(['run', 'crossing', '--record', str(tmp_path / 'bag')])
+    assert status == 1 and 'has 4 characters; a node run of several iguanas is not built yet' in err, err
+    assert err.strip().count('\n') == 0 and not (tmp_path / 'bag').exists()
+
+
 def test_simulate_refuses_a_trajectory_file_for_a_scene_of_several(cli, tmp_path):
     status, out, err = cli(['simulate', 'crossing', '-o', str(tmp_path / 'x.npz')])
     assert status == 1 and err.strip().count('\n') == 0 and 'scene of one iguana' in err, err

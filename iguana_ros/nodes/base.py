@@ -33,7 +33,7 @@ from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.ros.wait_loop import settle_heap
-from iguana_ros.scene import load_scene, Scene
+from iguana_ros.scene import check_one_character, load_scene, Scene
 from iguana_ros.topics import topic
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
 
@@ -80,7 +80,7 @@ class IguanaNode(Node):
         for spec in self._specs.values():
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
         self.add_on_set_parameters_callback(self._check_new_parameters)
-        self.scene: Scene = load_scene(self.param('scene'))
+        self.scene: Scene = check_one_character(load_scene(self.param('scene')), self.get_name())
 
     def report(self, kind: str, detail: str = '', clip: str = '', frame: int = -1) -> None:
         """Publish a run event (EVENT_UP, EVENT_LOADED, EVENT_CLIP) stamped with the wall clock on run_events."""

@@ -45,7 +45,7 @@ from iguana_ros.constants import FRAME_RATE
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.executables import NODE_EXECUTABLES, NODE_PACKAGE
 from iguana_ros.physics.body_watch import BODY_LOST_EXIT_CODES
-from iguana_ros.scene import load_scene, Scene, scene_path
+from iguana_ros.scene import check_one_character, load_scene, Scene, scene_path
 from iguana_ros.supervisor.cpu import CpuWindow
 from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
 from iguana_ros.supervisor.process import (describe_exit, NAMESPACE_ENV, NodeProcess, RUN_ID_ENV, run_processes,
@@ -297,7 +297,7 @@ class SceneRun:
         self.nodes_started = math.nan
         self.silence_checked = False
         from iguana_ros.stages import check_pushes_of     # the model: only for a scene with pushes
-        self.scene = load_scene(options.scene)
+        self.scene = check_one_character(load_scene(options.scene), 'iguana run')
         check_pushes_of(self.scene)           # the pushes against the body's masses: one line before any node starts
         self.scene_file = scene_path(options.scene).resolve()
         self.bag = new_bag_dir(options, self.scene)
