@@ -60,7 +60,7 @@ class ContactBody:
         """Return the contact data of an iguana model (`body.model`)."""
         tets = np.ascontiguousarray(model.tets, dtype=np.int64)
         triangles = np.ascontiguousarray(boundary_triangles(model.rest_positions, tets), dtype=np.int64)
-        return cls(tets, triangles, np.arange(model.n_nodes, dtype=np.int64), float(np.mean(model.node_mass)))
+        return cls(tets, triangles, np.arange(len(model.rest_positions), dtype=np.int64), float(np.mean(model.node_mass)))
 
 
 @dataclass(frozen=True)
