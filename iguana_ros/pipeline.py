@@ -203,7 +203,7 @@ def allocate_rows(n_frames: int, n_nodes: int, n_bones: int) -> dict:
 
 
 def store_frame(rows: dict, f: int, root, quat, sim: SoftBodySimulator, reference: tuple,
-           reference_contacts: np.ndarray) -> None:
+                reference_contacts: np.ndarray) -> None:
     """Record frame `f`."""
     rows['root_positions'][f] = root
     rows['root_orientations'][f] = quat

@@ -92,6 +92,15 @@ def warm_direct_solver() -> None:
     sim.advance_frame(model.spring_rest_lengths)             # lengths given: the first frame ramps from rest
 
 
+def warm_body_contact() -> None:
+    """Compile (or load) the body-body contact kernels (a world of several iguanas), on no nodes."""
+    from iguana_ros.body.model import build_model
+    from iguana_ros.physics.body_contact import ContactBody, load_kernels
+
+    model = build_model('coarse')
+    load_kernels(ContactBody.of_model(model), np.ascontiguousarray(model.rest_positions, dtype=np.float64))
+
+
 def warm_builders() -> None:
     """Call the builders' kernels once: the body's shape field (model building) and the clips' forward kinematics."""
     from iguana_ros.body.shape import body_field, iguana_shape
@@ -130,6 +139,7 @@ def warm_up(scene_name: str = WARM_SCENE) -> WarmReport:
 
     ensure_fresh_kernel_cache()
     loop_s = warm_loop(scene_name)
+    warm_body_contact()
     warm_builders()
     render_s = warm_render()
     signatures = kernel_signatures()

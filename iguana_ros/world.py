@@ -31,10 +31,10 @@ from typing import Callable
 import numpy as np
 
 from iguana_ros.constants import FRAME_RATE
-from iguana_ros.physics.body_contact import (bounding_boxes, BodyContactParams, contact_forces, ContactBody,
-                                             load_kernels as load_contact_kernels, near, PairContact)
 from iguana_ros.motion.planning import MovingObstacles
-from iguana_ros.pipeline import allocate_rows, store_frame, build_pipeline, Pipeline, RunResult
+from iguana_ros.physics.body_contact import (BodyContactParams, bounding_boxes, contact_forces, ContactBody,
+                                             load_kernels as load_contact_kernels, near, PairContact)
+from iguana_ros.pipeline import allocate_rows, build_pipeline, Pipeline, RunResult, store_frame
 from iguana_ros.scene import Scene
 from iguana_ros.stages import SimulatorStage
 
@@ -209,7 +209,7 @@ def run_world(scene: Scene, adaptation: bool | None = None, n_frames: int | None
             for c, row, (_, _, joints, rotations) in zip(world.characters, rows, world.step()):
                 root, quat = c.pipe.simulator.root_pose()
                 store_frame(row, f, root, quat, c.pipe.simulator.sim, (joints, rotations),
-                       c.pipe.planner.reference_contacts(f))
+                            c.pipe.planner.reference_contacts(f))
             done = f + 1
             if on_frame is not None:
                 on_frame(world)

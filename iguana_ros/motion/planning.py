@@ -326,7 +326,6 @@ class MovingObstacles:
         near = np.clip(1.0 - gap / params.clearance, 0.0, 1.0) ** 2
         return params.obstacle_cost * near.max(axis=1).sum(axis=1)
 
-
     def way_round(self, xy: np.ndarray, target: np.ndarray, params: PlannerParams) -> np.ndarray | None:
         """
         Return a point `(2,)` m beside the nearest standing body that blocks the way from `xy` to `target`, or None.

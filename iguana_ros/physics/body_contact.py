@@ -60,7 +60,8 @@ class ContactBody:
         """Return the contact data of an iguana model (`body.model`)."""
         tets = np.ascontiguousarray(model.tets, dtype=np.int64)
         triangles = np.ascontiguousarray(boundary_triangles(model.rest_positions, tets), dtype=np.int64)
-        return cls(tets, triangles, np.arange(len(model.rest_positions), dtype=np.int64), float(np.mean(model.node_mass)))
+        every = np.arange(len(model.rest_positions), dtype=np.int64)
+        return cls(tets, triangles, every, float(np.mean(model.node_mass)))
 
 
 @dataclass(frozen=True)
@@ -103,8 +104,8 @@ def bounding_boxes(positions: list[np.ndarray]) -> np.ndarray:
 
 
 def contact_forces(bodies: list[ContactBody], positions: list[np.ndarray], velocities: list[np.ndarray],
-                   params: BodyContactParams, block: float, margin: float = 0.0) -> tuple[list[np.ndarray],
-                                                                                        list[PairContact]]:
+                   params: BodyContactParams, block: float,
+                   margin: float = 0.0) -> tuple[list[np.ndarray], list[PairContact]]:
     """
     Return the contact force `(n_nodes_i, 3)` N on each body and the contacts of each touching ordered pair.
 

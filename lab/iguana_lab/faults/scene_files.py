@@ -319,7 +319,8 @@ def _encoding(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
 def _duplicate_keys(rng: random.Random, name: str, text: str, raw: dict) -> Mutation:
     """Return a key given twice: a top-level line repeated later, or a key repeated inside a flow mapping."""
     lines = text.splitlines()
-    flows = [(i, m) for i, line in enumerate(lines) for m in re.finditer(r'\{(\w+): ([^,}]+)', line)]
+    flows = [(i, m) for i, line in enumerate(lines) for m in re.finditer(r'\{(\w+): ([^,}]+)', line)
+             if m.start() == line.index('{')]        # the line's outer mapping: `_flow_parent` names its field
     if flows and rng.random() < 0.5:
         i, m = rng.choice(flows)
         key = m.group(1)
