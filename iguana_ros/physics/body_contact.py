@@ -13,16 +13,18 @@
 # limitations under the License.
 
 """
-Contact between soft bodies: penalty forces of one body's surface nodes inside another body's volume, with friction.
+Contact between soft bodies: penalty forces of one body's nodes inside another body's volume, with friction.
 
-As the ground's contact (Section V), but against a body: a surface node of body A inside a tetrahedron of body B is
+As the ground's contact (Section V), but against a body: a node of body A (any node, `ContactBody.contact_nodes`)
+inside a tetrahedron of body B is
 pushed out along the way to B's nearest surface point, with a force `stiffness x depth` less a normal damping, and
 friction against the relative sliding velocity (regularised Coulomb, at most `friction x normal force`). The opposite
 force goes to the three nodes of B's surface triangle at that point, split by its barycentric weights, so the pair's
 forces sum to zero (momentum is conserved; tested). The forces are explicit: the world steps the bodies in blocks of a
 few steps (`coupling_steps`) with them held constant, short enough for the penalty to be stable
-(`stiffness x block period^2 / node mass` under 4 for the body's mean node mass: a light surface node is held by
-the stiff implicit springs and elements around it, which the same step solves).
+(`sqrt(stiffness / node mass) x block period` at most STABLE_OMEGA_DT = 1.2 for the body's mean node mass,
+`stiffness_for`; a light surface node is held by the stiff implicit springs and elements around it, which the same
+step solves).
 """
 from __future__ import annotations
 
