@@ -147,3 +147,27 @@ def test_targets_count_heading_only_when_asked():
     assert any_heading.reached(np.array([1.1, 0.0, 3.0])) and ignored.reached(np.array([1.1, 0.0, 3.0]))
     assert not facing.reached(np.array([1.1, 0.0, 3.0])) and facing.reached(np.array([1.1, 0.0, 0.2]))
     assert not Target((1.0, 0.0), 0.0, radius=0.2, yaw_tolerance=0.3, final=False).wants_heading
+
+
+def test_a_stride_costs_for_passing_near_another_body_and_nothing_clear_of_it():
+    from iguana_ros.motion.planning import MovingObstacles, PlannerParams
+    p = PlannerParams()
+    start, end = np.array([[0.0, 0.0, 0.0], [0.0, 2.0, 0.0]]), np.array([[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]])
+    t0, t1 = np.zeros(2), np.ones(2)
+    standing = MovingObstacles(np.array([[0.5, 0.0]]), np.zeros((1, 2)))
+    through, clear = standing.cost(start, end, t0, t1, p)
+    assert through == pytest.approx(p.obstacle_cost) and clear == 0.0          # its root on the way: full cost
+    coming = MovingObstacles(np.array([[0.5, 2.5]]), np.array([[0.0, -0.5]]))  # reaches y = 2 at t = 1 s
+    assert coming.cost(start, end, t0, t1, p)[1] > 0.0 and coming.cost(start, end, t0 + 5, t1 + 5, p)[1] >= 0.0
+    assert MovingObstacles(np.zeros((0, 2)), np.zeros((0, 2))).cost(start, end, t0, t1, p).tolist() == [0.0, 0.0]
+
+
+def test_a_way_round_a_standing_body_passes_its_side_and_none_is_planned_round_a_moving_one():
+    from iguana_ros.motion.planning import MovingObstacles, PlannerParams
+    p = PlannerParams()
+    xy, target = np.array([0.0, 0.1]), np.array([2.0, 0.0])
+    past = MovingObstacles(np.array([[1.0, 0.0]]), np.zeros((1, 2))).way_round(xy, target, p)
+    assert past is not None and past[1] > p.clearance and abs(past[0] - 1.0) < 0.1   # beside it, on the walker's side
+    assert MovingObstacles(np.array([[1.0, 0.0]]), np.array([[0.3, 0.0]])).way_round(xy, target, p) is None
+    assert MovingObstacles(np.array([[1.0, 2.0]]), np.zeros((1, 2))).way_round(xy, target, p) is None   # not in the way
+    assert MovingObstacles(np.array([[-1.0, 0.0]]), np.zeros((1, 2))).way_round(xy, target, p) is None  # behind
