@@ -17,13 +17,15 @@ Several iguanas in one world: one pipeline per character, their bodies stepped t
 
 Each character (a scene's `characters` entry) has its own planner, adaptation and spring lengths (`pipeline.Pipeline`)
 and its own soft body; `World.step` computes every character's reference for the frame, then advances the bodies.
-Bodies whose bounding boxes stay apart by more than they can move in a frame are advanced as a lone body is, in one
-call (bit for bit the single-character loop). Bodies that may touch are advanced together in blocks of
-`BodyContactParams.coupling_steps` steps, the contact forces of `physics.body_contact` held over each block, their
-desired lengths ramped across the blocks as one frame ramps them.
+A body whose bounding box stays apart from every other by more than they can move in a frame is advanced as a lone
+body is, in one call (bit for bit the single-character loop), whatever the others do. Bodies that may touch (a group,
+joined transitively) are advanced together in blocks of `BodyContactParams.coupling_steps` steps, the contact forces
+of `physics.body_contact` held over each block, their desired lengths ramped across the blocks as one frame ramps
+them.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 import time
 from typing import Callable
@@ -100,47 +102,66 @@ class World:
     def advance(self, lengths: list) -> None:
         """Advance every body one frame with its desired lengths `(n_springs_i,)` (None: rest), in contact if near."""
         stages = self.stages
-        if not self._may_touch(stages):
-            for stage, ld in zip(stages, lengths):
-                stage.advance(ld)
-            return
-        self._advance_in_contact(stages, lengths)
+        record = FrameContact(self.frame)
+        for group in self._groups(stages):
+            if len(group) == 1:
+                stages[group[0]].advance(lengths[group[0]])
+            else:
+                self._advance_in_contact(group, stages, lengths, record)
+        if record.pairs:
+            self.contacts.append(record)
 
-    def _may_touch(self, stages: list[SimulatorStage]) -> bool:
-        """Whether two bodies' boxes come within what their fastest nodes can close in a frame (and the slack)."""
-        if len(stages) < 2:
-            return False
-        boxes = bounding_boxes([s.sim.positions for s in stages])
-        speeds = [float(np.sqrt((s.sim.velocities ** 2).sum(axis=1).max())) for s in stages]
-        return any(near(boxes, a, b, (speeds[a] + speeds[b]) / FRAME_RATE + CONTACT_SLACK_M)
-                   for a in range(len(stages)) for b in range(a + 1, len(stages)))
+    def _groups(self, stages: list[SimulatorStage]) -> list[list[int]]:
+        """
+        Return the bodies that may touch in this frame, grouped (transitively), each group in order.
 
-    def _advance_in_contact(self, stages: list[SimulatorStage], lengths: list) -> None:
-        """Advance in blocks of held contact forces; the desired lengths ramp across the blocks as over one frame."""
-        sims = [s.sim for s in stages]
+        Two bodies may touch when their boxes come within what their fastest nodes can close in a frame (and the
+        slack); a body alone in its group advances as a lone body, whatever the others do.
+        """
+        group = list(range(len(stages)))
+        if len(stages) > 1:
+            boxes = bounding_boxes([s.sim.positions for s in stages])
+            speeds = [float(np.sqrt((s.sim.velocities ** 2).sum(axis=1).max())) for s in stages]
+            for a in range(len(stages)):
+                for b in range(a + 1, len(stages)):
+                    if near(boxes, a, b, (speeds[a] + speeds[b]) / FRAME_RATE + CONTACT_SLACK_M):
+                        low, high = sorted((_root(group, a), _root(group, b)))
+                        group[high] = low
+        members: dict[int, list[int]] = {}
+        for i in range(len(stages)):
+            members.setdefault(_root(group, i), []).append(i)
+        return list(members.values())
+
+    def _advance_in_contact(self, group: list[int], stages: list[SimulatorStage], lengths: list,
+                            record: FrameContact) -> None:
+        """
+        Advance the bodies of `group` (indices) in blocks of held contact forces.
+
+        Their desired lengths ramp across the blocks as over one frame; the block of most force of each touching
+        pair goes to `record`.
+        """
+        sims = [stages[i].sim for i in group]
+        bodies = [self.bodies[i] for i in group]
         k = self.params.coupling_steps(sims[0].fidelity.dt)
         steps = sims[0].steps_per_frame
         blocks = max(1, steps // k)
-        targets = [s.desired_lengths_rest if ld is None else np.asarray(ld, dtype=np.float64) for s, ld in
-                   zip(sims, lengths)]
+        targets = [s.desired_lengths_rest if lengths[i] is None else np.asarray(lengths[i], dtype=np.float64)
+                   for s, i in zip(sims, group)]
         starts = [s.held_lengths.copy() for s in sims]
-        pushes = [s.frame_forces() for s in stages]
-        record = FrameContact(self.frame)
+        pushes = [stages[i].frame_forces() for i in group]
         for j in range(blocks):
             n = k if j < blocks - 1 else steps - k * (blocks - 1)
-            forces, pairs = contact_forces(self.bodies, [s.positions for s in sims], [s.velocities for s in sims],
+            forces, pairs = contact_forces(bodies, [s.positions for s in sims], [s.velocities for s in sims],
                                            self.params, n * sims[0].fidelity.dt, CONTACT_SLACK_M)
-            self._keep(record, pairs)
+            self._keep(record, [dataclasses.replace(p, a=group[p.a], b=group[p.b]) for p in pairs])
             share = (j + 1) / blocks
-            for i, sim in enumerate(sims):
-                ld = targets[i] if sim.length_hold == 'zero' or j == blocks - 1 else \
-                    starts[i] + (targets[i] - starts[i]) * share
-                external = forces[i] if pushes[i] is None else forces[i] + pushes[i]
+            for m, sim in enumerate(sims):
+                ld = targets[m] if sim.length_hold == 'zero' or j == blocks - 1 else \
+                    starts[m] + (targets[m] - starts[m]) * share
+                external = forces[m] if pushes[m] is None else forces[m] + pushes[m]
                 sim.advance_frame(ld, external, n)
-        for stage in stages:
-            stage.end_frame()
-        if record.pairs:
-            self.contacts.append(record)
+        for i in group:
+            stages[i].end_frame()
 
     @staticmethod
     def _keep(record: FrameContact, pairs: list[PairContact]) -> None:
@@ -161,6 +182,13 @@ class World:
         """Stop every character's lookahead thread."""
         for c in self.characters:
             c.pipe.close()
+
+
+def _root(parent: list[int], i: int) -> int:
+    """Return the representative of `i` in the union-find forest `parent`."""
+    while parent[i] != i:
+        i = parent[i]
+    return i
 
 
 def build_world(scene: Scene, adaptation: bool | None = None, library: dict | None = None,

@@ -30,7 +30,7 @@ import yaml
 from iguana_ros.config import config_path
 from iguana_ros.physics.body_contact import BodyContactParams, contact_forces, penetration_depths
 from iguana_ros.pipeline import run as run_pipeline
-from iguana_ros.scene import load_scene, parse_scene, SceneError
+from iguana_ros.scene import CharacterSpec, GoalSpec, load_scene, parse_scene, SceneError, StartSpec
 from iguana_ros.world import build_world, run_world
 
 pytestmark = pytest.mark.slow
@@ -96,6 +96,15 @@ def test_the_contact_forces_of_a_touching_pair_sum_to_zero_and_push_apart():
     total = forces[0].sum(axis=0) + forces[1].sum(axis=0)
     assert np.abs(total).max() <= 1e-9 * np.abs(forces[0]).sum()      # action and reaction: momentum is kept
     assert forces[1].sum(axis=0)[0] > 0 > forces[0].sum(axis=0)[0]      # b (0.1 m to +x of a) is pushed to +x
+
+
+def test_a_body_far_from_a_bump_is_stepped_as_if_alone_while_the_others_touch():
+    bump = _bump_scene()
+    far = CharacterSpec(name='far', start=StartSpec(x=0.0, y=3.0), goals=(GoalSpec(x=2.0, y=3.0),))
+    crowd = run_world(dataclasses.replace(bump, characters=(*bump.characters, far)))
+    alone = run_world(dataclasses.replace(bump, characters=(far,)))
+    assert len(crowd.contacts) >= 10 and all({p.a, p.b} == {0, 1} for c in crowd.contacts for p in c.pairs)
+    assert np.array_equal(crowd.characters['far'].node_positions, alone.characters['far'].node_positions)
 
 
 def test_an_iguana_that_keeps_clear_walks_round_another_standing_in_its_way():
