@@ -17,7 +17,8 @@ The four iguana_ros nodes for colcon users: `ros2 launch iguana_ros iguana.launc
 
 Each node gets the params file `iguana run` gives it (share/iguana_ros/msg_configs/params/iguana.yaml), then the
 `scene` launch argument, the simulator `mode` and, for the node that reads its clock (the planner), `use_sim_time`;
-all four under `namespace` (default none). The launch ends when the simulator finishes the scene, as `iguana run`
+all four under `namespace` (default none; its clock is then `<namespace>/clock`, as `iguana run --namespace`
+gives it). The launch ends when the simulator finishes the scene, as `iguana run`
 does. `record:=DIR` also records every topic of the table with `iguana bag record -o DIR`; `rviz:=true` opens RViz2
 with the package's config. Unlike `iguana run`, no goal is sent: send goals with `iguana goal X Y` (or
 IguanaCommander).
@@ -35,6 +36,9 @@ from iguana_ros.executables import CLI_EXECUTABLE, NODE_EXECUTABLES, SIM_TIME_NO
 PACKAGE = 'iguana_ros'
 SIMULATOR = 'simulator_node'
 """The node whose end ends the launch."""
+RUN_CLOCK_REMAP = ('/clock', 'clock')
+"""Every node's clock, relative: /clock in the root namespace, <namespace>/clock in one (as `iguana run
+--namespace`), so launches in two namespaces keep two clocks."""
 
 
 def launch_arguments() -> list:
@@ -64,13 +68,14 @@ def generate_launch_description() -> LaunchDescription:
     mode = {'mode': ParameterValue(LaunchConfiguration('mode'), value_type=str)}
     sim_time = {'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'), value_type=bool)}
     nodes = [Node(package=PACKAGE, executable=name, name=name, namespace=LaunchConfiguration('namespace'),
-                  output='screen',
+                  output='screen', remappings=[RUN_CLOCK_REMAP],
                   parameters=[params_file, scene | (sim_time if name in SIM_TIME_NODES else {})
                               | (mode if name == SIMULATOR else {})],
                   on_exit=Shutdown(reason='the simulator finished') if name == SIMULATOR else None)
              for name in NODE_EXECUTABLES]
     record = LaunchConfiguration('record')
-    recorder = ExecuteProcess(cmd=[CLI_EXECUTABLE, 'bag', 'record', '-o', record], output='screen',
+    recorder = ExecuteProcess(cmd=[CLI_EXECUTABLE, 'bag', 'record', '-o', record, '--namespace',
+                                   LaunchConfiguration('namespace')], output='screen',
                               condition=UnlessCondition(EqualsSubstitution(record, '')))
     rviz = ExecuteProcess(cmd=['rviz2', '-d', PathJoinSubstitution([share, 'rviz', 'iguana.rviz'])],
                           output='screen', condition=IfCondition(LaunchConfiguration('rviz')))

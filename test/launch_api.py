@@ -221,6 +221,7 @@ class Node(_Action):
         super().__init__(**kwargs)
         self.executable, self.package, self.name, self.namespace = executable, package, name, namespace
         self.parameters, self.arguments, self.on_exit = list(parameters or []), arguments, on_exit
+        self.remappings = list(remappings or [])
         Node.created.append(self)
 
     def parameter_files(self, resolver: Resolver) -> list[Path]:

@@ -103,7 +103,9 @@ def test_launch_file_takes_mode_namespace_record_and_rviz(monkeypatch):
     simulator = next(n for n in _nodes(actions) if n.name == 'simulator_node')
     assert simulator.parameter_values(resolver) == {'scene': 'hills', 'mode': 'realtime'}
     assert {resolver.text(n.namespace) for n in _nodes(actions)} == {'iguana1'}
-    assert _processes(actions, resolver) == [[CLI_EXECUTABLE, 'bag', 'record', '-o', 'bags/run1'],
+    assert all(n.remappings == [('/clock', 'clock')] for n in _nodes(actions))   # <namespace>/clock in one
+    assert _processes(actions, resolver) == [[CLI_EXECUTABLE, 'bag', 'record', '-o', 'bags/run1', '--namespace',
+                                              'iguana1'],
                                              ['rviz2', '-d', str(REPO / 'rviz' / 'iguana.rviz')]]
 
 
