@@ -35,7 +35,8 @@ import numpy as np
 from iguana_ros.constants import FRAME_RATE
 from iguana_ros.motion.planning import MovingObstacles
 from iguana_ros.physics.body_contact import (BodyContactParams, bounding_boxes, contact_forces, ContactBody,
-                                             load_kernels as load_contact_kernels, near, PairContact)
+                                             load_kernels as load_contact_kernels, near, PairContact,
+                                             penetration_depths)
 from iguana_ros.pipeline import allocate_rows, build_pipeline, Pipeline, RunResult, store_frame
 from iguana_ros.scene import Scene
 from iguana_ros.stages import SimulatorStage
@@ -162,6 +163,14 @@ class World:
                 sim.advance_frame(ld, external, n)
         for i in group:
             stages[i].end_frame()
+
+    def deepest_penetration(self) -> float:
+        """Return how deep m the deepest node of any body lies inside another body's volume now (0: none)."""
+        stages = self.stages
+        boxes = bounding_boxes([s.sim.positions for s in stages])
+        return max((float(penetration_depths(self.bodies[b], stages[a].sim.positions, stages[b].sim.positions).max())
+                    for a in range(len(stages)) for b in range(len(stages))
+                    if a != b and near(boxes, a, b, 0.0)), default=0.0)
 
     @staticmethod
     def _keep(record: FrameContact, pairs: list[PairContact]) -> None:
