@@ -44,7 +44,7 @@ GOAL_TIMEOUT_S = 2.0
 RUN_LIMIT_S = 120.0
 """Wall seconds a trial's command may take before the trial calls it hung."""
 
-NO_PLANNER = 'no planner on /goal_pose within'
+NO_PLANNER = 'no planner answers the go_to_pose action within'
 """What `iguana goal` says when nothing listens: the line of the rows whose fault goal does not depend on."""
 
 LOG_UNSET = (('ROS_LOG_DIR', None), ('ROS_HOME', None))
