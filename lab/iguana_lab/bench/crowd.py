@@ -55,8 +55,7 @@ def crowd_scene(n: int, resolution: str, seconds: float):
 def crowd_run(n: int, resolution: str, seconds: float) -> dict:
     """Run the crowd of `n` in this process; its speed, CPU per character-second and peak memory."""
     from iguana_ros.world import run_world
-    warm = run_world(crowd_scene(min(n, 2), resolution, 0.1))          # compile or load the kernels first
-    del warm
+    run_world(crowd_scene(min(n, 2), resolution, 0.1))                 # compile or load the kernels first
     baseline = peak_rss_mb()
     cpu0, wall0 = time.process_time(), time.perf_counter()
     result = run_world(crowd_scene(n, resolution, seconds))
