@@ -81,10 +81,12 @@ def test_ros_profiles_resolve():
 
 
 def test_services_and_actions_are_declared_with_their_types_and_servers():
-    assert set(default_interfaces('services')) == {'sim_pause', 'sim_resume', 'sim_step', 'sim_reset'}
+    sim = {'sim_pause', 'sim_resume', 'sim_step', 'sim_reset'}
+    assert set(default_interfaces('services')) == sim | {'bag_player_resume'}
     assert service('sim_step').type == 'iguana_interfaces/srv/Step'
-    assert all(s.server == 'simulator_node' and not s.name.startswith('/')
-               for s in default_interfaces('services').values())
+    assert all(default_interfaces('services')[key].server == 'simulator_node' for key in sim)
+    assert not any(s.name.startswith('/') for s in default_interfaces('services').values())
+    assert service('bag_player_resume').server.startswith('iguana bag play')
     assert action('go_to_pose').server == 'planner_node'
     with pytest.raises(KeyError, match='sim_pause'):
         service('nope')
@@ -114,7 +116,7 @@ def test_bad_service_tables_name_the_field(tmp_path, body, field):
 def test_iguana_topics_lists_the_services_and_the_action_with_their_servers(cli):
     code, out, _ = cli(['topics'])
     lines = out.splitlines()
-    assert code == 0 and len(lines) == len(default_topics()) + 5
+    assert code == 0 and len(lines) == len(default_topics()) + len(default_interfaces('services')) + 1
     assert any(line.startswith('sim/step ') and 'iguana_interfaces/srv/Step' in line and 'simulator_node' in line
                for line in lines)
     assert any(line.startswith('go_to_pose ') and 'action' in line and 'planner_node' in line for line in lines)

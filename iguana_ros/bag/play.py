@@ -30,6 +30,7 @@ import time
 from builtin_interfaces.msg import Time
 import rclpy
 from rclpy.duration import Duration
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -40,8 +41,8 @@ from iguana_ros.bag.record import absolute_name
 from iguana_ros.bag.sim_time import time_base_description
 from iguana_ros.bag.storage import accept, BagReader, BagSummary, parse_qos_profiles, summarize
 from iguana_ros.errors import InputError
-from iguana_ros.ros.endpoints import message_class, resolve
-from iguana_ros.topics import default_topics
+from iguana_ros.ros.endpoints import message_class, resolve, resolve_service
+from iguana_ros.topics import default_topics, service as interface
 
 CLOCK_PERIOD_S = 0.025
 """Wall-clock period of /clock messages with --clock (40 Hz, rosbag2's default)."""
@@ -88,6 +89,30 @@ def _wait_for_subscribers(publishers: dict, timeout_s: float, stop: list[bool]) 
         if all(p.get_subscription_count() > 0 for p in publishers.values()):
             return
         time.sleep(0.02)
+
+
+def _wait_for_resume(node: Node, count: int, stop: list[bool]) -> None:
+    """Serve the bag_player_resume service and spin until it is called (or the player is stopped)."""
+    name, srv_type = resolve_service('bag_player_resume')
+    resumed = [False]
+
+    def on_resume(_request, response):
+        resumed[0] = True
+        response.success, response.message = True, f'playing {count} messages'
+        return response
+
+    service = node.create_service(srv_type, name, on_resume)
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    print(f'paused: call {service.srv_name} ({interface("bag_player_resume").type}) to play', flush=True)
+    try:
+        while not stop[0] and not resumed[0]:
+            executor.spin_once(timeout_sec=0.05)
+        executor.spin_once(timeout_sec=0.05)   # the response goes out
+    finally:
+        executor.remove_node(node)
+        executor.shutdown()
+        node.destroy_service(service)
 
 
 def _stamp(ns: int) -> Time:
@@ -169,12 +194,14 @@ def _play_once(path: Path, publishers: dict, rate: float, clock_pub, stop: list[
 
 
 def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[str] | None = None,
-         clock: bool = False, wait_for_subscribers_s: float = 0.5, allow_damaged: bool = False) -> int:
+         clock: bool = False, wait_for_subscribers_s: float = 0.5, allow_damaged: bool = False,
+         start_paused: bool = False) -> int:
     """
     Republish bag `path` (directory or .mcap) until its end (or forever with `loop`); returns count.
 
     The bag is checked first: a damaged or truncated one raises DamagedBag (nothing is published) unless
-    `allow_damaged`, and then the messages of every intact chunk are played after a warning line.
+    `allow_damaged`, and then the messages of every intact chunk are played after a warning line. With `start_paused`
+    the player waits (after its wait for subscribers) until its bag_player_resume service is called.
     """
     if not rate > 0 or rate == float('inf'):
         raise InputError(f'--rate must be a positive finite number, got {rate}')
@@ -204,6 +231,8 @@ def play(path: str | Path, rate: float = 1.0, loop: bool = False, topics: list[s
                     else f'the recorded {summary.clock_topic} is the clock (the player publishes no second one)')
             print(f'--clock: {what}', flush=True)
         _wait_for_subscribers(publishers, wait_for_subscribers_s, stop)
+        if start_paused:
+            _wait_for_resume(node, n_selected, stop)
         warn = summary.health.sound
         total = _play_once(summary.path, publishers, rate, clock_pub, stop, warn)
         while loop and not stop[0]:

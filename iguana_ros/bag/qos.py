@@ -26,6 +26,8 @@ from iguana_ros.topics import default_topics
 _INFINITE_NS = INFINITE_DURATION['sec'] * 1_000_000_000 + INFINITE_DURATION['nsec']
 RECORD_DEPTH = 100
 """History depth of the recorder's subscriptions (absorbs bursts between executor turns)."""
+PLAY_VOLATILE_DEPTH = 300
+"""Least history depth of the player's reliable volatile publishers (10 s of 30 Hz frames; offer_profile)."""
 
 
 def _duration_dict(duration: Duration) -> dict:
@@ -91,7 +93,11 @@ def offer_profile(recorded: list[dict], default_depth: int = 10) -> QoSProfile:
 
     Reliability and durability are kept when all recorded publishers agree (a latched topic stays
     latched); history is keep_last with the recorded depth, or `default_depth` where DDS did not
-    report one. Mixed offers fall back to reliable/volatile.
+    report one. Mixed offers fall back to reliable/volatile. A reliable volatile topic keeps at least
+    PLAY_VOLATILE_DEPTH: a message lost on the way is re-sent only while the writer still holds it, and a subscriber
+    starved of CPU asks for it late (depth 10 lost 4 iguana_state frames at --rate 2 on a loaded machine). Depth is
+    not matched between writer and reader, and a volatile writer lets a message go once every reader has it, so
+    nothing else changes; a latched topic keeps its depth (what a late joiner gets).
     """
     rel = {_policy(ReliabilityPolicy, p.get('reliability'), ReliabilityPolicy.RELIABLE)
            for p in recorded}
@@ -103,5 +109,7 @@ def offer_profile(recorded: list[dict], default_depth: int = 10) -> QoSProfile:
     durability = (dur.pop() if len(dur) == 1 and dur <= {DurabilityPolicy.VOLATILE,
                                                          DurabilityPolicy.TRANSIENT_LOCAL}
                   else DurabilityPolicy.VOLATILE)
+    if reliability == ReliabilityPolicy.RELIABLE and durability == DurabilityPolicy.VOLATILE:
+        depth = max(depth, PLAY_VOLATILE_DEPTH)
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=reliability,
                       durability=durability, liveliness=LivelinessPolicy.AUTOMATIC)

@@ -53,6 +53,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                            '(played even if --topics leaves it out), else one from the bag time (40 Hz)')
     play.add_argument('--wait-for-subscribers', type=float, default=0.5, metavar='S',
                       help='wait up to S s for every topic to have a subscriber first (default 0.5)')
+    play.add_argument('--start-paused', action='store_true',
+                      help='wait, publishers made, until the service /iguana_bag_player/resume (std_srvs/Trigger) '
+                           'is called: a subscriber can match them first and miss nothing')
     add_allow_damaged(play, 'play the messages of every intact chunk of a damaged or truncated bag')
     play.set_defaults(func=run)
 
@@ -82,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
         require_ros()   # before rclpy is imported (an RMW that is not installed ends the process at import)
         from iguana_ros.bag.play import play
         play(args.bag, rate=args.rate, loop=args.loop, topics=args.topics, clock=args.clock,
-             wait_for_subscribers_s=args.wait_for_subscribers, allow_damaged=args.allow_damaged)
+             wait_for_subscribers_s=args.wait_for_subscribers, allow_damaged=args.allow_damaged,
+             start_paused=args.start_paused)
         return 0
     require(environment_checks())  # the rclpy probe is left out: `iguana run` starts a recorder after its own checks
     from iguana_ros.bag.record import default_topic_names, names_in, record

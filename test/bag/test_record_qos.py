@@ -21,9 +21,9 @@ volatile goal publisher never matched it, and the run waited 60 s for its goal (
 from __future__ import annotations
 
 import pytest
-from rclpy.qos import DurabilityPolicy
+from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-from iguana_ros.bag.qos import table_request_profile
+from iguana_ros.bag.qos import offer_profile, PLAY_VOLATILE_DEPTH, table_request_profile
 from ros_harness import spin_until
 
 pytestmark = pytest.mark.ros
@@ -56,3 +56,15 @@ def test_a_strangers_latched_publisher_seen_first_does_not_shut_the_runs_goals_o
         assert spin_until(executor, lambda: run_goals.get_subscription_count() >= 1, 30)
     finally:
         writer.close()
+
+
+def test_replay_offer_keeps_a_latched_depth_and_deepens_a_reliable_volatile_one():
+    latched = offer_profile([{'history': 'keep_last', 'depth': 1, 'reliability': 'reliable',
+                              'durability': 'transient_local'}])
+    assert (latched.depth, latched.durability) == (1, DurabilityPolicy.TRANSIENT_LOCAL)
+    volatile = offer_profile([{'history': 'keep_last', 'depth': 10, 'reliability': 'reliable',
+                               'durability': 'volatile'}])
+    assert (volatile.depth, volatile.reliability) == (PLAY_VOLATILE_DEPTH, ReliabilityPolicy.RELIABLE)
+    assert offer_profile([{'depth': 500, 'reliability': 'reliable', 'durability': 'volatile'}]).depth == 500
+    best_effort = offer_profile([{'depth': 5, 'reliability': 'best_effort', 'durability': 'volatile'}])
+    assert (best_effort.depth, best_effort.reliability) == (5, ReliabilityPolicy.BEST_EFFORT)

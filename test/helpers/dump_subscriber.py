@@ -15,11 +15,13 @@
 """
 Test helper process: subscribes raw to topic keys of the table and dumps what it receives.
 
-Usage: dump_subscriber.py DUMP_FILE KEY [KEY ...] [--expect N]
-Prints 'subscribed' once its subscriptions exist; exits on SIGINT/SIGTERM, or once N messages came.
+Usage: dump_subscriber.py DUMP_FILE KEY [KEY ...] [--expect N] [--resume-player]
+Prints 'subscribed' once its subscriptions exist; exits on SIGINT/SIGTERM, or once N messages came. With
+--resume-player it waits until it sees a publisher of every topic (its readers have matched them: a volatile reader
+that matches late misses what came before), then calls the paused `iguana bag play --start-paused` to play.
 The dump also records, per topic, the durability offered by the publisher it heard from. Its readers keep at least
 N messages each: with the table's depth (10), a burst replayed at --rate 4 overflowed a reader's history while this
-process was slow to take (161 of 162 received under load).
+process was slow to take (161 of 162 received under load). Stopped by a signal, it takes what its readers hold first.
 """
 import argparse
 from pathlib import Path
@@ -28,12 +30,33 @@ import sys
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+MIN_DEPTH = 1000
+"""Least history of each reader: without --expect, a reader of depth 5 (mesh_marker's) overflowed under load."""
+
+
+def _resume_player(node, topics: list[str], stop: list[bool]) -> None:
+    """Wait until every topic has a publisher on this node's graph, then call the player's resume service."""
+    import rclpy
+
+    from iguana_ros.ros.endpoints import resolve_service
+    while not stop[0] and not all(node.count_publishers(topic) for topic in topics):
+        rclpy.spin_once(node, timeout_sec=0.02)
+    name, srv_type = resolve_service('bag_player_resume')
+    client = node.create_client(srv_type, '/' + name)
+    if not client.wait_for_service(timeout_sec=30):
+        raise SystemExit(f'no {name} service')
+    future = client.call_async(srv_type.Request())
+    while not stop[0] and not future.done():
+        rclpy.spin_once(node, timeout_sec=0.02)
+    print(f'resumed the player: {future.result().message}', flush=True)
+
 
 def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument('dump')
     parser.add_argument('keys', nargs='+')
     parser.add_argument('--expect', type=int, default=0)
+    parser.add_argument('--resume-player', action='store_true')
     args = parser.parse_args()
 
     import rclpy
@@ -57,12 +80,19 @@ def main() -> int:
 
     for key in args.keys:
         name, cls, qos = resolve(key)
-        qos.depth = max(qos.depth, args.expect)  # like a recorder: a burst (bag play --rate 4) must not overflow
+        qos.depth = max(qos.depth, args.expect, MIN_DEPTH)  # a recorder's: a burst (--rate 4) must not overflow
         full = '/' + name.lstrip('/')
         node.create_subscription(cls, full, lambda d, n=full: on_message(n, d), qos, raw=True)
     print('subscribed', flush=True)
+    if args.resume_player:
+        _resume_player(node, ['/' + resolve(key)[0].lstrip('/') for key in args.keys], stop)
     while not stop[0] and not (args.expect and len(records) >= args.expect):
         rclpy.spin_once(node, timeout_sec=0.05)
+    while stop[0]:          # stopped: take what the readers hold already (acknowledged to the player, not yet taken)
+        before = len(records)
+        rclpy.spin_once(node, timeout_sec=0.2)
+        if len(records) == before:
+            break
     write_dump(args.dump, records, {'publisher_durability': durability})
     print(f'received {len(records)} messages', flush=True)
     node.destroy_node()
