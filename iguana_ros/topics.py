@@ -227,6 +227,15 @@ def shared_topic(key: str) -> bool:
     return name.startswith('/') and name != RUN_CLOCK
 
 
+FRAME_PREFIX_AUTO = 'auto'
+"""The nodes' `frame_prefix` default: the prefix of their namespace (`resolve_frame_prefix`)."""
+
+
+def resolve_frame_prefix(parameter: str, namespace: str) -> str:
+    """Return the TF frame prefix a node in `namespace` uses for its `frame_prefix` parameter ('auto': the namespace's)."""
+    return frame_prefix_of(namespace) if parameter == FRAME_PREFIX_AUTO else parameter
+
+
 def frame_prefix_of(namespace: str) -> str:
     """Return the TF frame prefix of a run in `namespace` ('iguana1/' for '/iguana1', '' for the root)."""
     return f'{namespace.strip("/")}/' if namespace.strip('/') else ''

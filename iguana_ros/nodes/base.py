@@ -34,7 +34,7 @@ from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.ros.wait_loop import settle_heap
 from iguana_ros.scene import check_one_character, load_scene, Scene
-from iguana_ros.topics import topic
+from iguana_ros.topics import resolve_frame_prefix, topic
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
 
 _PARAM_TYPES = {'string': ParameterType.PARAMETER_STRING, 'double': ParameterType.PARAMETER_DOUBLE,
@@ -117,6 +117,10 @@ class IguanaNode(Node):
     def param(self, name: str):
         """Value of declared parameter `name`, checked against its declaration."""
         return self._specs[name].check(self.get_parameter(name).value)
+
+    def frame_prefix(self) -> str:
+        """Return the TF frame prefix: the `frame_prefix` parameter, whose 'auto' is the node's namespace."""
+        return resolve_frame_prefix(self.param('frame_prefix'), self.get_namespace())
 
     def publisher(self, key: str):
         """Return publisher for topic `key` of the topic table."""

@@ -85,7 +85,7 @@ class SimulatorNode(IguanaNode):
         self.peers_listed_since: float | None = None
         self.recorder_listed_since: float | None = None
         self.probe = FootProbe(self.model, self.terrain)
-        self.frames = tf_frames(self.param('frame_prefix'))
+        self.frames = tf_frames(self.frame_prefix())
         self.tf_frame = -1                            # newest frame on /tf: a re-sent state sends no repeated stamp
         self.mesh_writer = TriangleListMarkerWriter(self.model.surface_triangles, self.model.n_nodes, WORLD_FRAME,
                                                     'iguana')

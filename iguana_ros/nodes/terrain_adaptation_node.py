@@ -58,7 +58,7 @@ class TerrainAdaptationNode(IguanaNode):
         self.reader_hold = ReaderHold(self, 'reference_pose', retry=self.publish_ready)
         self.pose_pub = self.reader_hold.publisher
         self.tf_pub = self.publisher('tf')
-        self.frames = tf_frames(self.param('frame_prefix'), self.skeleton.names)
+        self.frames = tf_frames(self.frame_prefix(), self.skeleton.names)
         self.state_gate = FrameGate(self, 'iguana_state')
         self.ready_signal = self.create_guard_condition(self.publish_ready)
         self.subscription('motion_clip', self.guarded('motion_clip', self.on_clip), raw=True, depth=CLIP_QUEUE_DEPTH)

@@ -52,7 +52,7 @@ from iguana_ros.supervisor.process import (describe_exit, NAMESPACE_ENV, NodePro
                                            stop_all)
 from iguana_ros.supervisor.run_gait import RunGait
 from iguana_ros.supervisor.run_summary import bag_progress, RunSummary
-from iguana_ros.topics import check_namespace, frame_prefix_of, RUN_CLOCK, topic_name
+from iguana_ros.topics import check_namespace, RUN_CLOCK, topic_name
 
 __all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
            'goal_outcome_of', 'node_commands', 'node_params', 'ros_args', 'stop_signals']
@@ -243,9 +243,7 @@ def namespace_args(namespace: str) -> list[str]:
 
 def node_params(options: RunOptions, scene: Scene, scene_file: Path) -> dict[str, dict]:
     """Return this run's parameter values of every node, by node name (over the standard params file)."""
-    common = {'scene': str(scene_file)}
-    if options.namespace:
-        common['frame_prefix'] = frame_prefix_of(options.namespace)
+    common = {'scene': str(scene_file)}       # (frame_prefix 'auto': each node takes its namespace's)
     goals = {'wait_for_goals': len(scene.goals) + bool(scene.route)}  # both wait for the scene's goals / route
     sim = {**common, **goals, 'mode': options.mode, 'wait_for_recorder': True, **options.extra_params}
     special = {'planner_node': {**common, **goals}, 'simulator_node': sim}

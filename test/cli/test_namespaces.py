@@ -37,7 +37,7 @@ from iguana_ros.scene import load_scene
 from iguana_ros.supervisor.domain_check import output_topics
 from iguana_ros.supervisor.run import (check_user_ros_args, node_commands, node_params, RUN_PARAMS_FILE,
                                        run_params_yaml, RunOptions)
-from iguana_ros.topics import check_namespace, frame_prefix_of, topic_name
+from iguana_ros.topics import check_namespace, frame_prefix_of, resolve_frame_prefix, topic_name
 from ros_harness import IGUANA, NodeProcess, start_scene_run, stop_scene_run, wait_for
 
 SCENE = {'name': 'ns_walk', 'description': 'a short walk for the namespace tests', 'model': {'resolution': 'coarse'},
@@ -61,6 +61,8 @@ def test_a_runs_topics_and_clock_go_under_its_namespace_and_tf_stays_shared():
     assert topic_name('clock', '/iguana1') == '/iguana1/clock' and topic_name('clock') == '/clock'
     assert topic_name('tf', '/iguana1') == '/tf' and topic_name('diagnostics', '/iguana1') == '/diagnostics'
     assert frame_prefix_of('/zoo/iguana1') == 'zoo/iguana1/' and frame_prefix_of('') == ''
+    assert resolve_frame_prefix('auto', '/iguana1') == 'iguana1/' and resolve_frame_prefix('auto', '/') == ''
+    assert resolve_frame_prefix('', '/iguana1') == '' and resolve_frame_prefix('robot/', '/') == 'robot/'
     watched = output_topics(('simulator_node',), '/iguana1')
     assert '/iguana1/iguana_state' in watched and '/iguana1/clock' in watched
     assert '/tf' not in watched and '/diagnostics' not in watched     # every run publishes them
@@ -92,7 +94,7 @@ def test_every_node_of_a_namespaced_run_gets_the_namespace_its_clock_and_its_val
                                  automatically_declare_parameters_from_overrides=True)
         assert node.get_fully_qualified_name() == '/iguana1/simulator_node'
         assert node.get_parameter('start_paused').value is True and node.get_parameter('scene').value == str(scene_file)
-        assert node.get_parameter('frame_prefix').value == 'iguana1/'
+        assert node.get_parameter('frame_prefix').value == 'auto'    # the node takes its namespace's prefix
         node.destroy_node()
     finally:
         release_context(context)
