@@ -232,7 +232,7 @@ FRAME_PREFIX_AUTO = 'auto'
 
 
 def resolve_frame_prefix(parameter: str, namespace: str) -> str:
-    """Return the TF frame prefix a node in `namespace` uses for its `frame_prefix` parameter ('auto': the namespace's)."""
+    """Return the TF frame prefix of a node in `namespace` with `frame_prefix` `parameter` ('auto': the namespace's)."""
     return frame_prefix_of(namespace) if parameter == FRAME_PREFIX_AUTO else parameter
 
 
