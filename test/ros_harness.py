@@ -36,6 +36,41 @@ IGUANA = [sys.executable, '-c', 'import sys; from iguana_ros.cli import main; sy
 """Command line of the `iguana` CLI run with the test interpreter."""
 
 
+PLAY_PAUSED = ['--start-paused', '--wait-for-subscribers', '30']
+"""`iguana bag play` arguments of a test that resumes the player itself (`resume_player`)."""
+
+
+def resume_player(node, topics: list[str], spin_once: Callable[[], None], timeout: float = 60.0) -> str:
+    """
+    Wait until `node`'s graph lists a publisher of every topic, then call the paused player's resume; its message.
+
+    A reader has matched a writer once its node lists it: a volatile reader that matches `iguana bag play` after the
+    player matched it misses the first messages, so a test that must get every message plays with PLAY_PAUSED.
+    """
+    from iguana_ros.errors import IguanaError
+    from iguana_ros.ros.endpoints import resolve_service
+    deadline = time.monotonic() + timeout
+    while not all(node.count_publishers(topic) for topic in topics):
+        if time.monotonic() > deadline:
+            raise IguanaError(f'no publisher of {[t for t in topics if not node.count_publishers(t)]} in {timeout} s')
+        spin_once()
+    name, srv_type = resolve_service('bag_player_resume')
+    client = node.create_client(srv_type, '/' + name)
+    try:
+        while not client.service_is_ready():
+            if time.monotonic() > deadline:
+                raise IguanaError(f'no /{name} service in {timeout} s')
+            spin_once()
+        future = client.call_async(srv_type.Request())
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise IguanaError(f'/{name} did not answer in {timeout} s')
+            spin_once()
+        return future.result().message
+    finally:
+        node.destroy_client(client)
+
+
 def spin_until(executor_or_node, predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
     """Spin (executor or node) until `predicate()` is true; False if `timeout` s pass first."""
     executor, own = executor_or_node, False

@@ -21,7 +21,7 @@ import pytest
 import yaml
 
 from iguana_ros.bag.storage import BagReader
-from ros_harness import helper, IGUANA, NodeProcess, read_dump
+from ros_harness import helper, IGUANA, NodeProcess, PLAY_PAUSED, read_dump
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -91,11 +91,10 @@ def test_record_then_play_reproduces_messages(tmp_path):
     # Replay to a real subscriber process: same bytes, and the latched topic is offered latched again.
     n_total = sum(map(len, published.values()))
     sub = NodeProcess(helper('dump_subscriber.py', tmp_path / 'replayed.json', *TOPIC_KEYS,
-                             '--expect', n_total), 'subscriber', tmp_path).start(ready='subscribed')
+                             '--expect', n_total, '--resume-player'), 'subscriber', tmp_path).start(ready='subscribed')
     with sub:
-        player = subprocess.run([*IGUANA, 'bag', 'play', bag, '--rate', '4',
-                                 '--wait-for-subscribers', '10'], capture_output=True, text=True,
-                                timeout=40)
+        player = subprocess.run([*IGUANA, 'bag', 'play', bag, '--rate', '4', *PLAY_PAUSED], capture_output=True,
+                                text=True, timeout=100)
         assert player.returncode == 0, player.stderr
         assert f'published {n_total} messages' in player.stdout
         assert sub.wait(20) == 0, sub.output

@@ -27,7 +27,7 @@ import pytest
 from iguana_ros.bag.sim_time import clock_ns
 from iguana_ros.bag.storage import BagReader, summarize
 from iguana_ros.constants import FRAME_RATE
-from ros_harness import helper, IGUANA, NodeProcess, read_dump
+from ros_harness import helper, IGUANA, NodeProcess, PLAY_PAUSED, read_dump
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -93,8 +93,8 @@ def _play_to_subscriber(bag, tmp_path, keys: list[str], expect: int | None, *pla
     sub = NodeProcess(helper('dump_subscriber.py', tmp_path / 'replayed.json', *keys, '--expect', expect or 0,
                              '--resume-player'), 'subscriber', tmp_path).start(ready='subscribed')
     with sub:
-        player = subprocess.run([*IGUANA, 'bag', 'play', str(bag), *play_args, '--wait-for-subscribers', '30',
-                                 '--start-paused'], capture_output=True, text=True, timeout=120)
+        player = subprocess.run([*IGUANA, 'bag', 'play', str(bag), *play_args, *PLAY_PAUSED],
+                                capture_output=True, text=True, timeout=120)
         assert player.returncode == 0, player.stdout + player.stderr
         # (the player ended once every subscriber acknowledged every message, or after 2 s: a subscriber still
         # running 10 s later lacks messages, superseded ones of a latched topic at least; stopped, it dumps them)

@@ -34,23 +34,6 @@ MIN_DEPTH = 1000
 """Least history of each reader: without --expect, a reader of depth 5 (mesh_marker's) overflowed under load."""
 
 
-def _resume_player(node, topics: list[str], stop: list[bool]) -> None:
-    """Wait until every topic has a publisher on this node's graph, then call the player's resume service."""
-    import rclpy
-
-    from iguana_ros.ros.endpoints import resolve_service
-    while not stop[0] and not all(node.count_publishers(topic) for topic in topics):
-        rclpy.spin_once(node, timeout_sec=0.02)
-    name, srv_type = resolve_service('bag_player_resume')
-    client = node.create_client(srv_type, '/' + name)
-    if not client.wait_for_service(timeout_sec=30):
-        raise SystemExit(f'no {name} service')
-    future = client.call_async(srv_type.Request())
-    while not stop[0] and not future.done():
-        rclpy.spin_once(node, timeout_sec=0.02)
-    print(f'resumed the player: {future.result().message}', flush=True)
-
-
 def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument('dump')
@@ -63,7 +46,7 @@ def main() -> int:
     from rclpy.signals import SignalHandlerOptions
 
     from iguana_ros.ros.endpoints import resolve
-    from ros_harness import write_dump
+    from ros_harness import resume_player, write_dump
 
     stop = [False]
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -85,7 +68,9 @@ def main() -> int:
         node.create_subscription(cls, full, lambda d, n=full: on_message(n, d), qos, raw=True)
     print('subscribed', flush=True)
     if args.resume_player:
-        _resume_player(node, ['/' + resolve(key)[0].lstrip('/') for key in args.keys], stop)
+        topics = ['/' + resolve(key)[0].lstrip('/') for key in args.keys]
+        print(f'resumed the player: {resume_player(node, topics, lambda: rclpy.spin_once(node, timeout_sec=0.02))}',
+              flush=True)
     while not stop[0] and not (args.expect and len(records) >= args.expect):
         rclpy.spin_once(node, timeout_sec=0.05)
     while stop[0]:          # stopped: take what the readers hold already (acknowledged to the player, not yet taken)

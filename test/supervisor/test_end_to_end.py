@@ -31,7 +31,7 @@ from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.run_metrics import metrics_of_run
 from iguana_ros.scene import load_scene
 from iguana_ros.supervisor.run import run_scene, RunOptions
-from ros_harness import IGUANA, NodeProcess, spin_until
+from ros_harness import IGUANA, NodeProcess, PLAY_PAUSED, resume_player, spin_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -148,10 +148,13 @@ def test_recorded_run_replays(shared_run, make_node, executor):
         qos.depth = 100  # the listener keeps every replayed message even if it is briefly slow
         node.create_subscription(cls, name, got[key].append, qos)
     # Only the two topics listened to, so the player starts once both are matched (with all 13 it waited out its
-    # timeout for topics nobody reads, and a listener matched later under load missed the first states).
-    play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--topics', *(resolve(k)[0] for k in got),
-                        '--wait-for-subscribers', '30'], 'play', bag.parent).start()
+    # timeout for topics nobody reads); paused until this listener has matched the player on its side too (a
+    # volatile reader that matches the player late misses the first states).
+    names = ['/' + resolve(k)[0].lstrip('/') for k in got]
+    play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--topics', *names, *PLAY_PAUSED],
+                       'play', bag.parent).start()
     with play:
+        resume_player(node, names, lambda: executor.spin_once(timeout_sec=0.02))
         assert spin_until(executor, lambda: len(got['iguana_state']) >= WALK_FRAMES + 1, 60), play.output
         assert spin_until(executor, lambda: len(got['scene_markers']) >= 1, 10), play.output
         assert play.wait(60) == 0, play.output

@@ -27,7 +27,7 @@ import pytest
 from iguana_lab.faults.bag_files import reference, run_suite
 from iguana_ros.bag.storage import BagReader
 from iguana_ros.cli import main
-from ros_harness import helper, IGUANA, NodeProcess, read_dump
+from ros_harness import helper, IGUANA, NodeProcess, PLAY_PAUSED, read_dump
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.long]
 
@@ -98,11 +98,11 @@ def test_play_with_allow_damaged_publishes_every_intact_chunk(recorded, tmp_path
     assert 'damaged' in refused.stderr and 'published' not in refused.stdout
 
     n_expected = sum(map(len, expected.values()))
-    sub = NodeProcess(helper('dump_subscriber.py', tmp_path / 'replayed.json', *TOPIC_KEYS, '--expect', n_expected),
-                      'subscriber', tmp_path).start(ready='subscribed')
+    sub = NodeProcess(helper('dump_subscriber.py', tmp_path / 'replayed.json', *TOPIC_KEYS, '--expect', n_expected,
+                             '--resume-player'), 'subscriber', tmp_path).start(ready='subscribed')
     with sub:
-        player = subprocess.run([*IGUANA, 'bag', 'play', bag, '--allow-damaged', '--rate', '4',
-                                 '--wait-for-subscribers', '10'], capture_output=True, text=True, timeout=40)
+        player = subprocess.run([*IGUANA, 'bag', 'play', bag, '--allow-damaged', '--rate', '4', *PLAY_PAUSED],
+                                capture_output=True, text=True, timeout=100)
         assert player.returncode == 0, player.stderr
         assert f'published {n_expected} messages' in player.stdout
         assert 'damaged' in player.stderr and 'warning' in player.stderr
