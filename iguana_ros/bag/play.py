@@ -107,8 +107,7 @@ def _wait_for_resume(node: Node, count: int, stop: list[bool]) -> None:
     print(f'paused: call {service.srv_name} ({interface("bag_player_resume").type}) to play', flush=True)
     try:
         while not stop[0] and not resumed[0]:
-            executor.spin_once(timeout_sec=0.05)
-        executor.spin_once(timeout_sec=0.05)   # the response goes out
+            executor.spin_once(timeout_sec=0.05)   # (a call's response goes out in the turn that answers it)
     finally:
         executor.remove_node(node)
         executor.shutdown()
