@@ -16,7 +16,8 @@
 Several iguanas in one world: one pipeline per character, their bodies stepped together with body-body contact.
 
 Each character (a scene's `characters` entry) has its own planner, adaptation and spring lengths (`pipeline.Pipeline`)
-and its own soft body; `World.step` computes every character's reference for the frame, then advances the bodies.
+and its own soft body; `World.step` computes every character's reference for the frame, then advances the bodies
+(`BodyWorld`: the bodies and their contact alone, as a simulator of several bodies needs them).
 A body whose bounding box stays apart from every other by more than they can move in a frame is advanced as a lone
 body is, in one call (bit for bit the single-character loop), whatever the others do. Bodies that may touch (a group,
 joined transitively) are advanced together in blocks of `BodyContactParams.coupling_steps` steps, the contact forces
@@ -63,42 +64,20 @@ class FrameContact:
     pairs: list[PairContact] = field(default_factory=list)
 
 
-class World:
-    """Characters stepped together (see the module docstring); `contacts` lists the frames with body contact."""
+class BodyWorld:
+    """
+    Soft bodies stepped together with body-body contact (module docstring); `contacts` lists the frames with contact.
 
-    def __init__(self, characters: list[Character], params: BodyContactParams | None = None) -> None:
-        """Take the characters' pipelines; contact data of each body from its model."""
-        self.characters = characters
+    The part of a world a simulator needs (no planners): the library's `World` and a simulator of several bodies.
+    """
+
+    def __init__(self, stages: list[SimulatorStage], params: BodyContactParams | None = None) -> None:
+        """Take the bodies' simulator stages; contact data of each body from its model."""
+        self.stages = stages
         self.params = params or BodyContactParams()
-        self.bodies = [ContactBody.of_model(c.pipe.simulator.model) for c in characters]
+        self.bodies = [ContactBody.of_model(stage.model) for stage in stages]
         self.contacts: list[FrameContact] = []
         self.frame = 0
-
-    @property
-    def stages(self) -> list[SimulatorStage]:
-        """Return the characters' simulator stages, in order."""
-        return [c.pipe.simulator for c in self.characters]
-
-    def step(self) -> list[tuple]:
-        """One frame of every character; returns each one's (root, orientation, reference joints, rotations)."""
-        self.show_others()
-        frames = [c.pipe.reference() for c in self.characters]
-        self.advance([reference.lengths for _, _, reference in frames])
-        for c in self.characters:
-            c.pipe.frame += 1
-        self.frame += 1
-        return [(root, quat, ref.joints, ref.rotations) for root, quat, ref in frames]
-
-    def show_others(self) -> None:
-        """Give each character's planner the others' roots and velocities now, as moving obstacles."""
-        if len(self.characters) < 2:
-            return
-        roots = np.array([s.root_pose()[0][:2] for s in self.stages])
-        velocities = np.array([s.root_twist()[0][:2] for s in self.stages])
-        for i, c in enumerate(self.characters):
-            others = np.arange(len(self.characters)) != i
-            if c.avoid_others:
-                c.pipe.planner.obstacles = MovingObstacles(roots[others], velocities[others])
 
     def advance(self, lengths: list) -> None:
         """Advance every body one frame with its desired lengths `(n_springs_i,)` (None: rest), in contact if near."""
@@ -111,6 +90,7 @@ class World:
                 self._advance_in_contact(group, stages, lengths, record)
         if record.pairs:
             self.contacts.append(record)
+        self.frame += 1
 
     def _groups(self, stages: list[SimulatorStage]) -> list[list[int]]:
         """
@@ -186,6 +166,63 @@ class World:
         """Compile or load the contact kernels (no state changes), so the first contact costs no compilation."""
         if len(self.bodies) > 1:
             load_contact_kernels(self.bodies[0], self.stages[0].sim.positions)
+
+
+class World:
+    """Characters stepped together (see the module docstring): their planners, then their bodies (`BodyWorld`)."""
+
+    def __init__(self, characters: list[Character], params: BodyContactParams | None = None) -> None:
+        """Take the characters' pipelines; their bodies make the world's `BodyWorld`."""
+        self.characters = characters
+        self.body_world = BodyWorld([c.pipe.simulator for c in characters], params)
+
+    @property
+    def stages(self) -> list[SimulatorStage]:
+        """Return the characters' simulator stages, in order."""
+        return self.body_world.stages
+
+    @property
+    def bodies(self) -> list[ContactBody]:
+        """Return the characters' contact bodies, in order."""
+        return self.body_world.bodies
+
+    @property
+    def contacts(self) -> list[FrameContact]:
+        """Return the frames with body-body contact so far."""
+        return self.body_world.contacts
+
+    @property
+    def frame(self) -> int:
+        """Return the frames stepped so far."""
+        return self.body_world.frame
+
+    def step(self) -> list[tuple]:
+        """One frame of every character; returns each one's (root, orientation, reference joints, rotations)."""
+        self.show_others()
+        frames = [c.pipe.reference() for c in self.characters]
+        self.body_world.advance([reference.lengths for _, _, reference in frames])
+        for c in self.characters:
+            c.pipe.frame += 1
+        return [(root, quat, ref.joints, ref.rotations) for root, quat, ref in frames]
+
+    def show_others(self) -> None:
+        """Give each character's planner the others' roots and velocities now, as moving obstacles."""
+        if len(self.characters) < 2:
+            return
+        roots = np.array([s.root_pose()[0][:2] for s in self.stages])
+        velocities = np.array([s.root_twist()[0][:2] for s in self.stages])
+        for i, c in enumerate(self.characters):
+            others = np.arange(len(self.characters)) != i
+            if c.avoid_others:
+                c.pipe.planner.obstacles = MovingObstacles(roots[others], velocities[others])
+
+    def deepest_penetration(self) -> float:
+        """Return how deep m the deepest node of any body lies inside another body's volume now (0: none)."""
+        return self.body_world.deepest_penetration()
+
+    def load_kernels(self) -> None:
+        """Compile or load the contact kernels (no state changes), so the first contact costs no compilation."""
+        self.body_world.load_kernels()
 
     def close(self) -> None:
         """Stop every character's lookahead thread."""
