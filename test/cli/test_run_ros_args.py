@@ -59,7 +59,7 @@ def test_a_command_that_starts_no_node_refuses_them(cli):
 def test_a_remap_moves_a_topic_of_a_real_run(tmp_path, make_node, executor):
     """With `-r mesh_marker:=iguana_mesh` the mesh goes out (and is recorded) on /iguana_mesh, none on /mesh_marker."""
     from iguana_ros.bag.storage import BagReader
-    from iguana_ros.ros.endpoints import resolve
+    from iguana_ros.ros.endpoints import resolve, resolve_service
     _, cls, qos = resolve('mesh_marker')
     node = make_node('remap_probe')
     got = {'/iguana_mesh': 0, '/mesh_marker': 0}
@@ -70,9 +70,17 @@ def test_a_remap_moves_a_topic_of_a_real_run(tmp_path, make_node, executor):
     scene.write_text(yaml.safe_dump({'model': {'resolution': 'coarse'}, 'terrain': {'kind': 'flat'},
                                      'goals': [{'x': 1.0, 'y': 0.0}], 'duration': 2.0}))
     bag = tmp_path / 'bag'
-    run = NodeProcess([*IGUANA, 'run', str(scene), '--record', str(bag), '--ros-args', '-r',
+    run = NodeProcess([*IGUANA, 'run', str(scene), '--record', str(bag), '--paused', '--ros-args', '-r',
                        'mesh_marker:=iguana_mesh'], 'run', tmp_path)
     with run.start():
+        # held at frame 0 until this probe lists the remapped publisher (its reader has matched it: the run waits
+        # for its recorder, not for a probe, and a lockstep run of 2 s may end before a late match)
+        assert spin_until(executor, lambda: node.count_publishers('/iguana_mesh') > 0, 120), run.output
+        name, srv_type = resolve_service('sim_resume')
+        client = node.create_client(srv_type, '/' + name)
+        assert spin_until(executor, client.service_is_ready, 60), run.output
+        future = client.call_async(srv_type.Request())
+        assert spin_until(executor, future.done, 30) and future.result().success, run.output
         assert spin_until(executor, lambda: not run.running, 200), run.output
     assert run.wait(10) == 0, run.output
     spin_until(executor, lambda: False, 0.5)        # whatever is still in flight
