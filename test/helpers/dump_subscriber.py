@@ -61,14 +61,14 @@ def main() -> int:
             durability[name] = sorted({i.qos_profile.durability.name.lower()
                                        for i in node.get_publishers_info_by_topic(name)})
 
+    topics = []
     for key in args.keys:
         name, cls, qos = resolve(key)
         qos.depth = max(qos.depth, args.expect, MIN_DEPTH)  # a recorder's: a burst (--rate 4) must not overflow
-        full = '/' + name.lstrip('/')
-        node.create_subscription(cls, full, lambda d, n=full: on_message(n, d), qos, raw=True)
+        topics.append('/' + name.lstrip('/'))
+        node.create_subscription(cls, topics[-1], lambda d, n=topics[-1]: on_message(n, d), qos, raw=True)
     print('subscribed', flush=True)
     if args.resume_player:
-        topics = ['/' + resolve(key)[0].lstrip('/') for key in args.keys]
         print(f'resumed the player: {resume_player(node, topics, lambda: rclpy.spin_once(node, timeout_sec=0.02))}',
               flush=True)
     while not stop[0] and not (args.expect and len(records) >= args.expect):
