@@ -544,12 +544,50 @@ def parse_scene(raw, source: str = '<scene>') -> Scene:
 
 
 def check_one_character(scene: Scene, what: str) -> Scene:
-    """Return `scene` if it has one iguana; SceneError naming `what` (e.g. 'iguana run') for a scene of several."""
+    """Return `scene` if it has one iguana; SceneError naming `what` (e.g. 'iguana run --namespace') for several."""
     if scene.characters:
-        raise SceneError(f'{what}: scene {scene.name} has {len(scene.characters)} characters; a node run of several '
-                         'iguanas is not built yet: run it with `iguana simulate`, or one iguana per '
-                         '`iguana run --namespace NS`')
+        raise SceneError(f'{what}: scene {scene.name} has {len(scene.characters)} characters; run it without '
+                         '--namespace (one world of every character), or with `iguana simulate`')
     return scene
+
+
+CHARACTER_AUTO = 'auto'
+"""The nodes' `character` default: the character named by the last name of the node's namespace."""
+
+
+def served_characters(scene: Scene, character: str, namespace: str, world: bool) -> list[tuple[str, Scene]]:
+    """
+    Return (name, scene alone) of the characters a node serves: the one `character` names, else every one.
+
+    `character` 'auto' names the last name of `namespace` ('/crossing/iguana_b': iguana_b) when the scene has such a
+    character. A node that serves one character (not `world`) gets SceneError when none is named; a scene without a
+    `characters` list is its own one character, whatever the name.
+    """
+    if not scene.characters:
+        return scene.character_scenes()
+    names = [c.name for c in scene.characters]
+    wanted = named_character(scene, character, namespace)
+    if wanted is not None:
+        return [pair for pair in scene.character_scenes() if pair[0] == wanted]
+    if not world:
+        raise SceneError(f'scene {scene.name} has {len(names)} characters ({", ".join(names)}): run this node in a '
+                         "character's namespace (-r __ns:=/NAME) or give -p character:=NAME")
+    return scene.character_scenes()
+
+
+def named_character(scene: Scene, character: str, namespace: str) -> str | None:
+    """
+    Return the character of `scene` that `character` (or, when 'auto', the last name of `namespace`) names, else None.
+
+    SceneError for an explicit name the scene does not have.
+    """
+    names = [c.name for c in scene.characters]
+    wanted = namespace.rstrip('/').rsplit('/', 1)[-1] if character == CHARACTER_AUTO else character
+    if wanted in names:
+        return wanted
+    if character != CHARACTER_AUTO and scene.characters:
+        raise SceneError(f'character {character!r} is not in scene {scene.name} (its characters: {", ".join(names)})')
+    return None
 
 
 def scene_path(name_or_path: str) -> Path:

@@ -413,6 +413,41 @@ class PlannerStage:
                              target.heading_error(pose[2]), self.recovery)
 
 
+class OtherBodies:
+    """
+    The other characters' roots by frame, as a planner of a world hears them: its moving obstacles of each frame.
+
+    A world's planners see the others as they are at the start of the frame they plan (`world.World.show_others`); a
+    planner node hears each other body's state on its own topic, in any order, so it keeps them by frame until its own
+    state of that frame has everyone's (`ready`).
+    """
+
+    def __init__(self, names: Sequence[str]) -> None:
+        """Expect the bodies `names`, in the world's order (the obstacles keep it)."""
+        self.names = tuple(names)
+        self.by_frame: dict[int, dict[str, tuple]] = {}
+
+    def add(self, name: str, frame: int, xy: np.ndarray, velocity: np.ndarray) -> None:
+        """Keep body `name`'s planar root `(2,)` m and velocity `(2,)` m/s at the start of `frame` (the first heard)."""
+        self.by_frame.setdefault(frame, {}).setdefault(name, (np.asarray(xy, float), np.asarray(velocity, float)))
+
+    def ready(self, frame: int) -> bool:
+        """Whether every other body's root of `frame` is in."""
+        return len(self.by_frame.get(frame, ())) == len(self.names)
+
+    def missing(self, frame: int) -> list[str]:
+        """Return the bodies whose root of `frame` has not come."""
+        return [n for n in self.names if n not in self.by_frame.get(frame, {})]
+
+    def obstacles(self, frame: int) -> MovingObstacles:
+        """Return the other bodies at `frame` (once `ready`) as moving obstacles; earlier frames are forgotten."""
+        heard = self.by_frame[frame]
+        for old in [f for f in self.by_frame if f < frame]:
+            del self.by_frame[old]
+        return MovingObstacles(np.array([heard[n][0] for n in self.names]),
+                               np.array([heard[n][1] for n in self.names]))
+
+
 def motion_graph(library: dict | None = None, blend_frames: int | None = None) -> MotionGraph:
     """
     Return the motion graph over `library` (default: the shipped clip library).

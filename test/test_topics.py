@@ -28,13 +28,16 @@ and where it is on it (the commander's feedback)."""
 EVENT_KEYS = {'run_events', 'diagnostics'}
 """What the node processes report about themselves (start-up milestones, clips) for iguana run's progress."""
 DOCTOR_KEYS = {'doctor_ping', 'doctor_pong'}
+"""`iguana doctor`'s loopback between two processes."""
 TF_KEYS = {'tf', 'tf_static'}
 """The iguana's frames, as tf2 expects them (absolute names)."""
-"""`iguana doctor`'s loopback between two processes."""
+WORLD_KEYS = {'body_contacts'}
+"""What a world of several characters adds: body-body contact per frame."""
 
 
 def test_table_has_every_design_topic():
-    assert set(default_topics()) == DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS | EVENT_KEYS | DOCTOR_KEYS | TF_KEYS
+    assert set(default_topics()) == (DESIGN_KEYS | PROBE_KEYS | CONFIRM_KEYS | EVENT_KEYS | DOCTOR_KEYS | TF_KEYS
+                                     | WORLD_KEYS)
 
 
 def test_latched_topics_are_transient_local():

@@ -12,7 +12,12 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""All four nodes in one process with one executor (`iguana run --single-process`)."""
+"""
+All four nodes in one process with one executor (`iguana run --single-process`), or the ones named before `--ros-args`.
+
+`python -m iguana_ros.nodes.all_nodes planner_node terrain_adaptation_node spring_length_node --ros-args -r
+__ns:=/iguana_b` runs one character of a world (its simulator is the world's, in a process of its own).
+"""
 from __future__ import annotations
 
 import importlib
@@ -32,9 +37,20 @@ def node_class(executable: str) -> type[IguanaNode]:
     return found[0]
 
 
+def chosen_nodes(args: list[str]) -> list[str]:
+    """Return the node executables named before `--ros-args` in `args` (argv), every one of NODE_EXECUTABLES if none."""
+    given = args[1:args.index('--ros-args')] if '--ros-args' in args else args[1:]
+    unknown = [name for name in given if name not in NODE_EXECUTABLES]
+    if unknown:
+        raise SystemExit(f'error: not node executables: {", ".join(unknown)} '
+                         f'(choose from {", ".join(NODE_EXECUTABLES)})')
+    return [name for name in NODE_EXECUTABLES if name in given] or list(NODE_EXECUTABLES)
+
+
 def main(args: list[str] | None = None) -> None:
-    """Spin every node of NODE_EXECUTABLES (planner, terrain adaptation, spring lengths, simulator) together."""
-    sys.exit(run_nodes([node_class(name) for name in NODE_EXECUTABLES], args if args is not None else sys.argv))
+    """Spin the chosen nodes (default: planner, terrain adaptation, spring lengths, simulator) together."""
+    argv = args if args is not None else sys.argv
+    sys.exit(run_nodes([node_class(name) for name in chosen_nodes(argv)], argv))
 
 
 if __name__ == '__main__':

@@ -33,7 +33,7 @@ from iguana_ros.ros.endpoints import listener, resolve, talker
 from iguana_ros.ros.run_events import EVENT_LOADED, EVENT_UP, RunEvent
 from iguana_ros.ros.run_events import run_event_msg
 from iguana_ros.ros.wait_loop import settle_heap
-from iguana_ros.scene import check_one_character, load_scene, Scene
+from iguana_ros.scene import load_scene, named_character, Scene, served_characters
 from iguana_ros.topics import resolve_frame_prefix, topic
 from iguana_ros.validation import check_frame, FRAME_NEW, FRAME_STALE
 
@@ -63,6 +63,8 @@ class IguanaNode(Node):
     """
 
     KIND = ''
+    SERVES_WORLD = False
+    """Whether the node serves every character of a scene of several when its namespace names none (the simulator)."""
     exit_code = 0
     load_detail = ''
     """What the node's 'loaded' run event says about its build (e.g. 'model from cache')."""
@@ -80,7 +82,14 @@ class IguanaNode(Node):
         for spec in self._specs.values():
             self.declare_parameter(spec.name, spec.default, descriptor(spec))
         self.add_on_set_parameters_callback(self._check_new_parameters)
-        self.scene: Scene = check_one_character(load_scene(self.param('scene')), self.get_name())
+        world = load_scene(self.param('scene'))
+        character, namespace = self.param('character'), self.get_namespace()
+        self.characters = served_characters(world, character, namespace, self.SERVES_WORLD)
+        """(name, scene alone) of each character served: one, or a world's every character (`SERVES_WORLD`)."""
+        self.in_world = bool(world.characters) and named_character(world, character, namespace) is None
+        """Whether the node serves a scene's world of characters, each under its name (`<name>/iguana_state`)."""
+        self.scene: Scene = world if self.in_world else self.characters[0][1]
+        self.world_scene = world
 
     def report(self, kind: str, detail: str = '', clip: str = '', frame: int = -1) -> None:
         """Publish a run event (EVENT_UP, EVENT_LOADED, EVENT_CLIP) stamped with the wall clock on run_events."""
@@ -122,19 +131,20 @@ class IguanaNode(Node):
         """Return the TF frame prefix: the `frame_prefix` parameter, whose 'auto' is the node's namespace."""
         return resolve_frame_prefix(self.param('frame_prefix'), self.get_namespace())
 
-    def publisher(self, key: str):
-        """Return publisher for topic `key` of the topic table."""
-        name, cls, qos = resolve(key)
+    def publisher(self, key: str, prefix: str = ''):
+        """Return publisher for topic `key` of the topic table (a relative name under `prefix`, e.g. 'iguana_b/')."""
+        name, cls, qos = resolve(key, prefix)
         return talker(self, cls, name, qos)
 
-    def subscription(self, key: str, callback: Callable, raw: bool = False, depth: int | None = None):
+    def subscription(self, key: str, callback: Callable, raw: bool = False, depth: int | None = None,
+                     prefix: str = ''):
         """
-        Subscription to topic `key` of the topic table.
+        Subscription to topic `key` of the topic table (a relative name under `prefix`).
 
         `depth` (optional) deepens this reader's history beyond the table's (a latched topic's depth 1 is what its
         publisher keeps for late joiners).
         """
-        name, cls, qos = resolve(key)
+        name, cls, qos = resolve(key, prefix)
         if depth is not None:
             qos.depth = max(qos.depth, depth)
         return listener(self, cls, name, callback, qos, raw=raw)
@@ -215,9 +225,9 @@ class ReaderCount:
     published now reaches every reader that will ever match it.
     """
 
-    def __init__(self, node: Node, key: str) -> None:
-        """Create `node`'s publisher of topic `key` of the topic table, with an incompatible-QoS event handler."""
-        name, cls, qos = resolve(key)
+    def __init__(self, node: Node, key: str, prefix: str = '') -> None:
+        """Create `node`'s publisher of topic `key` (under `prefix`), with an incompatible-QoS event handler."""
+        name, cls, qos = resolve(key, prefix)
         self.node, self.incompatible = node, 0
         self.publisher = talker(node, cls, name, qos, on_incompatible=self._on_incompatible)
 

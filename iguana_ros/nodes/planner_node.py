@@ -20,6 +20,10 @@ per frame (reference_stance), the goals and route waypoints it accepted on accep
 where it is on planner_status (latched: state, waypoint, distance, heading error, recovery) and what it noticed
 (waypoints passed, arrival, no progress and the recovery taken) on run_events.
 
+The planner of one character of a world (a scene's `characters`, the node in that character's namespace) also hears
+the other characters' iguana_state (sibling namespaces) and plans the strides of a frame once it has every body's state
+of that frame, keeping clear of them as moving obstacles (`stages.OtherBodies`, as `world.World` does).
+
 Goals with an answer come through the go_to_pose action (GoToPose): every goal is accepted, then checked like a
 goal_pose message; a bad one is aborted at once with code REFUSED and the reason, a good one scheduled like a goal_pose
 goal (listed on accepted_goals too) as a `stages.GoalTask`, with feedback at every stride end and a result when the
@@ -43,9 +47,9 @@ from iguana_ros.ros.conversions import time_from_msg
 from iguana_ros.ros.endpoints import resolve, resolve_action, volatile_readers
 from iguana_ros.ros.go_to_pose import feedback_msg, goal_task, result_msg
 from iguana_ros.ros.messages import (clip_to_cdr, goal_from_msg, planner_status_msg, reference_stance_to_cdr,
-                                     route_from_msg, state_from_cdr)
+                                     route_from_msg, state_from_cdr, state_twist_from_cdr)
 from iguana_ros.ros.run_events import EVENT_CLIP
-from iguana_ros.stages import GoalOutcome, GoalTask, planner_stage, refused_goal
+from iguana_ros.stages import GoalOutcome, GoalTask, OtherBodies, planner_stage, refused_goal
 from iguana_ros.validation import world_bound
 
 READERS_PERIOD_S = 0.5
@@ -97,6 +101,8 @@ class PlannerNode(IguanaNode):
         self.subscription('goal_pose', self.guarded('goal_pose', self.on_goal))
         self.subscription('route', self.guarded('route', self.on_route))
         self.subscription('iguana_state', self.guarded('iguana_state', self.on_state), raw=True)
+        self.others = self._hear_others()
+        self.waiting_state = None
         self.accepted_pub = self.publisher('accepted_goals')
         self.accepted.header.stamp = self.now_stamp()
         self.accepted_pub.publish(self.accepted)  # latched: senders see the planner and how many goals it has
@@ -111,6 +117,33 @@ class PlannerNode(IguanaNode):
                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f'planner ready: {len(self.stage.graph.clips)} clips, '
                                f'goal radius {self.stage.goal_radius:.2f} m')
+
+    def _hear_others(self) -> OtherBodies | None:
+        """
+        Subscribe to the other characters' iguana_state in a world whose character keeps clear of them (else None).
+
+        The others' topics are siblings of this node's namespace (`/iguana_a` hears `/iguana_b/iguana_state`).
+        """
+        world, mine = self.world_scene, self.characters[0][0]
+        if not world.characters or not next(c for c in world.characters if c.name == mine).avoid_others:
+            return None
+        namespace = self.get_namespace().rstrip('/')
+        parent = namespace.rsplit('/', 1)[0] if namespace.rsplit('/', 1)[-1] == mine else namespace
+        others = OtherBodies([c.name for c in world.characters if c.name != mine])
+        for name in others.names:
+            self.subscription('iguana_state', self.guarded(f'{name}/iguana_state', self._other_state(name)), raw=True,
+                              prefix=f'{parent}/{name}/')
+        return others
+
+    def _other_state(self, name: str) -> Callable:
+        """Return the callback of character `name`'s iguana_state: keep its root; go on with a state waiting for it."""
+        def on_other(msg) -> None:
+            frame, root, _, twist = state_twist_from_cdr(msg, self.bound)
+            self.others.add(name, frame, root[:2], twist[:2])
+            if self.waiting_state is not None and self.others.ready(self.waiting_state[0]):
+                held, self.waiting_state = self.waiting_state[1], None
+                self.on_state(held)
+        return on_other
 
     def on_goal(self, msg) -> None:
         """
@@ -202,6 +235,11 @@ class PlannerNode(IguanaNode):
             self.get_logger().info(f'holding iguana_state of frame {frame} until {self.param("wait_for_goals")} '
                                    f'goals have arrived ({self.goals_received} so far)')
             return
+        if self.others is not None:
+            if not self.others.ready(frame):
+                self.waiting_state = (frame, msg)    # planned once every other body's state of the frame is in
+                return
+            self.stage.obstacles = self.others.obstacles(frame)
         self.state_gate.handled(frame)
         clip = self.stage.update(frame, root, orientation)
         self.root = (root, orientation)

@@ -52,10 +52,11 @@ def message_class(type_name: str) -> type:
         raise ValueError(f'unknown message type {type_name!r}: {exc}') from exc
 
 
-def resolve(key: str) -> tuple[str, type, QoSProfile]:
-    """(topic name, message class, QoS profile) of topic `key` from msg_configs/topics.yaml."""
+def resolve(key: str, prefix: str = '') -> tuple[str, type, QoSProfile]:
+    """(topic name, message class, QoS profile) of topic `key` of topics.yaml; `prefix` + a relative name."""
     spec: TopicSpec = topic(key)
-    return spec.name, message_class(spec.type), qos_profile(spec.qos)
+    name = spec.name if spec.name.startswith('/') else prefix + spec.name
+    return name, message_class(spec.type), qos_profile(spec.qos)
 
 
 def resolve_service(key: str) -> tuple[str, type]:

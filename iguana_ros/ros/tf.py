@@ -62,9 +62,13 @@ def _stamp(frame: int) -> tuple[int, int]:
     return stamp.sec, stamp.nanosec
 
 
-def static_tf_to_cdr(frames: TfFrames) -> bytes:
-    """Return the /tf_static message: world → odom, identity, stamped 0 (valid at every time)."""
-    return tf_message_cdr((0, 0), [WORLD_FRAME], [frames.odom], np.zeros((1, 3)), np.array([[0.0, 0.0, 0.0, 1.0]]))
+def static_tf_to_cdr(frames: TfFrames | list[TfFrames]) -> bytes:
+    """Return the /tf_static message: world → odom of each body's `frames`, identity, stamped 0 (valid always)."""
+    bodies = frames if isinstance(frames, list) else [frames]
+    rotations = np.zeros((len(bodies), 4))
+    rotations[:, 3] = 1.0
+    return tf_message_cdr((0, 0), [WORLD_FRAME] * len(bodies), [f.odom for f in bodies], np.zeros((len(bodies), 3)),
+                          rotations)
 
 
 def body_tf_to_cdr(frames: TfFrames, root: np.ndarray, orientation: np.ndarray, soles: np.ndarray,

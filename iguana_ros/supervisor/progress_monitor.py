@@ -49,8 +49,12 @@ class RunMonitor:
     """Listens to a run (see the module docstring); `display` (optional) shows phases and progress."""
 
     def __init__(self, nodes: tuple, planned_s: float, display: ProgressDisplay | None = None,
-                 namespace: str = '') -> None:
-        """Join the graph and subscribe to the run's topics in ROS `namespace`; nothing is shown until `launched()`."""
+                 namespace: str = '', event_namespaces: list[str] | None = None) -> None:
+        """
+        Join the graph and subscribe to the run's topics in ROS `namespace`; nothing is shown until `launched()`.
+
+        A world's run has run_events in every one of `event_namespaces` (the simulator's, each character's).
+        """
         import rclpy
         from rclpy.signals import SignalHandlerOptions
 
@@ -64,10 +68,13 @@ class RunMonitor:
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self.node = tool_node(MONITOR_NODE_NAME, self.context)
-        for key, callback, raw in (('run_events', self._on_event, False), ('iguana_state', self._on_state, True),
-                                   ('accepted_goals', self._on_goals, False)):
+        topics = [('iguana_state', namespace, self._on_state, True),
+                  ('accepted_goals', namespace, self._on_goals, False)]
+        for events_in in ([namespace] if event_namespaces is None else event_namespaces):
+            topics.append(('run_events', events_in, self._on_event, False))
+        for key, where, callback, raw in topics:
             _, cls, qos = resolve(key)
-            listener(self.node, cls, topic_name(key, namespace), callback, qos, raw=raw)
+            listener(self.node, cls, topic_name(key, where), callback, qos, raw=raw)
         self.loop = ListenerLoop(self.node)
         settle_heap()
 

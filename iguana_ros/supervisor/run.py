@@ -51,7 +51,8 @@ from iguana_ros.supervisor.domain_check import GRAPH_LISTEN_S
 from iguana_ros.supervisor.process import (describe_exit, NAMESPACE_ENV, NodeProcess, RUN_ID_ENV, run_processes,
                                            stop_all)
 from iguana_ros.supervisor.run_gait import RunGait
-from iguana_ros.supervisor.run_summary import bag_progress, RunSummary
+from iguana_ros.supervisor.run_summary import (bag_progress, body_contact_figures, CharacterSummary, RunSummary,
+                                               STATE_KEY)
 from iguana_ros.topics import check_namespace, RUN_CLOCK, topic_name
 
 __all__ = ['NODE_KINDS', 'RunOptions', 'RunSummary', 'RunInterrupted', 'SceneRun', 'run_scene', 'goal_outcome',
@@ -270,6 +271,52 @@ def node_commands(options: RunOptions, scene: Scene, scene_file: Path,
             for kind in NODE_KINDS}
 
 
+CHARACTER_NODES = tuple(kind for kind in NODE_KINDS if kind != 'simulator_node')
+"""The nodes of each character of a world, in one process per character under the character's namespace."""
+
+
+def world_params_yaml(options: RunOptions, scene: Scene, scene_file: Path) -> str:
+    """
+    Return the params file of a world's run: the simulator's values, and each character's planner's.
+
+    Every node reads the whole scene; the character nodes find theirs by namespace (`character: auto`); each planner
+    waits for its own character's goals, the simulator for all of them.
+    """
+    params = node_params(options, scene, scene_file)
+    params['simulator_node']['wait_for_goals'] = sum(len(c.goals) + bool(c.route) for c in scene.characters)
+    sections = {f'/**/{kind}': params[kind] for kind in NODE_KINDS if kind != 'planner_node'}
+    for c in scene.characters:
+        sections[f'/{c.name}/planner_node'] = {**params['planner_node'], 'wait_for_goals': len(c.goals) + bool(c.route)}
+    return yaml.safe_dump({name: {'ros__parameters': dict(values)} for name, values in sections.items()},
+                          sort_keys=False)
+
+
+def world_commands(options: RunOptions, scene: Scene, run_file: Path) -> dict[str, list[str]]:
+    """
+    Command lines of a world's run: the simulator of every body (root namespace), a process per character.
+
+    Each character's planner, terrain adaptation and spring-length nodes run in one process under `/<name>`; all read
+    the standard params file, then the run's (`world_params_yaml`, written to `run_file`), then the user's arguments.
+    """
+    args = ros_args({}, params_file(), run_file)
+    user = list(options.ros_args)
+    commands = {'simulator_node': [sys.executable, '-m', f'{NODE_PACKAGE}.simulator_node', *args, *user]}
+    for c in scene.characters:
+        commands[c.name] = [sys.executable, '-m', f'{NODE_PACKAGE}.all_nodes', *CHARACTER_NODES, *args,
+                            '-r', f'__ns:=/{c.name}', *user]
+    return commands
+
+
+def world_topic_names(scene: Scene) -> list[str]:
+    """Return the topics a world's recorder records: the world's (clock, /tf, scene markers) and every character's."""
+    from iguana_ros.bag.record import default_topic_names
+    names = default_topic_names('')
+    for c in scene.characters:
+        names += [name for name in default_topic_names(f'/{c.name}') if name not in names
+                  and name != topic_name('clock', f'/{c.name}')]
+    return names
+
+
 def new_bag_dir(options: RunOptions, scene: Scene) -> Path:
     """Return the bag directory of this run (`bags/<scene>_<date>_<time>` unless --record names one)."""
     if options.record is not None:
@@ -295,7 +342,11 @@ class SceneRun:
         self.nodes_started = math.nan
         self.silence_checked = False
         from iguana_ros.stages import check_pushes_of     # the model: only for a scene with pushes
-        self.scene = check_one_character(load_scene(options.scene), 'iguana run')
+        self.scene = load_scene(options.scene)
+        self.world = bool(self.scene.characters)
+        """Whether the scene is a world of several characters (one simulator, a process per character)."""
+        if self.world and (namespace or options.single_process):
+            check_one_character(self.scene, 'iguana run --namespace' if namespace else 'iguana run --single-process')
         check_pushes_of(self.scene)           # the pushes against the body's masses: one line before any node starts
         self.scene_file = scene_path(options.scene).resolve()
         self.bag = new_bag_dir(options, self.scene)
@@ -373,7 +424,10 @@ class SceneRun:
         """Join the graph as the progress monitor (the start-up phases and the progress come from its messages)."""
         from iguana_ros.jit import kernel_cache
         from iguana_ros.supervisor.progress_monitor import RunMonitor
-        self.monitor = RunMonitor(NODE_KINDS, self.planned_s, self.display, namespace=self.options.namespace)
+        names = [f'/{c.name}' for c in self.scene.characters]
+        self.monitor = RunMonitor(NODE_KINDS, self.planned_s, self.display,
+                                  namespace=names[0] if self.world else self.options.namespace,
+                                  event_namespaces=['', *names] if self.world else None)
         self.monitor.clock.details['compiling'] = f'kernel cache {kernel_cache().state}'
 
     def listen(self, timeout: float = 0.0) -> None:
@@ -408,7 +462,8 @@ class SceneRun:
     def start(self) -> None:
         """Start the recorder first (so it sees every topic), then the nodes."""
         recorder = [sys.executable, '-m', 'iguana_ros.cli', 'bag', 'record', '--use-sim-time', '-o', str(self.bag),
-                    *(['--namespace', self.options.namespace] if self.options.namespace else [])]
+                    *(['--namespace', self.options.namespace] if self.options.namespace else []),
+                    *(world_topic_names(self.scene) if self.world else [])]
         recorder += ['--ros-args', *self.options.ros_args] if self.options.ros_args else []   # remaps recorded as is
         if self.monitor is not None:
             self.monitor.launched()
@@ -422,10 +477,13 @@ class SceneRun:
             self.start_viewer()
         self.nodes_started = time.monotonic()
         run_file = None
-        if self.options.namespace:
+        if self.options.namespace or self.world:
             run_file = self.logs / RUN_PARAMS_FILE
-            run_file.write_text(run_params_yaml(node_params(self.options, self.scene, self.scene_file)))
-        for name, command in node_commands(self.options, self.scene, self.scene_file, run_file).items():
+            run_file.write_text(world_params_yaml(self.options, self.scene, self.scene_file) if self.world
+                                else run_params_yaml(node_params(self.options, self.scene, self.scene_file)))
+        commands = world_commands(self.options, self.scene, run_file) if self.world else \
+            node_commands(self.options, self.scene, self.scene_file, run_file)
+        for name, command in commands.items():
             self.keep_going()
             self._child(name, command).start()
 
@@ -452,22 +510,28 @@ class SceneRun:
         return frozenset(topic(key).subscriber_nodes) | recorder
 
     def send_goals(self) -> None:
-        """Publish the scene's goals (stamped with their times) or route once planner and simulator listen."""
-        if not self.scene.goals and not self.scene.route:
-            return
+        """Publish each character's goals (stamped with their times) or route once its planner and simulator listen."""
+        if self.world:
+            for name, one in self.scene.character_scenes():
+                self._send_goals_of(one, f'/{name}')
+        else:
+            self._send_goals_of(self.scene, self.options.namespace)
+        self.watch_domain(may_close=True, force=True)
+
+    def _send_goals_of(self, scene: Scene, namespace: str) -> None:
+        """Publish the goals or route of `scene` (one character's) on the topics of `namespace`."""
         from iguana_ros.nodes.goal_sender import goal_message, route_message, send_goals
         # planner, simulator (goal marker) and recorder must all have them before frame 0: named, not counted (a
         # stranger's subscription, `ros2 topic echo goal_pose`, must not stand in for one of them)
-        if self.scene.goals:
-            goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in self.scene.goals]
+        if scene.goals:
+            goals = [goal_message(g.x, g.y, g.yaw_deg, g.at) for g in scene.goals]
             send_goals(goals, min_subscribers=3, timeout=120.0, keep_going=self.keep_going,
-                       readers=self.goal_readers('goal_pose'), namespace=self.options.namespace)
-        if self.scene.route:
-            last = self.scene.route[-1].yaw_deg
-            route = route_message([(w.x, w.y) for w in self.scene.route], last)
+                       readers=self.goal_readers('goal_pose'), namespace=namespace)
+        if scene.route:
+            last = scene.route[-1].yaw_deg
+            route = route_message([(w.x, w.y) for w in scene.route], last)
             send_goals([route], min_subscribers=3, timeout=120.0, keep_going=self.keep_going, topic_key='route',
-                       readers=self.goal_readers('route'), namespace=self.options.namespace)
-        self.watch_domain(may_close=True, force=True)
+                       readers=self.goal_readers('route'), namespace=namespace)
 
     def alive_or_raise(self, simulator_may_end: bool = False) -> None:
         """
@@ -570,31 +634,28 @@ class SceneRun:
         Return the run's outcome from data.
 
         How far it got and the loop's wall time from the bag (last iguana_state stamp; send times of the first and
-        last), the total from the supervisor's clock, goal and gait figures from the recorded messages (what a bag lacks
-        is named in the gait lines, never raised).
+        last), the total from the supervisor's clock, goal and gait figures from the recorded messages (per character
+        in a world: reached only when every character reached its goal).
         """
-        from iguana_ros.bag.trajectory import read_topics, root_trajectory
-        from iguana_ros.supervisor.run_gait import GAIT_TOPICS, run_gait
-
         if code is not None and self.sim_code is None:
             self.sim_code = code
-        progress = bag_progress(self.bag, self.options.namespace)
+        first = f'/{self.scene.characters[0].name}' if self.world else self.options.namespace
+        progress = bag_progress(self.bag, self.options.namespace, topic_name(STATE_KEY, first))
         total = time.monotonic() - self.started
-        gait, times, positions, orientations = None, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 4))
-        if progress.exists:
-            try:
-                recorded = read_topics(self.bag, GAIT_TOPICS)
-                times, positions, orientations = root_trajectory(recorded.messages['iguana_state'])
-                try:
-                    gait = run_gait(recorded, self.scene)
-                except Exception as exc:  # noqa: BLE001 -- a summary after a long run must still print its lines
-                    gait = RunGait(None, notes=[f'gait figures failed: {type(exc).__name__}: {exc}'])
-            except IguanaError as exc:
-                gait = RunGait(None, notes=[f'bag unreadable: {exc}'])
+        if self.world:
+            characters = {name: self.character_outcome(progress, one, f'/{name}')
+                          for name, one in self.scene.character_scenes()}
+            figures = list(characters.values())
+            simulated = max(c.simulated_s for c in figures)
+            reached = all(c.reached_goal for c in figures)
+            when, final = max(c.time_to_goal for c in figures), max(c.final_goal_distance for c in figures)
+            gait = None
+            contact = body_contact_figures(self.bag) if progress.exists else (0, 0.0)
         else:
-            gait = RunGait(None, notes=['no bag'])
-        simulated = float(times[-1]) if len(times) else 0.0
-        reached, when, final = goal_outcome_of(times, positions, self.scene, orientations)
+            characters, contact = {}, (0, 0.0)
+            one = self.character_outcome(progress, self.scene, self.options.namespace)
+            simulated, reached, when, final, gait = (one.simulated_s, one.reached_goal, one.time_to_goal,
+                                                     one.final_goal_distance, one.gait)
         outcome, reason, exit_code = self.outcome(simulated)
         node, tail = self.failed_node() if outcome == 'failed' else ('', '')
         return RunSummary(self.scene.name, self.bag, self.logs, simulated, progress.loop_wall_s, reached, when,
@@ -604,7 +665,34 @@ class SceneRun:
                           cpu_ms_per_frame=self.cpu.ms_per_frame(progress.state_first_ns / 1e9,
                                                                  progress.state_last_ns / 1e9,
                                                                  round(simulated * FRAME_RATE)),
-                          paused_s=progress.paused_s)
+                          paused_s=progress.paused_s, characters=characters, body_contact_frames=contact[0],
+                          body_contact_max_depth=contact[1])
+
+    def character_outcome(self, progress, scene: Scene, namespace: str) -> CharacterSummary:
+        """
+        Return how one character did, from its topics in `namespace` of the bag.
+
+        How far it got, its goal or route end, its gait figures (what a bag lacks is named in the gait lines, never
+        raised).
+        """
+        from iguana_ros.bag.trajectory import read_topics, root_trajectory
+        from iguana_ros.supervisor.run_gait import GAIT_TOPICS, run_gait
+
+        gait, times, positions, orientations = None, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 4))
+        if progress.exists:
+            try:
+                recorded = read_topics(self.bag, GAIT_TOPICS, namespace if self.world else None)
+                times, positions, orientations = root_trajectory(recorded.messages['iguana_state'])
+                try:
+                    gait = run_gait(recorded, scene)
+                except Exception as exc:  # noqa: BLE001 -- a summary after a long run must still print its lines
+                    gait = RunGait(None, notes=[f'gait figures failed: {type(exc).__name__}: {exc}'])
+            except IguanaError as exc:
+                gait = RunGait(None, notes=[f'bag unreadable: {exc}'])
+        else:
+            gait = RunGait(None, notes=['no bag'])
+        reached, when, final = goal_outcome_of(times, positions, scene, orientations)
+        return CharacterSummary(float(times[-1]) if len(times) else 0.0, reached, when, final, gait)
 
 
 def body_lost_outcome(sim_code: int | None, detail: str) -> tuple[str, str, int] | None:

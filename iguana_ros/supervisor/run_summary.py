@@ -80,8 +80,12 @@ class BagProgress:
         return f'not finalised ({self.problem or "no summary section"}): {held} recovered from its complete chunks'
 
 
-def bag_progress(bag: Path, namespace: str = '') -> BagProgress:
-    """`BagProgress` of the bag of a run in `namespace` (a missing or unreadable bag gives exists=False / a problem)."""
+def bag_progress(bag: Path, namespace: str = '', state_topic: str | None = None) -> BagProgress:
+    """
+    `BagProgress` of the bag of a run in `namespace` (a missing or unreadable bag gives exists=False / a problem).
+
+    `state_topic` is the iguana_state that says how far the run got (a world's: its first character's).
+    """
     from iguana_ros.bag.storage import BagReader
     from iguana_ros.errors import IguanaError
 
@@ -92,7 +96,7 @@ def bag_progress(bag: Path, namespace: str = '') -> BagProgress:
         progress.problem = str(exc)
         return progress
     progress.exists = True
-    state_topic, events_topic = topic_name(STATE_KEY, namespace), topic_name(EVENTS_KEY, namespace)
+    state_topic, events_topic = state_topic or topic_name(STATE_KEY, namespace), topic_name(EVENTS_KEY, namespace)
     for msg in reader.messages():
         progress.counts[msg.topic] = progress.counts.get(msg.topic, 0) + 1
         if msg.topic == state_topic:
@@ -103,6 +107,24 @@ def bag_progress(bag: Path, namespace: str = '') -> BagProgress:
     progress.problem = reader.problem
     progress.finalised = not reader.truncated and (Path(bag) / 'metadata.yaml').is_file()
     return progress
+
+
+def body_contact_figures(bag: Path) -> tuple[int, float]:
+    """Return (frames with contact, deepest node m) of a world's bag from its body_contacts (damaged ones skipped)."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.serialization import deserialize_message
+
+    from iguana_ros.bag.trajectory import read_topics
+    from iguana_ros.ros.body_contacts import body_contacts_from_msg
+    frames, deepest = set(), 0.0
+    for data in read_topics(bag, ['body_contacts'], '').messages['body_contacts']:
+        try:
+            pairs = body_contacts_from_msg(deserialize_message(data, DiagnosticArray))
+        except Exception:  # noqa: BLE001 -- a damaged message (any decoder error): the figures stand without it
+            continue
+        frames.update(p.frame for p in pairs)
+        deepest = max([deepest, *(p.max_depth for p in pairs)])
+    return len(frames), deepest
 
 
 def _pause_events(data: bytes) -> list:
@@ -132,6 +154,25 @@ def paused_seconds(pauses: list, start: float, end: float) -> float:
         elif kind == 'resumed' and since is not None:
             total, since = total + at - since, None
     return total + (end - since if since is not None else 0.0)
+
+
+@dataclass
+class CharacterSummary:
+    """How one character of a run did: how far it got (s), its goal or route end, its gait figures."""
+
+    simulated_s: float
+    reached_goal: bool
+    time_to_goal: float
+    final_goal_distance: float
+    gait: RunGait | None = None
+
+    def goal_line(self) -> str:
+        """'goal reached at t=3.20 s', 'goal not reached' or 'goal not reached (final distance 0.42 m)'."""
+        if self.reached_goal:
+            return f'goal reached at t={self.time_to_goal:.2f} s'
+        if math.isnan(self.final_goal_distance):
+            return 'goal not reached'
+        return f'goal not reached (final distance {self.final_goal_distance:.2f} m)'
 
 
 @dataclass
@@ -167,6 +208,12 @@ class RunSummary:
     """CPU ms per simulated frame of each process of the run while it stepped (`supervisor/cpu.py`; {} off Linux)."""
     paused_s: float = 0.0
     """Wall seconds of `wall_s` during which the simulation was paused (sim/pause, `iguana run --paused`)."""
+    characters: dict[str, CharacterSummary] = field(default_factory=dict)
+    """A world's characters by name (the run's goal figures are then every one's: reached when all reached)."""
+    body_contact_frames: int = 0
+    """A world's frames with body-body contact (the bag's body_contacts messages)."""
+    body_contact_max_depth: float = 0.0
+    """The deepest node of one body inside another over the run, m."""
 
     @property
     def realtime_factor(self) -> float:
@@ -197,13 +244,17 @@ class RunSummary:
 
     def lines(self) -> list[str]:
         """Human-readable summary lines."""
-        if self.reached_goal:
-            goal = f'goal reached at t={self.time_to_goal:.2f} s'
-        elif math.isnan(self.final_goal_distance):
-            goal = 'goal not reached'
-        else:
-            goal = f'goal not reached (final distance {self.final_goal_distance:.2f} m)'
+        goal = CharacterSummary(self.simulated_s, self.reached_goal, self.time_to_goal,
+                                self.final_goal_distance).goal_line()
+        if self.characters:
+            arrived = sum(c.reached_goal for c in self.characters.values())
+            goal = f'{arrived} of {len(self.characters)} characters reached their goals'
         gait = self.gait.lines() if self.gait is not None else []
+        for name, one in self.characters.items():
+            gait += [f'{name}: {one.goal_line()}', *('  ' + line for line in (one.gait.lines() if one.gait else []))]
+        if self.characters:
+            gait.append(f'body contact: {self.body_contact_frames} frames, deepest node '
+                        f'{self.body_contact_max_depth * 1000:.1f} mm inside another body')
         total = f', {self.total_wall_s:.1f} s with start-up' if self.total_wall_s > 0 else ''
         detail = [f'last lines of {self.failed_node}:', *('  ' + line for line in self.message.splitlines())] \
             if self.message and self.failed_node else []

@@ -322,13 +322,14 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
     from iguana_ros.nodes.simulator_node import SimulatorNode
     node = SimulatorNode(context=ros_context, parameter_overrides=[Parameter('scene', value=str(_scene(tmp_path)))])
     executor.add_node(node)
+    body = node.bodies[0]                                         # a scene of one iguana: one body, the node's topics
     try:
         assert not node.lockstep_peers_ready()
         strangers = Probe(make_node('echo'), executor)           # `ros2 topic echo`, Foxglove: not peers
         strangers.listen('iguana_state', copies=2)
         strangers.pub('spring_rest_lengths')
         assert spin_until(executor, lambda: len(node.get_subscriptions_info_by_topic(strangers.resolve(
-            'iguana_state')[0])) >= 2 and node.lengths_sub.get_publisher_count() >= 1, 30)
+            'iguana_state')[0])) >= 2 and body.lengths_sub.get_publisher_count() >= 1, 30)
         assert not node.lockstep_peers_ready()                   # two readers and a writer, none of them the peers
         peers = [Probe(make_node(name), executor) for name in ('planner_node', 'terrain_adaptation_node')]
         for peer in peers:
@@ -337,16 +338,16 @@ def test_lockstep_start_waits_for_its_readers_to_match(tmp_path, make_node, exec
         Probe(make_node('spring_length_node'), executor).pub('spring_rest_lengths')
         state = peers[0].resolve('iguana_state')
         assert spin_until(executor, lambda: node.lockstep_peers_ready(), 30)
-        assert node.state_pub.get_subscription_count() >= 2
+        assert body.state_pub.get_subscription_count() >= 2
         name, cls, qos = state
         qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
         stranger = make_node('stranger')
         stranger.create_subscription(cls, name, lambda _m: None, qos)
         assert spin_until(executor, lambda: len(node.get_subscriptions_info_by_topic(name)) >= 3, 30)
-        assert spin_until(executor, lambda: node.state_readers.incompatible >= 1, 30)
+        assert spin_until(executor, lambda: body.state_readers.incompatible >= 1, 30)
         node.peers_listed_since = None
         assert node.lockstep_peers_ready()           # listed, reported incompatible: not waited for
-        node.state_readers.incompatible = 0          # as if it had not been reported yet
+        body.state_readers.incompatible = 0          # as if it had not been reported yet
         clock = [1000.0]                             # the hold's clock, moved by hand
         monkeypatch.setattr(simulator_node, 'time', SimpleNamespace(monotonic=lambda: clock[0]))
         node.peers_listed_since = None
