@@ -262,3 +262,20 @@ def test_goal_headings_routes_and_an_infinite_yaw_tolerance():
     route = parse_scene({'route': [{'x': 1.0, 'y': 0.5}, {'x': 2.0, 'y': -1.0, 'yaw_deg': -45}]}, 'test')
     assert route.destination.x == 2.0 and route.destination.yaw_deg == -45.0 and route.route[0].yaw_deg is None
     assert parse_scene({}, 'test').destination is None
+
+
+def test_a_node_serves_the_character_its_namespace_or_parameter_names_and_a_simulator_the_whole_world():
+    from iguana_ros.scene import served_characters
+    world = load_scene('crossing')
+    assert [n for n, _ in served_characters(world, 'auto', '/north', world=False)] == ['north']
+    assert [n for n, _ in served_characters(world, 'auto', '/runs/north', world=False)] == ['north']
+    assert [n for n, _ in served_characters(world, 'west', '/', world=False)] == ['west']
+    one = served_characters(world, 'auto', '/east', world=True)[0][1]
+    assert one.characters == () and one.start.x == 1.2 and one.goals[0].x == -1.2
+    assert [n for n, _ in served_characters(world, 'auto', '/', world=True)] == ['east', 'north', 'west', 'south']
+    with pytest.raises(SceneError, match=r"4 characters \(east, north, west, south\).*-r __ns:=/NAME"):
+        served_characters(world, 'auto', '/', world=False)
+    with pytest.raises(SceneError, match="character 'nobody' is not in scene crossing"):
+        served_characters(world, 'nobody', '/', world=True)
+    lone = load_scene('hills')
+    assert served_characters(lone, 'auto', '/iguana1', world=False) == [('iguana', lone)]

@@ -83,3 +83,10 @@ def test_a_cut_tf_message_is_an_input_error():
     data = static_tf_to_cdr(tf_frames(''))
     with pytest.raises(InputError, match='TFMessage'):
         tf_message_from_cdr(data[:-5])
+
+
+def test_the_static_transform_of_a_world_holds_every_bodys_odom_in_one_latched_message():
+    bodies = [tf_frames('east/'), tf_frames('west/')]
+    got = tf_message_from_cdr(static_tf_to_cdr(bodies))
+    assert [(parent, child) for _, parent, child, _, _ in got] == [('world', 'east/odom'), ('world', 'west/odom')]
+    assert all(np.array_equal(rotation, [0, 0, 0, 1]) and not translation.any() for *_, translation, rotation in got)
