@@ -273,7 +273,7 @@ def test_a_node_serves_the_character_its_namespace_or_parameter_names_and_a_simu
     one = served_characters(world, 'auto', '/east', world=True)[0][1]
     assert one.characters == () and one.start.x == 1.2 and one.goals[0].x == -1.2
     assert [n for n, _ in served_characters(world, 'auto', '/', world=True)] == ['east', 'north', 'west', 'south']
-    with pytest.raises(SceneError, match=r"4 characters \(east, north, west, south\).*-r __ns:=/NAME"):
+    with pytest.raises(SceneError, match=r'4 characters \(east, north, west, south\).*-r __ns:=/NAME'):
         served_characters(world, 'auto', '/', world=False)
     with pytest.raises(SceneError, match="character 'nobody' is not in scene crossing"):
         served_characters(world, 'nobody', '/', world=True)
