@@ -19,15 +19,18 @@ Each character (a scene's `characters` entry) has its own planner, adaptation an
 and its own soft body; `World.step` computes every character's reference for the frame, then advances the bodies
 (`BodyWorld`: the bodies and their contact alone, as a simulator of several bodies needs them).
 A body whose bounding box stays apart from every other by more than they can move in a frame is advanced as a lone
-body is, in one call (bit for bit the single-character loop), whatever the others do. Bodies that may touch (a group,
-joined transitively) are advanced together in blocks of `BodyContactParams.coupling_steps` steps, the contact forces
-of `physics.body_contact` held over each block, their desired lengths ramped across the blocks as one frame ramps
-them.
+body is, in one call (bit for bit the single-character loop), whatever the others do; such groups are stepped side by
+side on the process's cores (threads: the step kernels release the GIL; a fixed partition by node count). Bodies
+that may touch (a group, joined transitively) are advanced together in blocks of `BodyContactParams.coupling_steps`
+steps, the contact forces of `physics.body_contact` held over each block, their desired lengths ramped across the
+blocks as one frame ramps them.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor, wait
 import dataclasses
 from dataclasses import dataclass, field
+import os
 import time
 from typing import Callable
 
@@ -71,26 +74,56 @@ class BodyWorld:
     The part of a world a simulator needs (no planners): the library's `World` and a simulator of several bodies.
     """
 
-    def __init__(self, stages: list[SimulatorStage], params: BodyContactParams | None = None) -> None:
-        """Take the bodies' simulator stages; contact data of each body from its model."""
+    def __init__(self, stages: list[SimulatorStage], params: BodyContactParams | None = None,
+                 workers: int | None = None) -> None:
+        """
+        Take the bodies' simulator stages; contact data of each body from its model.
+
+        `workers` threads (default `world_workers()`) step the groups of bodies that cannot touch each other side by
+        side (`partition`); a body's result is the same whichever thread steps it.
+        """
         self.stages = stages
         self.params = params or BodyContactParams()
         self.bodies = [ContactBody.of_model(stage.model) for stage in stages]
         self.contacts: list[FrameContact] = []
         self.frame = 0
+        self.workers = min(world_workers() if workers is None else max(1, int(workers)), len(stages))
+        self._pool = ThreadPoolExecutor(self.workers - 1, 'body_world') if self.workers > 1 else None
 
     def advance(self, lengths: list) -> None:
         """Advance every body one frame with its desired lengths `(n_springs_i,)` (None: rest), in contact if near."""
         stages = self.stages
-        record = FrameContact(self.frame)
-        for group in self._groups(stages):
-            if len(group) == 1:
-                stages[group[0]].advance(lengths[group[0]])
-            else:
-                self._advance_in_contact(group, stages, lengths, record)
+        groups = self._groups(stages)
+        shares = partition(groups, [s.model.n_nodes for s in stages], self.workers)
+        helpers = [self._pool.submit(self._advance_groups, share, lengths) for share in shares[1:] if share]
+        try:
+            records = self._advance_groups(shares[0], lengths)
+        finally:
+            wait(helpers)                             # every helper ends before this frame ends (or raises)
+        for done in helpers:
+            records.update(done.result())
+        record = FrameContact(self.frame, [p for g in range(len(groups)) for p in records.get(g, ())])
         if record.pairs:
             self.contacts.append(record)
         self.frame += 1
+
+    def _advance_groups(self, share: list, lengths: list) -> dict[int, list[PairContact]]:
+        """Advance the groups of `share` ((index, members) pairs) in order; return each contact group's pairs."""
+        stages, pairs = self.stages, {}
+        for g, group in share:
+            if len(group) == 1:
+                stages[group[0]].advance(lengths[group[0]])
+            else:
+                kept = FrameContact(self.frame)
+                self._advance_in_contact(group, stages, lengths, kept)
+                pairs[g] = kept.pairs
+        return pairs
+
+    def close(self) -> None:
+        """Stop the helper threads."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
 
     def _groups(self, stages: list[SimulatorStage]) -> list[list[int]]:
         """
@@ -171,10 +204,11 @@ class BodyWorld:
 class World:
     """Characters stepped together (see the module docstring): their planners, then their bodies (`BodyWorld`)."""
 
-    def __init__(self, characters: list[Character], params: BodyContactParams | None = None) -> None:
-        """Take the characters' pipelines; their bodies make the world's `BodyWorld`."""
+    def __init__(self, characters: list[Character], params: BodyContactParams | None = None,
+                 workers: int | None = None) -> None:
+        """Take the characters' pipelines; their bodies make the world's `BodyWorld` (stepped by `workers` threads)."""
         self.characters = characters
-        self.body_world = BodyWorld([c.pipe.simulator for c in characters], params)
+        self.body_world = BodyWorld([c.pipe.simulator for c in characters], params, workers)
 
     @property
     def stages(self) -> list[SimulatorStage]:
@@ -225,9 +259,31 @@ class World:
         self.body_world.load_kernels()
 
     def close(self) -> None:
-        """Stop every character's lookahead thread."""
+        """Stop every character's lookahead thread and the world's helper threads."""
         for c in self.characters:
             c.pipe.close()
+        self.body_world.close()
+
+
+def world_workers() -> int:
+    """Return the threads a world steps its bodies with by default: the cores this process may run on, at most 4."""
+    return max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count() or 1))
+
+
+def partition(groups: list[list[int]], sizes: list[int], workers: int) -> list[list[tuple[int, list[int]]]]:
+    """
+    Split `groups` of bodies among `workers` by their node counts `sizes`, by a fixed rule (no dynamic schedule).
+
+    Greedy in order of size (largest first, ties by index): each group to the least loaded worker. Returns each
+    worker's (group index, members) in group order; worker 0 is the caller's own thread.
+    """
+    loads, shares = [0] * workers, [[] for _ in range(workers)]
+    cost = [sum(sizes[i] for i in group) for group in groups]
+    for g in sorted(range(len(groups)), key=lambda g: (-cost[g], g)):
+        w = min(range(workers), key=lambda w: (loads[w], w))
+        loads[w] += cost[g]
+        shares[w].append(g)
+    return [[(g, groups[g]) for g in sorted(share)] for share in shares]
 
 
 def _root(parent: list[int], i: int) -> int:
@@ -238,13 +294,13 @@ def _root(parent: list[int], i: int) -> int:
 
 
 def build_world(scene: Scene, adaptation: bool | None = None, library: dict | None = None,
-                simulator_options: dict | None = None, lookahead: bool = True) -> World:
+                simulator_options: dict | None = None, lookahead: bool = True, workers: int | None = None) -> World:
     """Return the world of `scene`: a pipeline per character (`Scene.character_scenes`), its bodies in contact."""
     avoid = {c.name: c.avoid_others for c in scene.characters}
     characters = [Character(name, one, build_pipeline(one, adaptation, library, simulator_options=simulator_options,
                                                       lookahead=lookahead), avoid.get(name, True))
                   for name, one in scene.character_scenes()]
-    world = World(characters)
+    world = World(characters, workers=workers)
     world.load_kernels()
     return world
 
@@ -266,13 +322,13 @@ class WorldResult:
 
 def run_world(scene: Scene, adaptation: bool | None = None, n_frames: int | None = None,
               progress: Callable[[int, int], None] | None = None, simulator_options: dict | None = None,
-              on_frame: Callable[[World], None] | None = None) -> WorldResult:
+              on_frame: Callable[[World], None] | None = None, workers: int | None = None) -> WorldResult:
     """
     Run every character of `scene` for its duration (or `n_frames`) in one world; `on_frame(world)` after each frame.
 
     The run ends early when a character's body is lost (left the terrain or fell).
     """
-    world = build_world(scene, adaptation, simulator_options=simulator_options)
+    world = build_world(scene, adaptation, simulator_options=simulator_options, workers=workers)
     total = int(round(scene.duration * FRAME_RATE)) if n_frames is None else int(n_frames)
     rows = [allocate_rows(total, c.pipe.simulator.model.n_nodes, c.pipe.simulator.model.skeleton.n_bones)
             for c in world.characters]

@@ -31,7 +31,7 @@ from iguana_ros.config import config_path
 from iguana_ros.physics.body_contact import BodyContactParams, contact_forces
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.scene import CharacterSpec, GoalSpec, load_scene, parse_scene, SceneError, StartSpec
-from iguana_ros.world import build_world, run_world
+from iguana_ros.world import build_world, partition, run_world
 
 pytestmark = pytest.mark.slow
 
@@ -117,6 +117,25 @@ def test_a_body_far_from_a_bump_is_stepped_as_if_alone_while_the_others_touch():
     alone = run_world(dataclasses.replace(bump, characters=(far,)))
     assert len(crowd.contacts) >= 10 and all({p.a, p.b} == {0, 1} for c in crowd.contacts for p in c.pairs)
     assert np.array_equal(crowd.characters['far'].node_positions, alone.characters['far'].node_positions)
+
+
+def test_groups_are_split_among_workers_by_node_count_by_a_fixed_rule():
+    groups = [[0, 1], [2], [3], [4]]
+    sizes = [380, 380, 174, 380, 174]
+    assert partition(groups, sizes, 2) == [[(0, [0, 1])], [(1, [2]), (2, [3]), (3, [4])]]
+    assert partition(groups, sizes, 1) == [[(0, [0, 1]), (1, [2]), (2, [3]), (3, [4])]]
+    assert partition([[0]], [380], 2) == [[(0, [0])], []]
+
+
+def test_a_world_stepped_on_two_threads_is_the_one_thread_world_bit_for_bit():
+    """The bump (a contact group) beside a far walker: each thread count gives the same bodies and contact."""
+    bump = _bump_scene(duration=3.5)
+    far = CharacterSpec(name='far', start=StartSpec(x=0.0, y=3.0), goals=(GoalSpec(x=2.0, y=3.0),))
+    scene = dataclasses.replace(bump, characters=(*bump.characters, far))
+    one, two = (run_world(scene, workers=n) for n in (1, 2))
+    assert len(one.contacts) >= 5 and one.contacts == two.contacts
+    for name in ('walker', 'sitter', 'far'):
+        assert np.array_equal(one.characters[name].node_positions, two.characters[name].node_positions), name
 
 
 def test_an_iguana_that_keeps_clear_walks_round_another_standing_in_its_way():
