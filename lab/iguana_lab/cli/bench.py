@@ -166,6 +166,9 @@ def _register_crowd(sub) -> None:
     crowd.add_argument('--mesh', choices=('coarse', 'medium', 'fine'), default='medium')
     crowd.add_argument('--seconds', default='2', help='simulated seconds per run (default 2)')
     crowd.add_argument('--repeats', default='3', help='runs per size, each in a fresh process (default 3)')
+    crowd.add_argument('--nodes', action='store_true',
+                       help='also run each crowd as iguana run (a simulator process and one per character; about '
+                            '10 s of start-up per run): realtime factor, CPU per character, memory of the nodes')
     crowd.add_argument('--json', action='store_true', help='print one JSON object')
     crowd.set_defaults(func=run_crowd)
     crossing = sub.add_parser('crossing', help='randomized crossings of 2-4 iguanas: arrivals and body contacts')
@@ -182,7 +185,7 @@ def run_crowd(args) -> int:
 
     result = bench_crowd(tuple(_value(count(1), '--iguanas', n) for n in args.iguanas), args.mesh,
                          _value(positive('seconds'), '--seconds', args.seconds),
-                         _value(count(1), '--repeats', args.repeats))
+                         _value(count(1), '--repeats', args.repeats), nodes=args.nodes)
     print(json.dumps(result, indent=1) if args.json else format_crowd(result))
     return 0
 

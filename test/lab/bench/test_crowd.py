@@ -14,11 +14,12 @@
 
 """`iguana bench crowd` and `iguana bench crossing`: figures from their runs, seeded scenes, one-line errors."""
 import json
+import math
 
 import numpy as np
 import pytest
 
-from iguana_lab.bench.crowd import crossing_scene, crowd_scene, MEDIANS
+from iguana_lab.bench.crowd import crossing_scene, crowd_scene, format_crowd, MEDIANS, NODE_MEDIANS
 from iguana_ros.cli import main
 
 
@@ -38,6 +39,36 @@ def test_bench_crowd_json_is_the_medians_of_its_runs(capsys):
         assert run['simulated_s'] == pytest.approx(0.3) and run['body_contact_frames'] == 0
         assert run['peak_rss_mb'] >= run['baseline_rss_mb'] > 0
     assert two['cpu_per_character_vs_one'] == pytest.approx(two['cpu_s_per_character_s'] / one['cpu_s_per_character_s'])
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.timeout(400)
+def test_bench_crowd_nodes_runs_each_crowd_as_iguana_run_too(capsys):
+    """1 and 2 coarse iguanas for 0.5 s as nodes: every figure finite and positive, in the JSON and the table."""
+    assert main(['bench', 'crowd', '--iguanas', '1', '2', '--mesh', 'coarse', '--seconds', '0.5', '--repeats', '1',
+                 '--nodes', '--json']) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert 'iguana run' in result['nodes_loop']
+    one, two = result['rows']
+    assert one['nodes']['cpu_per_character_vs_one'] == 1.0 and 'realtime_factor' in one   # the library's stay
+    assert two['nodes']['cpu_per_character_vs_one'] == pytest.approx(
+        two['nodes']['cpu_s_per_character_s'] / one['nodes']['cpu_s_per_character_s'])
+    for row in (one, two):
+        nodes = row['nodes']
+        [run] = nodes['runs']
+        characters = {f'iguana{i + 1}' for i in range(row['iguanas'])}
+        for key in NODE_MEDIANS:
+            assert math.isfinite(nodes[key]) and nodes[key] > 0 and nodes[key] == pytest.approx(run[key]), key
+        assert run['simulated_s'] == pytest.approx(0.5) and run['outcome'] == 'completed'
+        assert set(run['cpu_ms_per_frame_by_process']) >= {'simulator_node', 'recorder', 'iguana run', *characters}
+        assert run['cpu_s_per_character_s_all'] > run['cpu_s_per_character_s']
+        assert set(run['peak_rss_mb_by_process']) >= {'simulator_node', *characters}
+        assert run['peak_rss_mb'] == pytest.approx(sum(mb for name, mb in run['peak_rss_mb_by_process'].items()
+                                                       if name != 'recorder'))
+        assert run['total_wall_s'] > run['wall_s'] == pytest.approx(run['simulated_s'] / run['realtime_factor'])
+    table = format_crowd(result).splitlines()
+    assert len(table) == 8 and all(line.count(' | ') == 1 for line in table[4:])
 
 
 def test_the_crowd_stands_apart_and_the_crossings_are_seeded():
