@@ -27,10 +27,8 @@ blocks as one frame ramps them.
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor, wait
 import dataclasses
 from dataclasses import dataclass, field
-import os
 import time
 from typing import Callable
 
@@ -41,6 +39,7 @@ from iguana_ros.motion.planning import MovingObstacles
 from iguana_ros.physics.body_contact import (BodyContactParams, bounding_boxes, contact_forces, ContactBody,
                                              load_kernels as load_contact_kernels, near, PairContact,
                                              penetration_depths)
+from iguana_ros.physics.side_by_side import default_workers, SideBySide
 from iguana_ros.pipeline import allocate_rows, build_pipeline, Pipeline, RunResult, store_frame
 from iguana_ros.scene import Scene
 from iguana_ros.stages import SimulatorStage
@@ -79,51 +78,38 @@ class BodyWorld:
         """
         Take the bodies' simulator stages; contact data of each body from its model.
 
-        `workers` threads (default `world_workers()`) step the groups of bodies that cannot touch each other side by
-        side (`partition`); a body's result is the same whichever thread steps it.
+        `workers` threads (default: the process's cores, `physics.side_by_side`) step the groups of bodies that cannot
+        touch each other side by side; a body's result is the same whichever thread steps it.
         """
         self.stages = stages
         self.params = params or BodyContactParams()
         self.bodies = [ContactBody.of_model(stage.model) for stage in stages]
         self.contacts: list[FrameContact] = []
         self.frame = 0
-        self.workers = min(world_workers() if workers is None else max(1, int(workers)), len(stages))
-        self._pool = ThreadPoolExecutor(self.workers - 1, 'body_world') if self.workers > 1 else None
+        self.threads = SideBySide(min(default_workers() if workers is None else max(1, int(workers)), len(stages)))
 
     def advance(self, lengths: list) -> None:
         """Advance every body one frame with its desired lengths `(n_springs_i,)` (None: rest), in contact if near."""
-        stages = self.stages
-        groups = self._groups(stages)
-        shares = partition(groups, [s.model.n_nodes for s in stages], self.workers)
-        helpers = [self._pool.submit(self._advance_groups, share, lengths) for share in shares[1:] if share]
-        try:
-            records = self._advance_groups(shares[0], lengths)
-        finally:
-            wait(helpers)                             # every helper ends before this frame ends (or raises)
-        for done in helpers:
-            records.update(done.result())
-        record = FrameContact(self.frame, [p for g in range(len(groups)) for p in records.get(g, ())])
+        groups = self._groups(self.stages)
+        pairs = self.threads.run([lambda group=group: self._advance_group(group, lengths) for group in groups],
+                                 [sum(self.stages[i].model.n_nodes for i in group) for group in groups])
+        record = FrameContact(self.frame, [p for group_pairs in pairs for p in group_pairs])
         if record.pairs:
             self.contacts.append(record)
         self.frame += 1
 
-    def _advance_groups(self, share: list, lengths: list) -> dict[int, list[PairContact]]:
-        """Advance the groups of `share` ((index, members) pairs) in order; return each contact group's pairs."""
-        stages, pairs = self.stages, {}
-        for g, group in share:
-            if len(group) == 1:
-                stages[group[0]].advance(lengths[group[0]])
-            else:
-                kept = FrameContact(self.frame)
-                self._advance_in_contact(group, stages, lengths, kept)
-                pairs[g] = kept.pairs
-        return pairs
+    def _advance_group(self, group: list[int], lengths: list) -> list[PairContact]:
+        """Advance one group of bodies (a lone one as alone); return the pairs in contact (the group's record)."""
+        if len(group) == 1:
+            self.stages[group[0]].advance(lengths[group[0]])
+            return []
+        kept = FrameContact(self.frame)
+        self._advance_in_contact(group, self.stages, lengths, kept)
+        return kept.pairs
 
     def close(self) -> None:
         """Stop the helper threads."""
-        if self._pool is not None:
-            self._pool.shutdown()
-            self._pool = None
+        self.threads.close()
 
     def _groups(self, stages: list[SimulatorStage]) -> list[list[int]]:
         """
@@ -263,27 +249,6 @@ class World:
         for c in self.characters:
             c.pipe.close()
         self.body_world.close()
-
-
-def world_workers() -> int:
-    """Return the threads a world steps its bodies with by default: the cores this process may run on, at most 4."""
-    return max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count() or 1))
-
-
-def partition(groups: list[list[int]], sizes: list[int], workers: int) -> list[list[tuple[int, list[int]]]]:
-    """
-    Split `groups` of bodies among `workers` by their node counts `sizes`, by a fixed rule (no dynamic schedule).
-
-    Greedy in order of size (largest first, ties by index): each group to the least loaded worker. Returns each
-    worker's (group index, members) in group order; worker 0 is the caller's own thread.
-    """
-    loads, shares = [0] * workers, [[] for _ in range(workers)]
-    cost = [sum(sizes[i] for i in group) for group in groups]
-    for g in sorted(range(len(groups)), key=lambda g: (-cost[g], g)):
-        w = min(range(workers), key=lambda w: (loads[w], w))
-        loads[w] += cost[g]
-        shares[w].append(g)
-    return [[(g, groups[g]) for g in sorted(share)] for share in shares]
 
 
 def _root(parent: list[int], i: int) -> int:

@@ -29,9 +29,10 @@ import yaml
 
 from iguana_ros.config import config_path
 from iguana_ros.physics.body_contact import BodyContactParams, contact_forces
+from iguana_ros.physics.side_by_side import partition, SideBySide
 from iguana_ros.pipeline import run as run_pipeline
 from iguana_ros.scene import CharacterSpec, GoalSpec, load_scene, parse_scene, SceneError, StartSpec
-from iguana_ros.world import build_world, partition, run_world
+from iguana_ros.world import build_world, run_world
 
 pytestmark = pytest.mark.slow
 
@@ -119,12 +120,22 @@ def test_a_body_far_from_a_bump_is_stepped_as_if_alone_while_the_others_touch():
     assert np.array_equal(crowd.characters['far'].node_positions, alone.characters['far'].node_positions)
 
 
-def test_groups_are_split_among_workers_by_node_count_by_a_fixed_rule():
-    groups = [[0, 1], [2], [3], [4]]
-    sizes = [380, 380, 174, 380, 174]
-    assert partition(groups, sizes, 2) == [[(0, [0, 1])], [(1, [2]), (2, [3]), (3, [4])]]
-    assert partition(groups, sizes, 1) == [[(0, [0, 1]), (1, [2]), (2, [3]), (3, [4])]]
-    assert partition([[0]], [380], 2) == [[(0, [0])], []]
+def test_tasks_are_split_among_workers_by_cost_by_a_fixed_rule():
+    costs = [760, 174, 380, 174]
+    assert partition(costs, 2) == [[0], [1, 2, 3]]
+    assert partition(costs, 3) == [[0], [2], [1, 3]]
+    assert partition(costs, 1) == [[0, 1, 2, 3]]
+    assert partition([380], 2) == [[0], []]
+
+
+def test_side_by_side_gives_results_in_task_order_and_the_first_error():
+    threads = SideBySide(2)
+    try:
+        assert threads.run([lambda k=k: k * k for k in range(5)], [1, 5, 2, 2, 1]) == [0, 1, 4, 9, 16]
+        with pytest.raises(ZeroDivisionError):
+            threads.run([lambda: 1, lambda: 1 / 0, lambda: 2], [1, 1, 1])
+    finally:
+        threads.close()
 
 
 def test_a_world_stepped_on_two_threads_is_the_one_thread_world_bit_for_bit():

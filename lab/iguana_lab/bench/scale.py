@@ -17,8 +17,9 @@ Simulator speed at scale (issue 34): ms per step against the body's mesh and aga
 
 Every run is the gait scene of `iguana bench sim` (lateral-bend gait on the benchmark hills) in a fresh spawned
 process, so its peak RSS is its own (the interpreter, NumPy and the compiled code included; `baseline_rss_mb` is the
-peak before any model is built). The world holds one body, so N bodies are N independent `SoftBodySimulator`s of one
-model in one process, advanced one frame each in turn, each driven by the same gait. Runs are interleaved (every
+peak before any model is built). N bodies are N independent `SoftBodySimulator`s of one model in one process, each
+driven by the same gait, a frame of all of them stepped side by side on the process's cores as `world.BodyWorld` steps
+bodies apart (`physics.side_by_side`; the crowd bench times whole worlds with planners). Runs are interleaved (every
 configuration once, then again) so a drift of the machine's speed moves them alike; the 1-body run of the bodies'
 mesh serves both tables.
 """
@@ -36,6 +37,7 @@ from iguana_lab.bench.sim import cpu_model, make_scene, peak_rss_mb, warm_up
 from iguana_lab.bench.workload import run_gaits, STAND_IN_CELLS
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.physics.side_by_side import default_workers, SideBySide
 
 MESHES = ('coarse', 'medium', 'fine', 'finer')
 """The meshes `bench_scale` times by default (about 170, 400, 1,200 and 2,300 nodes)."""
@@ -44,8 +46,8 @@ BODIES = (1, 2, 4, 8)
 MEDIANS = ('ms_per_step', 'cpu_ms_per_step', 'realtime_factor', 'realtime_factor_cpu', 'cpu_s_per_character_s',
            'peak_rss_mb')
 """The figures of a configuration that are medians of its runs (wall ms per step, CPU ms per step, ...)."""
-BODIES_NOTE = ('N independent SoftBodySimulators in one process (the world holds one body), advanced one frame '
-               'each in turn, each driven by the same gait')
+BODIES_NOTE = ('N independent SoftBodySimulators in one process, each driven by the same gait, a frame of all of '
+               'them stepped side by side on the cores as a world steps bodies apart (physics.side_by_side)')
 
 
 def world_run(resolution: str, n_bodies: int, seconds: float, preset: str = 'balanced') -> dict:
@@ -54,11 +56,14 @@ def world_run(resolution: str, n_bodies: int, seconds: float, preset: str = 'bal
     scenes = [make_scene(resolution, preset) for _ in range(n_bodies)]
     sims, gait = [scene[0] for scene in scenes], scenes[0][1]
     compile_s = sum(warm_up(sim, gait) for sim in sims)
+    threads = SideBySide(min(default_workers(), n_bodies))
     cpu0 = time.process_time()
     try:
-        timing = run_gaits(sims, gait, seconds)
+        timing = run_gaits(sims, gait, seconds, threads)
     except SimulationDiverged as exc:
         raise IguanaError(f'{resolution} x{n_bodies}: the simulation diverged ({exc})') from None
+    finally:
+        threads.close()
     cpu_s = time.process_time() - cpu0 - timing['gait_wall_s']
     sim = sims[0]
     steps = sim.stats['steps']
