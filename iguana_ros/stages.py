@@ -441,11 +441,11 @@ class OtherBodies:
 
     def obstacles(self, frame: int) -> MovingObstacles:
         """Return the other bodies at `frame` (once `ready`) as moving obstacles; earlier frames are forgotten."""
-        heard = self.by_frame[frame]
+        heard = self.by_frame.get(frame, {})
         for old in [f for f in self.by_frame if f < frame]:
             del self.by_frame[old]
-        return MovingObstacles(np.array([heard[n][0] for n in self.names]),
-                               np.array([heard[n][1] for n in self.names]))
+        return MovingObstacles(np.array([heard[n][0] for n in self.names]).reshape(-1, 2),
+                               np.array([heard[n][1] for n in self.names]).reshape(-1, 2))
 
 
 def motion_graph(library: dict | None = None, blend_frames: int | None = None) -> MotionGraph:

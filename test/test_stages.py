@@ -315,3 +315,18 @@ def test_a_goal_task_without_progress_ends_and_the_planner_drops_it():
         outcome = task.update((0.0, 0.0)) if clip is not None else None
     assert outcome.kind == 'no_progress' and not stage.targets, outcome
     assert stage.recovery_params.window * stages.GIVE_UP_RECOVERY == 32 and '32 strides' in outcome.reason
+
+
+def test_other_bodies_are_kept_by_frame_until_everyone_is_heard_and_none_make_no_obstacles():
+    from iguana_ros.stages import OtherBodies
+    others = OtherBodies(['b', 'c'])
+    others.add('c', 4, np.array([1.0, 2.0]), np.array([0.1, 0.0]))
+    assert not others.ready(4) and others.missing(4) == ['b']
+    others.add('b', 4, np.array([3.0, 4.0]), np.array([0.0, 0.2]))
+    others.add('b', 4, np.array([9.0, 9.0]), np.array([9.0, 9.0]))        # a re-sent state: the first one counts
+    others.add('b', 5, np.array([3.1, 4.0]), np.array([0.0, 0.2]))
+    assert others.ready(4) and not others.ready(5)
+    seen = others.obstacles(4)
+    assert np.array_equal(seen.xy, [[3.0, 4.0], [1.0, 2.0]]) and np.array_equal(seen.velocity, [[0.0, 0.2], [0.1, 0.0]])
+    alone = OtherBodies([])
+    assert alone.ready(7) and alone.obstacles(7).xy.shape == (0, 2)

@@ -125,8 +125,8 @@ class PlannerNode(IguanaNode):
         The others' topics are siblings of this node's namespace (`/iguana_a` hears `/iguana_b/iguana_state`).
         """
         world, mine = self.world_scene, self.characters[0][0]
-        if not world.characters or not next(c for c in world.characters if c.name == mine).avoid_others:
-            return None
+        if len(world.characters) < 2 or not next(c for c in world.characters if c.name == mine).avoid_others:
+            return None                             # alone in its world (or walking as if alone): no one to hear
         namespace = self.get_namespace().rstrip('/')
         parent = namespace.rsplit('/', 1)[0] if namespace.rsplit('/', 1)[-1] == mine else namespace
         others = OtherBodies([c.name for c in world.characters if c.name != mine])

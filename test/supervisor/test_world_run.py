@@ -112,3 +112,16 @@ def test_each_character_has_its_topics_frames_and_summary_under_its_name(trio):
     assert summary.characters['walker'].gait is not None and summary.characters['walker'].gait.metrics is not None
     lines = '\n'.join(summary.lines())
     assert 'body contact: ' in lines and 'dodger: goal not reached' in lines
+
+
+def test_a_world_of_one_character_runs_under_its_name(tmp_path):
+    """A `characters` list of one: its topics under its name, its planner with no one to hear (avoid_others on)."""
+    path = tmp_path / 'solo.yaml'
+    path.write_text(yaml.safe_dump({**trio_scene(), 'name': 'solo', 'duration': 0.5,
+                                    'characters': [trio_scene()['characters'][2]]}))
+    summary = run_scene(RunOptions(scene=str(path), record=tmp_path / 'bag', timeout=300))
+    assert summary.exit_code == 0, summary.message
+    assert list(summary.characters) == ['dodger'] and summary.simulated_s == pytest.approx(0.5)
+    states = read_topics(tmp_path / 'bag', ['iguana_state'], '/dodger').messages['iguana_state']
+    times, roots, _ = root_trajectory(states)
+    assert np.array_equal(roots[1:], run_world(load_scene(str(path))).characters['dodger'].root_positions)

@@ -179,8 +179,6 @@ def crowd_node_run(n: int, resolution: str, seconds: float) -> dict:
     with tempfile.TemporaryDirectory(prefix='iguana_crowd_') as tmp:
         path = Path(tmp) / f'crowd{n}.yaml'
         scene = crowd_scene_dict(n, resolution, seconds)
-        if n == 1:       # nobody to avoid, the same run; a planner node of a lone character with avoid_others on
-            scene['characters'][0]['avoid_others'] = False     # fails (stages.OtherBodies.obstacles: KeyError)
         path.write_text(yaml.safe_dump(scene, sort_keys=False))
         with ChildMemory() as memory:
             summary = run_scene(RunOptions(scene=str(path), record=Path(tmp) / 'bag',
