@@ -168,14 +168,35 @@ class SimBody:
             self.goals.extend(new)
             self.node.publish_scene_markers()
 
+    def expect_peers(self, namespace: str | None, hearing: list[str]) -> None:
+        """
+        Name the lockstep peers this body waits for: its character's nodes in `namespace` (None: any namespace).
+
+        `hearing` names the namespaces of the other characters' planners that plan with this body's state.
+        """
+        self.peer_namespace = namespace
+        self.hearing = hearing
+
     def peers_listed(self) -> bool:
-        """Whether this body's planner and terrain adaptation read its iguana_state and its spring lengths come."""
+        """
+        Whether this body's planner, terrain adaptation and hearing planners read its state, and its lengths come.
+
+        Each from the node of that name in its namespace (a world's: the character's; a lone iguana's: any).
+        """
         node = self.node
-        listed = {info.node_name for info in node.get_subscriptions_info_by_topic(self.state_pub.topic_name)}
-        writers = {info.node_name
+        readers = {(info.node_namespace, info.node_name)
+                   for info in node.get_subscriptions_info_by_topic(self.state_pub.topic_name)}
+        writers = {(info.node_namespace, info.node_name)
                    for info in node.get_publishers_info_by_topic(resolve('spring_rest_lengths', self.prefix)[0])}
-        return (set(topic('iguana_state').subscriber_nodes) <= listed
-                and set(topic('spring_rest_lengths').publisher_nodes) <= writers)
+        return (self._listed(topic('iguana_state').subscriber_nodes, readers)
+                and all((ns, 'planner_node') in readers for ns in self.hearing)
+                and self._listed(topic('spring_rest_lengths').publisher_nodes, writers))
+
+    def _listed(self, names, endpoints: set) -> bool:
+        """Whether every node of `names` has an endpoint among (namespace, name) `endpoints`, in its namespace."""
+        if self.peer_namespace is None:
+            return set(names) <= {name for _, name in endpoints}
+        return all((self.peer_namespace, name) in endpoints for name in names)
 
     def recorded_names(self) -> list[str]:
         """Return this body's topics the recorder must read from frame 0 (its own publishers' names as remapped)."""
@@ -254,6 +275,11 @@ class SimulatorNode(IguanaNode):
         self.bodies = [SimBody(self, name, one, stage, f'{name}/' if self.in_world else '',
                                f'{base}{name}/' if self.in_world else base)
                        for (name, one), stage in zip(self.characters, stages)]
+        root = self.get_namespace().rstrip('/')
+        careful = [c.name for c in self.world_scene.characters if c.avoid_others] if len(self.bodies) > 1 else []
+        for body in self.bodies:
+            body.expect_peers(f'{root}/{body.name}' if self.in_world else None,
+                              [f'{root}/{name}' for name in careful if name != body.name])
         self.publisher('tf_static').publish(static_tf_to_cdr([b.frames for b in self.bodies]))  # latched: world -> odom
         awaiting = ReentrantCallbackGroup()   # a step awaits its frames: its group stays busy until they are simulated
         for key, callback in (('sim_pause', self.on_pause), ('sim_resume', self.on_resume), ('sim_step', self.on_step),
