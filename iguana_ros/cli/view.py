@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana view [BAG]`: the iguana in a web browser, live from the running nodes (default) or from a bag."""
+"""`iguana view [BAG]`: the iguana (or a world's characters) in a web browser, live (default) or from a bag."""
 from __future__ import annotations
 
 import argparse
@@ -24,7 +24,8 @@ from iguana_ros.cli.argtypes import add_namespace
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `view` sub-command."""
     parser = subparsers.add_parser(
-        'view', help='show the iguana in a web browser: live (click to set a goal) or a bag with a timeline')
+        'view', help='show the iguana (every character of a world) in a web browser: live (click to set a goal for '
+                     'the selected one) or a bag with a timeline')
     parser.add_argument('bag', nargs='?', type=Path, default=None,
                         help='a recorded bag (directory or .mcap) to play with a timeline (default: live)')
     parser.add_argument('--port', type=int, default=8080, help='port of the web page (default 8080; 0 = any free)')
@@ -74,12 +75,14 @@ def _serve_bag(args: argparse.Namespace) -> int:
 
     library, push_duration = _defaults()
     bag = load_bag(args.bag, allow_damaged=args.allow_damaged, library=library, push_duration=push_duration)
-    playback = Playback(bag.view.start_time, bag.view.end_time, speed=args.speed, playing=not args.paused,
+    playback = Playback(bag.world.start_time, bag.world.end_time, speed=args.speed, playing=not args.paused,
                         loop=args.loop)
     notes = tuple(([bag.damage] if bag.damage else []) + bag.notes)
-    page = ViewerPage(bag.view, args.host, args.port, title=f'iguana view: {Path(args.bag).name}',
+    page = ViewerPage(bag.world, args.host, args.port, title=f'iguana view: {Path(args.bag).name}',
                       playback=playback, notes=notes, draw_hz=args.rate, token=args.token)
-    _announce(page, f'bag {args.bag}, {playback.end - playback.start:.1f} s', notes)
+    cast = bag.world.names
+    who = f', {len(cast)} characters: {", ".join(cast)}' if len(cast) > 1 else ''
+    _announce(page, f'bag {args.bag}, {playback.end - playback.start:.1f} s{who}', notes)
     return _until_stopped(page)
 
 
@@ -90,13 +93,13 @@ def _serve_live(args: argparse.Namespace) -> int:
     require_ros()  # before rclpy is imported: a bad ROS environment is one line naming it, not rcl's or Fast DDS's
     from iguana_ros.supervisor.domain_check import current_domain_id
     from iguana_ros.view.live import LiveSource
-    from iguana_ros.view.scene import RunView
+    from iguana_ros.view.scene import WorldView
     from iguana_ros.view.server import ViewerPage
     library, push_duration = _defaults()
-    view = RunView(keep_meshes=1)
-    live = LiveSource(view, library, push_duration, namespace=args.namespace)
+    world = WorldView(keep_meshes=1)       # a lone iguana's, or each character's of a world as it appears
+    live = LiveSource(world, library, push_duration, namespace=args.namespace)
     try:
-        page = ViewerPage(view, args.host, args.port, title='iguana view: live', live=live, draw_hz=args.rate,
+        page = ViewerPage(world, args.host, args.port, title='iguana view: live', live=live, draw_hz=args.rate,
                           token=args.token)
         where = f' in namespace {args.namespace}' if args.namespace else ''
         _announce(page, f'live on ROS_DOMAIN_ID {current_domain_id()}{where}', ())

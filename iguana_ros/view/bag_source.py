@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """
-A recorded bag read into a `RunView` for the timeline.
+A recorded bag read into a `WorldView` for the timeline.
 
 Every mesh frame, the root's states, the feet, pushes, clips, terrain and goals, in one pass over the bag (the same
-decoders as live mode: the nodes' own, on the recorded bytes). Wall time is each message's publish time (its
-publisher's send time, wall clock in every bag): a run's log times are simulated time, which would make the realtime
-factor 1.
+decoders as live mode: the nodes' own, on the recorded bytes), of every character: each recorded `.../mesh_marker` is
+one, with the topics beside it (`/east/mesh_marker`, `/east/iguana_state`, ...; a lone iguana's are the root's). Wall
+time is each message's publish time (its publisher's send time, wall clock in every bag): a run's log times are
+simulated time, which would make the realtime factor 1.
 """
 from __future__ import annotations
 
@@ -33,97 +34,156 @@ from iguana_ros.bag.storage import accept, BagReader, summarize
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.topics import topic
 from iguana_ros.view import decode
-from iguana_ros.view.scene import RunView
+from iguana_ros.view.scene import RunView, WorldView
 
 ROLES = ('mesh_marker', 'scene_markers', 'iguana_state', 'foot_state', 'foot_positions', 'push', 'motion_clip')
 """Topic-table keys the viewer reads from a bag."""
 
+WORLD_ROLES = ('scene_markers',)
+"""Of ROLES, the world's (one for every character); the others are each character's, beside its mesh_marker."""
+
 
 @dataclass
 class BagView:
-    """A bag's RunView, its damage report line ('' when sound) and what was skipped, one sentence each."""
+    """
+    A bag's characters (`world`), its damage report line ('' when sound) and what was skipped, one sentence each.
 
-    view: RunView
+    `view` is the first character's RunView: a lone iguana's, holding the terrain and goals too.
+    """
+
+    world: WorldView
     damage: str = ''
     notes: list[str] = field(default_factory=list)
 
+    @property
+    def view(self) -> RunView:
+        """Return the RunView of the first character: a lone iguana's, the only one."""
+        names = self.world.names
+        return self.world.views[names[0]] if names else self.world.world
 
-def _roles(path: str | Path) -> tuple[dict, object]:
+
+def characters(recorded: dict[str, str]) -> dict[str, str]:
     """
-    Return ({recorded topic: table key} of the ROLES in the bag, its BagSummary, checked in full).
+    Return {character name: topic prefix} of every recorded `.../mesh_marker` of the mesh type.
 
-    InputError for a missing bag or one without a mesh_marker topic.
+    `recorded` maps each recorded topic to its type.
+
+    One such topic is a lone iguana, the character '' (whatever its namespace); of several, each is named by its prefix
+    without the namespace they all share (`/east/mesh_marker` -> 'east', `/ns/east/mesh_marker` -> 'east').
+    """
+    spec = topic('mesh_marker')
+    suffix = spec.name.lstrip('/')
+    prefixes = sorted(name[:-len(suffix)] for name, kind in recorded.items()
+                      if kind == spec.type and (name == '/' + suffix or name.endswith('/' + suffix)))
+    if len(prefixes) <= 1:
+        return {'': prefix for prefix in prefixes}
+    parts = [p.strip('/').split('/') if p.strip('/') else [] for p in prefixes]
+    shared = 0
+    while all(len(q) > shared + 1 for q in parts) and len({q[shared] for q in parts}) == 1:
+        shared += 1
+    return {'/'.join(q[shared:]): p for q, p in zip(parts, prefixes)}
+
+
+def _roles(path: str | Path) -> tuple[dict, dict, object]:
+    """
+    Return ({recorded topic: (table key, character)} of the ROLES in the bag, {character: prefix}, its BagSummary).
+
+    The bag is checked in full. A character's topics are those beside its mesh_marker; the world's, the
+    `match_topic` of the table's name. InputError for a missing bag or one without a mesh_marker topic.
     """
     summary = summarize(path)
     recorded = {t.name: t.type for t in summary.topics}
+    cast = characters(recorded)
+    if not cast:
+        raise InputError(f'bag {path} has no {topic("mesh_marker").name} topic of type {topic("mesh_marker").type} '
+                         f'(recorded: {", ".join(sorted(recorded)) or "nothing"}); nothing to show')
     roles = {}
     for key in ROLES:
         spec = topic(key)
-        name = match_topic(list(recorded), spec.name)
-        if name is not None and recorded[name] == spec.type:
-            roles[name] = key
-    if 'mesh_marker' not in roles.values():
-        raise InputError(f'bag {path} has no {topic("mesh_marker").name} topic of type {topic("mesh_marker").type} '
-                         f'(recorded: {", ".join(sorted(recorded)) or "nothing"}); nothing to show')
-    return roles, summary
+        if key in WORLD_ROLES:
+            name = match_topic(list(recorded), spec.name)
+            if name is not None and recorded[name] == spec.type:
+                roles[name] = (key, '')
+            continue
+        for character, prefix in cast.items():
+            name = prefix + spec.name.lstrip('/')
+            if recorded.get(name) == spec.type:
+                roles[name] = (key, character)
+    return roles, cast, summary
 
 
 def load_bag(path: str | Path, allow_damaged: bool = False, library: dict | None = None,
              push_duration: float = 0.1) -> BagView:
     """
-    Read bag `path` (see the module docstring).
+    Read bag `path` (see the module docstring): every character of it.
 
     `library` names the clips (name -> clip), pushes last `push_duration` s. InputError for a missing bag or one without
     mesh frames; DamagedBag for a damaged or truncated bag unless `allow_damaged`.
     """
-    roles, summary = _roles(path)
+    roles, cast, summary = _roles(path)
     damage = accept(summary, allow_damaged)
-    view, skipped = RunView(), {}
-    pushes, scenes = [], []
-    takers: dict[str, Callable] = {
-        'mesh_marker': lambda data, _: decode.take_mesh(view, data),
-        'scene_markers': lambda data, wall_ns: scenes.append((wall_ns, data)),
-        'iguana_state': lambda data, wall_ns: decode.take_state(view, data, wall_ns / NS),
-        'foot_state': lambda data, _: decode.take_foot_state(view, data),
-        'foot_positions': lambda data, _: decode.take_foot_positions(view, data),
-        'motion_clip': lambda data, _: decode.take_clip(view, data, library or {}),
-        'push': lambda data, wall_ns: pushes.append((wall_ns, data)),
-    }
+    world, skipped = WorldView(), {}
+    pushes, scenes = {name: [] for name in {'', *cast}}, []
+
+    def takers(view: RunView, character: str) -> dict[str, Callable]:
+        return {
+            'mesh_marker': lambda data, _: decode.take_mesh(view, data),
+            'scene_markers': lambda data, wall_ns: scenes.append((wall_ns, data)),
+            'iguana_state': lambda data, wall_ns: decode.take_state(view, data, wall_ns / NS),
+            'foot_state': lambda data, _: decode.take_foot_state(view, data),
+            'foot_positions': lambda data, _: decode.take_foot_positions(view, data),
+            'motion_clip': lambda data, _: decode.take_clip(view, data, library or {}),
+            'push': lambda data, wall_ns: pushes[character].append((wall_ns, data)),
+        }
+    by_character = {name: takers(world.character(name), name) for name in {'', *cast}}   # '': the world's topics
     for record in BagReader(path).messages():
-        key = roles.get(record.topic)
-        if key is None:
+        role = roles.get(record.topic)
+        if role is None:
             continue
+        key, character = role
         try:
-            takers[key](bytes(record.data), record.publish_time)
+            by_character[character][key](bytes(record.data), record.publish_time)
         except IguanaError as exc:  # a message that does not decode or fit: counted, not fatal
-            skipped.setdefault(key, [0, str(exc)])[0] += 1
-    _place_by_receive_time(view, scenes, pushes, push_duration, skipped)
-    if not view.meshes:
+            skipped.setdefault(_label(key, character), [0, str(exc)])[0] += 1
+    first = world.views[sorted(cast)[0]]
+    _place_by_receive_time(first, world.world, scenes, lambda view, data, t: decode.take_scene(view, data, t),
+                           'scene_markers', skipped)
+    for name, messages in pushes.items():
+        view = world.views[name]
+        _place_by_receive_time(view, view, messages,
+                               lambda into, data, t: decode.take_push(into, data, t, push_duration),
+                               _label('push', name), skipped)
+    if not world.names:
         raise InputError(f'bag {path} has no usable {topic("mesh_marker").name} messages; nothing to show')
     notes = [f'skipped {n} {key} message(s) that did not fit (first: {why})' for key, (n, why) in skipped.items()]
-    return BagView(view, damage, notes)
+    return BagView(world, damage, notes)
 
 
-def _place_by_receive_time(view: RunView, scenes: list, pushes: list, push_duration: float, skipped: dict) -> None:
+def _label(key: str, character: str) -> str:
+    """Return how a note names topic `key` of `character` ('east/push'; a lone iguana's: 'push')."""
+    return f'{character}/{key}' if character else key
+
+
+def _place_by_receive_time(clock: RunView, into: RunView, messages: list, take: Callable, key: str,
+                           skipped: dict) -> None:
     """
     Scene markers and pushes carry no simulated time.
 
-    Each takes the simulated time of the states sent around it (from the messages' wall-clock send times); one that
-    does not decode is counted in `skipped`.
+    Each of `messages` (wall-clock send time, bytes) is taken into `into` by `take(into, data, t)` at the simulated time
+    `t` of the states of `clock` sent around it (from the messages' wall-clock send times); one that does not decode is
+    counted in `skipped` under `key`.
     """
-    states = view.states
+    states = clock.states
     walls, times = states.values[:, 5], states.times
     known = np.isfinite(walls)
 
     def sim_time(log_ns: int) -> float:
         if not known.any():
-            return view.start_time
+            return clock.start_time
         return float(np.interp(log_ns / NS, walls[known], times[known]))
 
-    for key, messages, take in (('scene_markers', scenes, lambda data, t: decode.take_scene(view, data, t)),
-                                ('push', pushes, lambda data, t: decode.take_push(view, data, t, push_duration))):
-        for log_ns, data in messages:
-            try:
-                take(data, sim_time(log_ns))
-            except IguanaError as exc:  # a damaged marker array or push: the others still show
-                skipped.setdefault(key, [0, str(exc)])[0] += 1
+    for log_ns, data in messages:
+        try:
+            take(into, data, sim_time(log_ns))
+        except IguanaError as exc:  # a damaged marker array or push: the others still show
+            skipped.setdefault(key, [0, str(exc)])[0] += 1

@@ -23,11 +23,15 @@ latest mesh, the root's path so far, the feet in contact, the push arrows acting
 speed, foot slip and realtime factor. Live mode appends as messages arrive and draws the latest time; bag mode
 fills it from a bag and draws the timeline's time. Every method takes the view's lock, so a ROS thread may
 append while the web server's thread draws.
+
+A `WorldView` holds a run's characters, one `RunView` each by name: a world's (`iguana run crossing`: `east/...`,
+`north/...`) under their names with the terrain and goals in a view of the world's own, a lone iguana's as the
+character '' whose view is the world's (everything as before).
 """
 from __future__ import annotations
 
 from bisect import bisect_right
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
 import threading
 
@@ -344,6 +348,84 @@ class RunView:
         if not np.isfinite(dwall) or dwall < RTF_MIN_WALL_S:
             return math.nan
         return float((self.states.times[k] - self.states.times[j]) / dwall)
+
+
+@dataclass(frozen=True)
+class Body:
+    """One character's body at a time: its name ('' for a lone iguana), latest surface, root position `(3,)` m."""
+
+    name: str
+    mesh: MeshFrame | None
+    root: np.ndarray | None
+
+
+class WorldView:
+    """
+    The characters of a run, each a `RunView` by name, and the world's terrain and goals (see the module docstring).
+
+    The character '' (a lone iguana, whose topics are the root ones) is the world's view itself; a named one has a view
+    of its own (sharing the world's lock) made by `character`. `keep_meshes` is each view's (None: all).
+    """
+
+    def __init__(self, world: RunView | None = None, keep_meshes: int | None = None) -> None:
+        """Wrap `world` (None: a new RunView keeping `keep_meshes`): terrain, goals and the character ''."""
+        self.world = RunView(keep_meshes=keep_meshes) if world is None else world
+        self.lock = self.world.lock
+        self.views: dict[str, RunView] = {'': self.world}
+
+    @classmethod
+    def of(cls, view: RunView | WorldView) -> WorldView:
+        """Return `view` if it is a WorldView, else a WorldView of the lone iguana `view`."""
+        return view if isinstance(view, WorldView) else cls(view)
+
+    def character(self, name: str) -> RunView:
+        """Return the view of character `name`, made empty (sharing the world's lock) the first time."""
+        with self.lock:
+            if name not in self.views:
+                self.views[name] = RunView(keep_meshes=self.world.keep_meshes, lock=self.lock)
+            return self.views[name]
+
+    @property
+    def names(self) -> list[str]:
+        """Return the names of the characters seen so far (that have a mesh), sorted."""
+        with self.lock:
+            return sorted(name for name, view in self.views.items() if view.meshes)
+
+    @property
+    def end_time(self) -> float:
+        """Return the latest simulated time anything was seen at, over every character, s (0 before anything)."""
+        with self.lock:
+            return max(view.end_time for view in self.views.values())
+
+    @property
+    def start_time(self) -> float:
+        """Return the earliest simulated time of a mesh or state of a character that has one, s (0 before anything)."""
+        with self.lock:
+            started = [view.start_time for view in self.views.values() if view.meshes or view.states.n]
+            return min(started, default=0.0)
+
+    def frame(self, name: str, time: float | None = None) -> ViewFrame:
+        """Return what to draw of character `name` at simulated time `time` s (None: its latest), with the goals."""
+        with self.lock:
+            view = self.views.get(name, self.world)
+            frame = view.frame(time)
+            if view is self.world:
+                return frame
+            goals = self.world.goals
+            return replace(frame, goals=(goals[-1] if goals else None) if time is None else _latest(goals, frame.time),
+                           terrain_version=self.world.terrain_version)
+
+    def bodies(self, time: float | None = None) -> list[Body]:
+        """Return every character that has a mesh, by name: its surface and root at `time` s (None: its latest)."""
+        with self.lock:
+            out = []
+            for name in self.names:
+                view = self.views[name]
+                t = view.end_time if time is None else float(time)
+                k = view.states.index_at(t)
+                root = view.states.values[max(k, 0), :3].copy() if view.states.n else None
+                out.append(Body(name, _latest(view.meshes, t), root))
+            return out
 
 
 def panel_lines(frame: ViewFrame) -> list[str]:

@@ -20,6 +20,10 @@ sends a goal, buttons send pushes) or the bag timeline (play, pause, scrub, spee
 the wheel; the page shows "Connecting..." in its panel when it loses the server and reconnects by itself when a server
 is back. viser listens on a private loopback port behind the gate (`gate.py`), which serves `--host`/`--port`, checks
 every message a browser sends (`wire.py`) and, with a token, makes pages that have not presented it read-only.
+
+A world of several characters (`scene.WorldView`) draws every character's surface, each with its name above it; one is
+selected (the 'character' dropdown, or a click on its body): its goals, pushes, path, feet, figures and the camera's
+follow are its. A lone iguana's page is as it was (no dropdown, no names).
 """
 from __future__ import annotations
 
@@ -36,7 +40,7 @@ from iguana_ros.render.renderer import TRAIL_LIFT, TRAIL_RGB
 from iguana_ros.scene import MAX_PUSH_FORCE
 from iguana_ros.view.gate import Gate, GateConfig, say, TOKEN_PARAMETER
 from iguana_ros.view.playback import Playback, SPEEDS
-from iguana_ros.view.scene import flank_push, panel_lines, PUSH_SIDES, RunView, terrain_hit, ViewFrame
+from iguana_ros.view.scene import Body, flank_push, panel_lines, PUSH_SIDES, RunView, terrain_hit, ViewFrame, WorldView
 from iguana_ros.view.wire import InputRule
 
 DRAW_HZ = 20.0
@@ -64,6 +68,22 @@ SIM_BUTTONS = (('pause', 'pause'), ('resume', 'resume'), ('step 1 frame', 'step'
 
 DEFAULT_PUSH_N = 40.0
 """The push button's default force, N (Section VIII-D)."""
+
+LABEL_LIFT_M = 0.12
+"""Height of a character's name above its root, m."""
+
+LONE = '(the iguana)'
+"""How the dropdown names the character '' (a lone iguana's root topics) beside named ones."""
+
+
+def character_label(name: str) -> str:
+    """Return how the page names character `name` ('' : LONE)."""
+    return name or LONE
+
+
+def goal_topic(name: str) -> str:
+    """Return the goal topic of character `name` relative to the viewer's namespace ('east/goal_pose', 'goal_pose')."""
+    return f'{name}/goal_pose' if name else 'goal_pose'
 
 
 def _rgb(rgba: np.ndarray) -> tuple[int, int, int]:
@@ -161,7 +181,10 @@ class _Drawn:
     """What the page shows now, so only changes are sent."""
 
     terrain_version: int = 0
-    mesh_time: float | None = None
+    mesh_times: dict = field(default_factory=dict)
+    """The time of each character's drawn surface, by name."""
+    labels: dict = field(default_factory=dict)
+    """The (text, position) of each character's drawn name, by name."""
     path_pieces: list = field(default_factory=list)
     """The points (as bytes) of each drawn piece of the root's path."""
     contacts: bytes = b'-'
@@ -176,10 +199,11 @@ class ViewerPage:
     """
     The web page of one viewer: `serve(stop)` draws until `stop` is set, `close()` stops the server.
 
-    `live` (a LiveSource) enables goals and pushes; `playback` (a Playback) shows the timeline.
+    `view` is a lone iguana's RunView or a world's WorldView; `live` (a LiveSource) enables goals and pushes;
+    `playback` (a Playback) shows the timeline.
     """
 
-    def __init__(self, view: RunView, host: str = '127.0.0.1', port: int = 8080, title: str = 'iguana view',
+    def __init__(self, view: RunView | WorldView, host: str = '127.0.0.1', port: int = 8080, title: str = 'iguana view',
                  live=None, playback: Playback | None = None, notes: tuple = (), draw_hz: float | None = None,
                  token: str | None = None) -> None:
         """
@@ -191,7 +215,8 @@ class ViewerPage:
 
         check_port(host, port)
         self.draw_hz = check_draw_rate(draw_hz)
-        self.view, self.live, self.playback, self.host, self.token = view, live, playback, host, token
+        self.world = WorldView.of(view)
+        self.view, self.live, self.playback, self.host, self.token = self.world.world, live, playback, host, token
         self.inputs: dict[str, InputRule] = {}
         self.gate: Gate | None = None
         with _quiet():  # on a private loopback port; the gate is the public one
@@ -213,7 +238,16 @@ class ViewerPage:
                        if self.live is not None else '')
         self.pending_goal: tuple[float, float] | None = None
         self.pending_heading = ''
-        self.last_goal: tuple[float, float] | None = None
+        self.pending_to = ''
+        self.last_goals: dict[str, tuple[float, float]] = {}
+        """The last goal sent to each character, for a shift-click's heading."""
+        self.selected = ''
+        """The selected character ('' : a lone iguana's)."""
+        self.cast: tuple[str, ...] = ()
+        """The characters listed (those with a surface), sorted."""
+        self.bodies: list[Body] = []
+        """The characters' bodies as last drawn."""
+        self._selector = None
         self.server.gui.add_markdown(f'**{title}**')
         self._panel = self.server.gui.add_markdown('')
         self._status = self.server.gui.add_markdown(self.status)
@@ -259,12 +293,18 @@ class ViewerPage:
 
     def _push(self, side: str) -> None:
         """Send a push on flank `side` with the panel's force, sideways to the iguana's heading."""
-        frame = self.view.frame()
-        k = self.view.states.index_at(frame.time)
-        yaw = float(self.view.states.values[k, 3]) if k >= 0 else 0.0
+        name = self.selected
+        with self.world.lock:
+            view = self.world.views.get(name, self.view)
+            k = view.states.index_at(view.end_time)
+            yaw = float(view.states.values[k, 3]) if k >= 0 else 0.0
         force, region = flank_push(yaw, self._force.value, side)
-        self.live.send_push(force, region)
-        self._set_status(f'push of {self._force.value:g} N sent on {region}.')
+        if name:
+            self.live.send_push(force, region, character=name)
+            self._set_status(f'push of {self._force.value:g} N sent on {region} of {name}.')
+        else:
+            self.live.send_push(force, region)
+            self._set_status(f'push of {self._force.value:g} N sent on {region}.')
 
     def _timeline(self) -> None:
         """Play/pause, time slider, speed and loop (bag mode)."""
@@ -289,37 +329,108 @@ class ViewerPage:
         self._loop.on_update(_guarded(lambda _event: setattr(pb, 'loop', bool(self._loop.value)), 'loop'))
 
     def _on_click(self, event) -> None:
-        """Handle a click in the scene: on the terrain in live mode, a goal there."""
+        """
+        Handle a click in the scene: on a character's body (of several), select it; on the terrain in live mode, a goal.
+
+        The nearer of the terrain and the bodies along the click's ray is what was clicked.
+        """
         with self.view.lock:
             corners = self.view.terrain_points
         hit = None if corners is None else terrain_hit(event.ray_origin, event.ray_direction, corners)
+        body = self._body_hit(event.ray_origin, event.ray_direction, hit)
+        if body is not None:
+            self._select(body)
+            return
         if hit is None:
             self._set_status('That click missed the terrain; click on the ground to send a goal.')
         elif self.live is None:
             self._set_status(f'Bag mode: goals are sent in live mode (clicked x {hit[0]:.2f} m, y {hit[1]:.2f} m).')
         else:
-            self.live.send_goal(float(hit[0]), float(hit[1]))
-            self.pending_goal = self.last_goal = (float(hit[0]), float(hit[1]))
-            self.pending_heading = ''
-            self._set_status(f'goal x {hit[0]:.2f} m, y {hit[1]:.2f} m sent on goal_pose; waiting for the planner.')
+            name = self.selected
+            x, y = float(hit[0]), float(hit[1])
+            self._send_goal(name, x, y, None)
+            self.pending_goal = self.last_goals[name] = (x, y)
+            self.pending_heading, self.pending_to = '', name
+            self._set_status(f'goal x {hit[0]:.2f} m, y {hit[1]:.2f} m sent on {goal_topic(name)}; waiting for the '
+                             f'planner.')
+
+    def _send_goal(self, name: str, x: float, y: float, yaw: float | None) -> None:
+        """Send a goal to character `name` (a lone iguana's call as before characters: no `character`)."""
+        if name:
+            self.live.send_goal(x, y, yaw, character=name)
+        elif yaw is None:
+            self.live.send_goal(x, y)
+        else:
+            self.live.send_goal(x, y, yaw)
+
+    def _body_hit(self, origin, direction, terrain: np.ndarray | None) -> str | None:
+        """Return the character whose body a ray meets before `terrain` (its hit, or None), when there are several."""
+        if len(self.bodies) < 2:
+            return None
+        o = np.asarray(origin, float)
+        nearest = math.inf if terrain is None else float(np.linalg.norm(terrain - o))
+        found = None
+        for body in self.bodies:
+            hit = None if body.mesh is None else terrain_hit(origin, direction, np.asarray(body.mesh.points, float))
+            if hit is not None and float(np.linalg.norm(hit - o)) < nearest:
+                nearest, found = float(np.linalg.norm(hit - o)), body.name
+        return found
+
+    def _select(self, name: str) -> None:
+        """Make character `name` the selected one (its goals, pushes, path, figures; the cameras follow it)."""
+        if name not in self.cast:
+            return
+        self.selected = name
+        if self._selector is not None and self._selector.value != character_label(name):
+            self._selector.value = character_label(name)
+        self._set_status(f'{character_label(name)} selected: a click on the terrain sends its goal on '
+                         f'{goal_topic(name)}.' if self.live is not None else f'{character_label(name)} selected.')
 
     def _on_heading_click(self, event) -> None:
         """Handle a shift-click in live mode: send the last goal again, heading from it toward the clicked point."""
         with self.view.lock:
             corners = self.view.terrain_points
         hit = None if corners is None else terrain_hit(event.ray_origin, event.ray_direction, corners)
-        if self.live is None or self.last_goal is None or hit is None:
+        name = self.selected
+        if self.live is None or name not in self.last_goals or hit is None:
             self._set_status('Click on the terrain for a goal first, then shift-click where it should face.')
             return
-        x, y = self.last_goal
+        x, y = self.last_goals[name]
         if math.hypot(hit[0] - x, hit[1] - y) < 1e-3:
             self._set_status('Shift-click away from the goal to point its heading.')
             return
         yaw = math.degrees(math.atan2(hit[1] - y, hit[0] - x))
-        self.live.send_goal(x, y, yaw)
-        self.pending_goal, self.pending_heading = (x, y), f' heading {yaw:.0f} deg'
-        self._set_status(f'goal x {x:.2f} m, y {y:.2f} m heading {yaw:.0f} deg sent on goal_pose; waiting for the '
-                         f'planner.')
+        self._send_goal(name, x, y, yaw)
+        self.pending_goal, self.pending_heading, self.pending_to = (x, y), f' heading {yaw:.0f} deg', name
+        self._set_status(f'goal x {x:.2f} m, y {y:.2f} m heading {yaw:.0f} deg sent on {goal_topic(name)}; waiting '
+                         f'for the planner.')
+
+    def _list_characters(self) -> None:
+        """
+        List the characters that have a surface; select the first once there is one, the dropdown once there are two.
+
+        A new character (live: a late one) is added to the dropdown's options and to what the page may send.
+        """
+        cast = tuple(self.world.names)
+        if cast == self.cast:
+            return
+        self.cast = cast
+        if self.selected not in cast and cast:
+            self.selected = cast[0]
+        if len(cast) < 2:
+            return
+        labels = tuple(character_label(name) for name in cast)
+        rule = InputRule('character', 'choice', choices=labels)
+        if self._selector is None:
+            self._selector = self._input(self.server.gui.add_dropdown(
+                'character', labels, initial_value=character_label(self.selected), order=self._status.order - 0.5,
+                hint=('clicks on the terrain send goals to this character' if self.live is not None else
+                      'the character whose path and figures are shown') + '; a click on a body selects it too'), rule)
+            self._selector.on_update(_guarded(lambda _event: self._select(
+                cast_name(self._selector.value, self.cast)), 'a character'))
+        else:
+            self.inputs[self._selector._impl.uuid] = rule   # before the page can offer the new option
+            self._selector.options = labels
 
     def _set_status(self, text: str) -> None:
         """Show `text` under the figures."""
@@ -327,8 +438,8 @@ class ViewerPage:
         self._status.content = text
 
     def _on_connect(self, client) -> None:
-        """Point a new browser's camera at the iguana."""
-        frame = self.view.frame(self.playback.time if self.playback else None)
+        """Point a new browser's camera at the (selected) iguana."""
+        frame = self.world.frame(self.selected, self.playback.time if self.playback else None)
         if frame.root is not None:
             self._aim(client.camera, frame.root)
 
@@ -347,7 +458,8 @@ class ViewerPage:
             watched = bool(self.server.get_clients())
             t = self.playback.advance(now - last if watched else 0.0) if self.playback else None
             last = now
-            self.draw(self.view.frame(t))
+            self._list_characters()
+            self.draw(self.world.frame(self.selected, t), self.world.bodies(t))
             if self.playback is not None:
                 self._show_playback()
             if self.live is not None:
@@ -368,16 +480,25 @@ class ViewerPage:
         self._was_playing = pb.playing
         self._play.label = 'pause' if pb.playing else 'play'
 
-    def draw(self, frame: ViewFrame) -> None:
-        """Send what changed since the last draw."""
+    def draw(self, frame: ViewFrame, bodies: list[Body] | None = None) -> None:
+        """
+        Send what changed since the last draw.
+
+        `frame` is the selected character's; `bodies` every character's (None: `frame`'s alone, a lone iguana's).
+        """
         drawn, scene = self.drawn, self.server.scene
+        if bodies is None:
+            bodies = [Body(self.selected, frame.mesh, frame.root)]
+        self.bodies = bodies
         with self.server.atomic():
             if frame.terrain_version != drawn.terrain_version:
                 self._draw_terrain()
                 drawn.terrain_version = frame.terrain_version
-            if frame.mesh is not None and frame.mesh.time != drawn.mesh_time:
-                self._draw_mesh(frame)
-                drawn.mesh_time = frame.mesh.time
+            for body in bodies:
+                if body.mesh is not None and body.mesh.time != drawn.mesh_times.get(body.name):
+                    self._draw_mesh(body)
+                    drawn.mesh_times[body.name] = body.mesh.time
+            self._draw_labels(bodies)
             self._draw_path(frame.path)
             self._draw_points('contacts', frame.contacts, lambda p: scene.add_point_cloud(
                 '/contacts', p.astype(np.float32), colors=CONTACT_RGB, point_size=0.035, point_shape='circle',
@@ -388,7 +509,7 @@ class ViewerPage:
             if frame.goals is not drawn.goals:
                 self._draw_goals(frame)
                 drawn.goals = frame.goals
-            panel = '  \n'.join(panel_lines(frame))
+            panel = '  \n'.join(panel_lines(frame) + self._cast_lines())
             if panel != drawn.panel:
                 self._panel.content = panel
                 drawn.panel = panel
@@ -432,16 +553,55 @@ class ViewerPage:
             '/terrain', points[:n].astype(np.float32), np.arange(n, dtype=np.uint32).reshape(-1, 3),
             color=_rgb(colors[:n]), side='double', cast_shadow=False))
 
-    def _draw_mesh(self, frame: ViewFrame) -> None:
-        """Draw the iguana's surface (its median colour, flat-shaded); the same triangle count only moves vertices."""
-        points = frame.mesh.points.astype(np.float32)
-        handle = self.handles.get('iguana')
+    def _cast_lines(self) -> list[str]:
+        """Return the panel's line naming the characters, the selected one in bold (none for one character)."""
+        if len(self.cast) < 2:
+            return []
+        names = [f'**{character_label(n)}** (selected)' if n == self.selected else character_label(n)
+                 for n in self.cast]
+        return [f'characters: {", ".join(names)}']
+
+    def _draw_mesh(self, body: Body) -> None:
+        """
+        Draw a character's surface (its median colour, flat-shaded); the same triangle count only moves vertices.
+
+        A lone iguana's is the scene node /iguana, character east's /iguanas/east.
+        """
+        key, node = ('iguana', '/iguana') if not body.name else (f'iguana/{body.name}', f'/iguanas/{body.name}')
+        points = body.mesh.points.astype(np.float32)
+        handle = self.handles.get(key)
         if handle is not None and handle.vertices.shape == points.shape:
             handle.vertices = points
             return
-        self._replace('iguana', self.server.scene.add_mesh_simple(
-            '/iguana', points, np.arange(len(points), dtype=np.uint32).reshape(-1, 3), color=_rgb(frame.mesh.colors),
+        self._replace(key, self.server.scene.add_mesh_simple(
+            node, points, np.arange(len(points), dtype=np.uint32).reshape(-1, 3), color=_rgb(body.mesh.colors),
             flat_shading=True, side='double'))
+
+    def _draw_labels(self, bodies: list[Body]) -> None:
+        """Name each character above its root (when there are several), the selected one marked."""
+        drawn = self.drawn.labels
+        shown = bodies if len(bodies) >= 2 else []
+        for body in shown:
+            place = body.root if body.root is not None else (
+                None if body.mesh is None else np.asarray(body.mesh.points, float).mean(axis=0))
+            if place is None:
+                continue
+            position = tuple(round(float(v), 2) for v in np.asarray(place, float) + [0.0, 0.0, LABEL_LIFT_M])  # 1 cm
+            text = f'{character_label(body.name)} (selected)' if body.name == self.selected else character_label(
+                body.name)
+            old = drawn.get(body.name)
+            if old == (text, position):
+                continue
+            handle = self.handles.get(f'label/{body.name}')
+            if handle is None:
+                self._replace(f'label/{body.name}', self.server.scene.add_label(
+                    f'/labels/{body.name or "iguana"}', text, position=position, anchor='bottom-center'))
+            else:
+                handle.text, handle.position = text, position
+            drawn[body.name] = (text, position)
+        for name in [n for n in drawn if n not in {b.name for b in shown}]:
+            self._replace(f'label/{name}', None)
+            del drawn[name]
 
     def _draw_path(self, path: np.ndarray) -> None:
         """
@@ -490,7 +650,8 @@ class ViewerPage:
         """Once the planner lists the last goal sent among its accepted goals, say so (live mode)."""
         if self.pending_goal is not None and self.live.goal_accepted():
             x, y = self.pending_goal
-            self._set_status(f'goal x {x:.2f} m, y {y:.2f} m{self.pending_heading} accepted by the planner.')
+            whose = f' of {self.pending_to}' if self.pending_to else ''
+            self._set_status(f'goal x {x:.2f} m, y {y:.2f} m{self.pending_heading} accepted by the planner{whose}.')
             self.pending_goal = None
 
     def close(self) -> None:
@@ -508,6 +669,11 @@ class ViewerPage:
         stopper = threading.Thread(target=stop, name='iguana-view-stop', daemon=True)
         stopper.start()
         stopper.join(CLOSE_S)
+
+
+def cast_name(label: str, cast: tuple) -> str:
+    """Return the character a dropdown `label` names among `cast` ('' for LONE)."""
+    return next((name for name in cast if character_label(name) == label), label)
 
 
 def _guarded(callback, what: str):

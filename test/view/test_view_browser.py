@@ -19,8 +19,9 @@ One `iguana run --view` of flat_walk (coarse model) with the four real node proc
 shows the iguana (green mesh pixels), a click on the terrain sends a goal that the run's planner accepts, the push
 button sends a push, and the viewer, a child in the run's process group, stops with the run while the page says it
 lost its server. Then `iguana view BAG` plays that run's bag on a timeline (plays, pauses, scrubs) and, paused just
-after the push, draws the push's arrow (red pixels), absent just before it. One browser for the module.
-IGUANA_UPDATE_SCREENSHOT=1 saves that bag-mode screenshot to docs/view_screenshot.png.
+after the push, draws the push's arrow (red pixels), absent just before it. A bag of a world of two characters lists
+them and its 'character' dropdown selects one. One browser for the module. IGUANA_UPDATE_SCREENSHOT=1 saves that
+bag-mode screenshot to docs/view_screenshot.png.
 """
 from __future__ import annotations
 
@@ -36,8 +37,9 @@ import pytest
 import yaml
 
 from ros_harness import IGUANA, NodeProcess, REPO
-from view_harness import (click_button, click_canvas, dismiss_notifications, figure, find_browser, green_pixels,
-                          page_text, PIXEL_SCALE, red_pixels, screenshot, start_browser, wait_until)
+from view_harness import (choose_option, click_button, click_canvas, dismiss_notifications, figure, find_browser,
+                          green_pixels, page_text, PIXEL_SCALE, red_pixels, screenshot, start_browser, wait_until,
+                          world_bag)
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(600)]
 
@@ -331,5 +333,20 @@ def test_bag_mode_plays_the_run_on_a_timeline_and_draws_its_push(browser, record
             SCREENSHOT.write_bytes(shot[0])
         _scrub(browser, max(pushes[0].time - 0.5, 0.0))      # before the push: no arrow
         assert wait_until(lambda: red_pixels(screenshot(browser)[1]) < MIN_RED, 60.0)
+        assert viewer.running
+    assert viewer.proc.returncode == 0, viewer.tail()
+
+
+def test_bag_mode_of_a_world_lists_its_characters_and_the_dropdown_selects_one(browser, tmp_path):
+    bag = world_bag(tmp_path / 'world')
+    command = [*IGUANA, 'view', str(bag), '--port', '0', '--paused', '--rate', str(DRAW_RATE)]
+    with NodeProcess(command, 'iguana_view_world', tmp_path).start(ready='iguana view: http', timeout=120.0) as viewer:
+        assert '2 characters: a, b' in viewer.output, viewer.output
+        browser.get(_url(viewer.output))
+        assert wait_until(lambda: 'characters: a (selected), b' in page_text(browser), 60.0), page_text(browser)
+        dismiss_notifications(browser)
+        choose_option(browser, 'character', 'b')
+        assert wait_until(lambda: 'characters: a, b (selected)' in page_text(browser), 60.0), page_text(browser)
+        assert 'b selected.' in page_text(browser)
         assert viewer.running
     assert viewer.proc.returncode == 0, viewer.tail()

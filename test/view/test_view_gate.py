@@ -34,45 +34,9 @@ import pytest
 from iguana_ros.view.scene import RunView
 from iguana_ros.view.server import ViewerPage
 from ros_harness import IGUANA, NodeProcess, REPO
+from view_harness import CAMERA, CLICK, connect, FakeLive, wait_for
 
 pytestmark = pytest.mark.timeout(120)
-
-CAMERA = {'type': 'ViewerCameraMessage', 'wxyz': [1.0, 0.0, 0.0, 0.0], 'position': [1.0, 1.0, 1.0], 'fov': 1.0,
-          'near': 0.01, 'far': 100.0, 'image_height': 400, 'image_width': 600, 'look_at': [0.0, 0.0, 0.0],
-          'up_direction': [0.0, 0.0, 1.0]}
-"""A page's camera as viser's client sends it (viser counts a page as connected after its first one)."""
-
-CLICK = {'type': 'ScenePointerMessage', 'event_type': 'click', 'ray_origin': [0.0, 0.0, 1.0],
-         'ray_direction': [0.0, 0.0, -1.0], 'screen_pos': [[0.5, 0.5]], 'modifier': None}
-
-
-class FakeLive:
-    """What a page's live controls call: the goals and pushes it sent."""
-
-    def __init__(self) -> None:
-        """Nothing sent yet."""
-        self.sent: list[tuple] = []
-
-    def send_goal(self, *args) -> None:
-        """Keep a goal."""
-        self.sent.append(('goal', args))
-
-    def send_push(self, *args) -> None:
-        """Keep a push."""
-        self.sent.append(('push', args))
-
-    def goal_accepted(self) -> bool:
-        """Return False: no planner here."""
-        return False
-
-    def send_sim(self, command: str, frames: int = 1) -> str:
-        """Keep a simulation-control call."""
-        self.sent.append(('sim', (command, frames)))
-        return f'{command} sent'
-
-    def sim_answers(self) -> list[str]:
-        """Return no answers: no simulator here."""
-        return []
 
 
 @pytest.fixture
@@ -92,25 +56,6 @@ def page_with(request):
     for page, stop in made:
         stop.set()
         page.close()
-
-
-def connect(page: ViewerPage, path: str = '/', cookie: str | None = None):
-    """Return a websocket client connected to `page` as viser's client connects (its version as subprotocol)."""
-    import viser
-    from websockets.sync.client import connect as ws_connect
-    headers = {'Cookie': cookie} if cookie else None
-    return ws_connect(f'ws://127.0.0.1:{page.port}{path}', subprotocols=[f'viser-v{viser.__version__}'],
-                      additional_headers=headers, max_size=None, proxy=None)
-
-
-def wait_for(predicate, timeout: float = 10.0) -> bool:
-    """Return True once `predicate()` holds, False after `timeout` s."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
 
 
 class Log:

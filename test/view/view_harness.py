@@ -164,3 +164,167 @@ def click_button(driver, label: str) -> None:
     from selenium.webdriver.common.by import By
     button = driver.find_element(By.XPATH, f"//button[normalize-space(.)='{label}']")
     driver.execute_script('arguments[0].click();', button)
+
+
+def choose_option(driver, label: str, option: str) -> None:
+    """Pick `option` in the panel's dropdown labelled `label`, as a user does: open its list, click the option."""
+    from selenium.webdriver.common.by import By
+    box = driver.find_element(By.ID, driver.find_element(By.XPATH, f"//label[normalize-space(.)='{label}']")
+                              .get_attribute('for'))
+    driver.execute_script('arguments[0].click();', box)
+    found = wait_until(lambda: [o for o in driver.find_elements(By.CSS_SELECTOR, '[role=option]') if o.text == option],
+                       30.0)
+    assert found, f'no option {option!r} in the dropdown {label!r}'
+    driver.execute_script('arguments[0].click();', found[0])
+
+
+# ---------------------------------------------------------------------------------------------- a page's websocket
+CAMERA = {'type': 'ViewerCameraMessage', 'wxyz': [1.0, 0.0, 0.0, 0.0], 'position': [1.0, 1.0, 1.0], 'fov': 1.0,
+          'near': 0.01, 'far': 100.0, 'image_height': 400, 'image_width': 600, 'look_at': [0.0, 0.0, 0.0],
+          'up_direction': [0.0, 0.0, 1.0]}
+"""A page's camera as viser's client sends it (viser counts a page as connected after its first one)."""
+
+CLICK = {'type': 'ScenePointerMessage', 'event_type': 'click', 'ray_origin': [0.0, 0.0, 1.0],
+         'ray_direction': [0.0, 0.0, -1.0], 'screen_pos': [[0.5, 0.5]], 'modifier': None}
+"""A click in the scene as viser's client sends it: straight down through (0, 0)."""
+
+
+class FakeLive:
+    """What a page's live controls call: the goals and pushes it sent, (kind, arguments, keyword arguments)."""
+
+    def __init__(self) -> None:
+        """Nothing sent yet."""
+        self.sent: list[tuple] = []
+
+    def send_goal(self, *args, **kwargs) -> None:
+        """Keep a goal."""
+        self.sent.append(('goal', args, kwargs))
+
+    def send_push(self, *args, **kwargs) -> None:
+        """Keep a push."""
+        self.sent.append(('push', args, kwargs))
+
+    def goal_accepted(self) -> bool:
+        """Return False: no planner here."""
+        return False
+
+    def send_sim(self, command: str, frames: int = 1) -> str:
+        """Keep a simulation-control call."""
+        self.sent.append(('sim', (command, frames), {}))
+        return f'{command} sent'
+
+    def sim_answers(self) -> list[str]:
+        """Return no answers: no simulator here."""
+        return []
+
+
+def connect(page, path: str = '/', cookie: str | None = None):
+    """Return a websocket client connected to `page` as viser's client connects (its version as subprotocol)."""
+    import viser
+    from websockets.sync.client import connect as ws_connect
+    headers = {'Cookie': cookie} if cookie else None
+    return ws_connect(f'ws://127.0.0.1:{page.port}{path}', subprotocols=[f'viser-v{viser.__version__}'],
+                      additional_headers=headers, max_size=None, proxy=None)
+
+
+def wait_for(predicate, timeout: float = 10.0) -> bool:
+    """Return True once `predicate()` holds, False after `timeout` s."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return predicate()
+
+
+def page_messages(raw: bytes) -> list[dict]:
+    """
+    Return the messages of one websocket frame viser sent a page: each a map with its `type` (binary data left out).
+
+    The frame is viser's batch: sizes (8 bytes each, little-endian) of a zstd-compressed msgpack map, that map, buffers.
+    """
+    import msgspec
+    import zstandard
+    size, packed = int.from_bytes(raw[:8], 'little'), int.from_bytes(raw[8:16], 'little')
+    inner = zstandard.ZstdDecompressor().decompress(raw[16:16 + packed], max_output_size=size)
+    return list(msgspec.msgpack.decode(inner)['messages'])
+
+
+class PageFeed:
+    """What one websocket client has been sent by a page so far (`read` takes what arrived)."""
+
+    def __init__(self, ws) -> None:
+        """Read from websocket client `ws`."""
+        self.ws, self.messages = ws, []
+
+    def read(self, seconds: float = 0.2) -> list[dict]:
+        """Take the frames that arrive within `seconds`; return every message so far."""
+        end = time.monotonic() + seconds
+        while (left := end - time.monotonic()) > 0:
+            try:
+                raw = self.ws.recv(timeout=left)
+            except TimeoutError:
+                break
+            if isinstance(raw, bytes):
+                self.messages += page_messages(raw)
+        return self.messages
+
+    def named(self, kind: str) -> set[str]:
+        """Return the scene node names of the messages of type `kind` so far (e.g. 'MeshMessage')."""
+        return {m.get('name') for m in self.messages if m.get('type') == kind}
+
+    def wait_named(self, kind: str, names: set[str], timeout: float = 20.0) -> set[str]:
+        """Return the names of `kind` messages once they include `names` (or whatever came within `timeout` s)."""
+        wait_for(lambda: self.read() is not None and names <= self.named(kind), timeout)
+        return self.named(kind)
+
+
+# ---------------------------------------------------------------------------------------------- a world of two
+SQUARE = np.array([[-2, -2, 0], [2, -2, 0], [2, 2, 0], [-2, -2, 0], [2, 2, 0], [-2, 2, 0]], float)
+"""Two triangles covering the square |x|, |y| <= 2 m at z = 0: the terrain."""
+
+PLACES = {'a': -1.0, 'b': 1.0}
+"""Two characters and the x (m) each stands at, y = 0."""
+
+GREEN = np.tile([0.36, 0.62, 0.30, 1.0], (3, 1))
+"""RGBA of a surface's three corners: the iguana's green."""
+
+
+def body(x: float, z: float = 0.1) -> np.ndarray:
+    """Return a character's surface: one flat triangle 0.4 m wide around (x, 0) at height `z` m."""
+    return np.array([[x - 0.2, -0.2, z], [x + 0.2, -0.2, z], [x, 0.2, z]])
+
+
+def world_bag(directory):
+    """Return a bag of two characters a and b (10 frames each, a push on b) and the world's scene_markers."""
+    from rclpy.serialization import serialize_message
+
+    from iguana_ros.bag.schema import message_definition
+    from iguana_ros.bag.storage import BagWriter
+    from iguana_ros.ros import messages as m
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
+    from iguana_ros.ros.conversions import frame_stamp, marker_array_msg, push_msg, triangle_list_marker
+    from iguana_ros.topics import topic
+
+    writer = BagWriter(directory)
+
+    def channel(name: str, key: str):
+        return writer.add_topic(name, topic(key).type, message_definition(topic(key).type))
+    scene = channel('/scene_markers', 'scene_markers')
+    channels = {(name, key): channel(f'/{name}/{key}', key) for name in PLACES
+                for key in ('mesh_marker', 'iguana_state', 'push')}
+    terrain = triangle_list_marker(SQUARE, np.arange(6).reshape(2, 3), np.ones((6, 4)), ns='terrain')
+    writer.write(scene, serialize_message(marker_array_msg([terrain])), 1_000_000_000)
+    for k in range(10):
+        log_ns = 1_000_000_000 + k * 33_000_000
+        for name, x in PLACES.items():
+            marker = triangle_list_marker_cdr(body(x + 0.01 * k), np.array([[0, 1, 2]]), GREEN, stamp=frame_stamp(k),
+                                              ns=name)
+            writer.write(channels[name, 'mesh_marker'], marker, log_ns)
+            writer.write(channels[name, 'iguana_state'], m.state_to_cdr([x + 0.01 * k, 0, 0.07], [0, 0, 0, 1],
+                                                                        np.zeros(3), np.zeros(3), k), log_ns + 1)
+        if k == 4:
+            writer.write(channels['b', 'push'], serialize_message(push_msg([0.0, -40.0, 0.0], 'trunk_left')),
+                         log_ns + 2)
+    writer.close()
+    return directory
