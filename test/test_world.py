@@ -187,8 +187,8 @@ def test_four_iguanas_crossing_all_arrive_walking_round_each_other(cli, tmp_path
 
 
 @pytest.mark.parametrize('option', [['--namespace', 'crowd'], ['--single-process']])
-def test_a_world_in_a_namespace_or_in_one_process_is_refused_in_one_line_before_anything_starts(cli, tmp_path,
-                                                                                               option):
+def test_a_world_in_a_namespace_or_in_one_process_is_refused_in_one_line_before_anything_starts(
+        cli, tmp_path, option):
     status, out, err = cli(['run', 'crossing', '--record', str(tmp_path / 'bag'), *option])
     assert status == 1 and f'iguana run {option[0]}: scene crossing has 4 characters' in err, err
     assert err.strip().count('\n') == 0 and not (tmp_path / 'bag').exists()
