@@ -41,7 +41,8 @@ from iguana_ros.geometry import wrap_angle, yaw_of
 from iguana_ros.metrics import ProgressWindow, remaining_way
 from iguana_ros.motion.clips import ANY_GAIT
 from iguana_ros.motion.motion_graph import AlignedClip, IDLE_CLIP, MotionGraph
-from iguana_ros.motion.planning import clip_table, MotionPlanner, MovingObstacles, rest_steps, STAND, Target
+from iguana_ros.motion.planning import (clip_table, MotionPlanner, MovingObstacles, rest_steps, STAND, STANDING_SPEED,
+                                        Target)
 from iguana_ros.motion.tracking import LibraryTracking, load_tracking
 from iguana_ros.parameters import node_parameters
 from iguana_ros.physics.body_watch import BodyLoss, BodyWatch
@@ -419,12 +420,15 @@ class OtherBodies:
 
     A world's planners see the others as they are at the start of the frame they plan (`world.World.show_others`); a
     planner node hears each other body's state on its own topic, in any order, so it keeps them by frame until its own
-    state of that frame has everyone's (`ready`).
+    state of that frame has everyone's (`ready`). A body whose root travelled less than STANDING_SPEED on average over
+    the last `window` frames (`PlannerParams.obstacle_velocity_window`) stands (velocity 0: its sway while pivoting on
+    the spot is no motion to extrapolate); the others move at their root's velocity.
     """
 
-    def __init__(self, names: Sequence[str]) -> None:
-        """Expect the bodies `names`, in the world's order (the obstacles keep it)."""
+    def __init__(self, names: Sequence[str], window: int) -> None:
+        """Expect the bodies `names`, in the world's order (the obstacles keep it); velocities over `window` frames."""
         self.names = tuple(names)
+        self.window = max(1, int(window))
         self.by_frame: dict[int, dict[str, tuple]] = {}
 
     def add(self, name: str, frame: int, xy: np.ndarray, velocity: np.ndarray) -> None:
@@ -433,19 +437,29 @@ class OtherBodies:
 
     def ready(self, frame: int) -> bool:
         """Whether every other body's root of `frame` is in."""
-        return len(self.by_frame.get(frame, ())) == len(self.names)
+        return all(n in self.by_frame.get(frame, {}) for n in self.names)
 
     def missing(self, frame: int) -> list[str]:
         """Return the bodies whose root of `frame` has not come."""
         return [n for n in self.names if n not in self.by_frame.get(frame, {})]
 
-    def obstacles(self, frame: int) -> MovingObstacles:
-        """Return the other bodies at `frame` (once `ready`) as moving obstacles; earlier frames are forgotten."""
-        heard = self.by_frame.get(frame, {})
-        for old in [f for f in self.by_frame if f < frame]:
+    def obstacles(self, frame: int, names: Sequence[str] | None = None) -> MovingObstacles:
+        """
+        Return bodies `names` (default all) at `frame` (once `ready`) as moving obstacles at their mean velocities.
+
+        Frames older than the window are forgotten.
+        """
+        now, since = self.by_frame.get(frame, {}), max(0, frame - self.window)
+        before = self.by_frame.get(since, {})
+        for old in [f for f in self.by_frame if f < since]:
             del self.by_frame[old]
-        return MovingObstacles(np.array([heard[n][0] for n in self.names]).reshape(-1, 2),
-                               np.array([heard[n][1] for n in self.names]).reshape(-1, 2))
+        names = self.names if names is None else names
+        xy = np.array([now[n][0] for n in names]).reshape(-1, 2)
+        velocity = np.array([now[n][1] for n in names]).reshape(-1, 2)
+        travel = np.array([np.hypot(*(now[n][0] - before[n][0])) * (FRAME_RATE / (frame - since))
+                           if frame > since and n in before else np.inf for n in names])
+        velocity[travel < STANDING_SPEED] = 0.0       # going nowhere (pivoting, swaying): it stands
+        return MovingObstacles(xy, velocity)
 
 
 def motion_graph(library: dict | None = None, blend_frames: int | None = None) -> MotionGraph:

@@ -35,14 +35,13 @@ from typing import Callable
 import numpy as np
 
 from iguana_ros.constants import FRAME_RATE
-from iguana_ros.motion.planning import MovingObstacles
 from iguana_ros.physics.body_contact import (BodyContactParams, bounding_boxes, contact_forces, ContactBody,
                                              load_kernels as load_contact_kernels, near, PairContact,
                                              penetration_depths)
 from iguana_ros.physics.side_by_side import default_workers, SideBySide
 from iguana_ros.pipeline import allocate_rows, build_pipeline, Pipeline, RunResult, store_frame
 from iguana_ros.scene import Scene
-from iguana_ros.stages import SimulatorStage
+from iguana_ros.stages import OtherBodies, SimulatorStage
 
 CONTACT_SLACK_M = 0.01
 """Metres added to the distance two bodies may close in a frame before they are stepped in contact blocks."""
@@ -195,6 +194,9 @@ class World:
         """Take the characters' pipelines; their bodies make the world's `BodyWorld` (stepped by `workers` threads)."""
         self.characters = characters
         self.body_world = BodyWorld([c.pipe.simulator for c in characters], params, workers)
+        window = characters[0].pipe.planner.planner.params.obstacle_velocity_window if characters else 0.0
+        self.tracks = OtherBodies([c.name for c in characters], round(window * FRAME_RATE))
+        """Every body's root by frame: the planners' moving obstacles (as a planner node hears the others)."""
 
     @property
     def stages(self) -> list[SimulatorStage]:
@@ -229,12 +231,12 @@ class World:
         """Give each character's planner the others' roots and velocities now, as moving obstacles."""
         if len(self.characters) < 2:
             return
-        roots = np.array([s.root_pose()[0][:2] for s in self.stages])
-        velocities = np.array([s.root_twist()[0][:2] for s in self.stages])
-        for i, c in enumerate(self.characters):
-            others = np.arange(len(self.characters)) != i
+        for c, stage in zip(self.characters, self.stages):
+            self.tracks.add(c.name, self.frame, stage.root_pose()[0][:2], stage.root_twist()[0][:2])
+        for c in self.characters:
             if c.avoid_others:
-                c.pipe.planner.obstacles = MovingObstacles(roots[others], velocities[others])
+                others = [o.name for o in self.characters if o is not c]
+                c.pipe.planner.obstacles = self.tracks.obstacles(self.frame, others)
 
     def deepest_penetration(self) -> float:
         """Return how deep m the deepest node of any body lies inside another body's volume now (0: none)."""

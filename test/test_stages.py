@@ -319,14 +319,28 @@ def test_a_goal_task_without_progress_ends_and_the_planner_drops_it():
 
 def test_other_bodies_are_kept_by_frame_until_everyone_is_heard_and_none_make_no_obstacles():
     from iguana_ros.stages import OtherBodies
-    others = OtherBodies(['b', 'c'])
+    others = OtherBodies(['b', 'c'], window=15)
     others.add('c', 4, np.array([1.0, 2.0]), np.array([0.1, 0.0]))
     assert not others.ready(4) and others.missing(4) == ['b']
     others.add('b', 4, np.array([3.0, 4.0]), np.array([0.0, 0.2]))
     others.add('b', 4, np.array([9.0, 9.0]), np.array([9.0, 9.0]))        # a re-sent state: the first one counts
     others.add('b', 5, np.array([3.1, 4.0]), np.array([0.0, 0.2]))
     assert others.ready(4) and not others.ready(5)
-    seen = others.obstacles(4)
+    seen = others.obstacles(4)                       # no frame 0 heard: each body's own velocity
     assert np.array_equal(seen.xy, [[3.0, 4.0], [1.0, 2.0]]) and np.array_equal(seen.velocity, [[0.0, 0.2], [0.1, 0.0]])
-    alone = OtherBodies([])
+    alone = OtherBodies([], window=15)
     assert alone.ready(7) and alone.obstacles(7).xy.shape == (0, 2)
+
+
+def test_a_body_that_went_nowhere_over_the_window_stands_while_a_walker_moves_at_its_velocity():
+    from iguana_ros.stages import OtherBodies
+    others = OtherBodies(['walker', 'pivot'], window=15)
+    for f in range(40):
+        sway = 0.01 * np.sin(f)                                  # swaying at up to 0.3 m/s, going nowhere
+        others.add('walker', f, np.array([0.01 * f, 0.0]), np.array([0.3, 0.05]))
+        others.add('pivot', f, np.array([sway, 0.0]), np.array([0.3 * np.cos(f), 0.0]))
+    seen = others.obstacles(39)
+    assert np.array_equal(seen.velocity[0], [0.3, 0.05])        # moving: its root's velocity as heard
+    assert np.array_equal(seen.velocity[1], [0.0, 0.0])         # 3.7 cm in 0.5 s: it stands (way_round sees it)
+    assert min(others.by_frame) == 24                           # older frames forgotten
+    assert np.array_equal(others.obstacles(39, ['pivot']).xy, [[0.01 * np.sin(39), 0.0]])

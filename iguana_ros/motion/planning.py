@@ -117,6 +117,9 @@ class PlannerParams:
     `clearance`: a detour of a few strides is cheaper than walking into another iguana."""
     obstacle_horizon: float = 3.0
     """Seconds ahead over which another body's motion is extrapolated at its current velocity (held after)."""
+    obstacle_velocity_window: float = 0.5
+    """Seconds over which another body's root must travel STANDING_SPEED on average to count as moving: a body
+    pivoting on the spot sways at 0.1-0.3 m/s while going nowhere (it stands, see `way_round`)."""
     correction_limit: tuple = (0.1, 0.1, 0.8)
     """Largest |online correction| of a clip's stride motion: dx m, dy m, dyaw rad (enough to cancel any clip's motion:
     a turn on the spot whose tail catches on a step turns little or not at all)."""

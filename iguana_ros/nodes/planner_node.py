@@ -129,7 +129,8 @@ class PlannerNode(IguanaNode):
             return None                             # alone in its world (or walking as if alone): no one to hear
         namespace = self.get_namespace().rstrip('/')
         parent = namespace.rsplit('/', 1)[0] if namespace.rsplit('/', 1)[-1] == mine else namespace
-        others = OtherBodies([c.name for c in world.characters if c.name != mine])
+        window = round(self.stage.planner.params.obstacle_velocity_window * FRAME_RATE)
+        others = OtherBodies([c.name for c in world.characters if c.name != mine], window)
         for name in others.names:
             self.subscription('iguana_state', self.guarded(f'{name}/iguana_state', self._other_state(name)), raw=True,
                               prefix=f'{parent}/{name}/')
