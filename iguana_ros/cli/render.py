@@ -12,7 +12,11 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""`iguana render BAG -o FILE.gif|.mp4|.png`: headless rendering of a recorded run (mesh, terrain, goal, trail)."""
+"""
+`iguana render BAG -o FILE.gif|.mp4|.png`: headless rendering of a recorded run (mesh, terrain, goal, trail).
+
+A world's bag: every character is drawn, the cameras follow the first by name or `--character NAME`.
+"""
 from __future__ import annotations
 
 import argparse
@@ -29,12 +33,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the `render` sub-command."""
     p = subparsers.add_parser('render', help='render a recorded run to a PNG frame, a GIF or an MP4',
                               description='Draw the iguana surface (mesh_marker) on the terrain and goal '
-                                          '(scene_markers) with the root trail (iguana_state), headless.')
+                                          '(scene_markers) with the root trail (iguana_state), headless; of '
+                                          'a world, every character.')
     p.add_argument('bag', metavar='BAG', help='bag directory or .mcap file')
     p.add_argument('-o', '--output', required=True, metavar='FILE', help='output .png (one frame), .gif or .mp4')
     p.add_argument('--camera', default=CAMERAS[0], choices=CAMERAS,
                    help='follow (default: behind-left, above, tracking the root), side, top (static, whole '
                         'run), orbit (circles the root)')
+    p.add_argument('--character', default=None, metavar='NAME',
+                   help="a world's bag: the character the cameras follow and whose frame times are rendered "
+                        '(default: the first by name; every character is drawn, the followed one with the orange '
+                        'trail)')
     p.add_argument('--fps', type=float, default=DEFAULT_FPS, metavar='F',
                    help=f'frames per second of the animation, subsampling the recording (default {DEFAULT_FPS:g})')
     p.add_argument('--start', type=float, default=0.0, metavar='S', help='first second to render (default 0)')
@@ -100,8 +109,15 @@ def run(args: argparse.Namespace) -> int:
     print(f'{path}: {count} frame(s) {size[0]}x{size[1]}, camera {args.camera}'
           + (f', {fps:.3g} fps, {recorded.times[0]:.2f}-{recorded.times[-1]:.2f} s' if kind != 'png'
              else f', t = {recorded.times[0]:.2f} s')
-          + f' from {recorded.mesh_topic} in {time.perf_counter() - t0:.1f} s')
+          + f' from {recorded.mesh_topic}{_cast(recorded)} in {time.perf_counter() - t0:.1f} s')
     return 0
+
+
+def _cast(recorded) -> str:
+    """Return what the summary line adds for a world ('' for a lone iguana): the followed character and the others."""
+    if not recorded.others:
+        return ''
+    return f' (following {recorded.character}; also drawn: {", ".join(o.name for o in recorded.others)})'
 
 
 def _read(args: argparse.Namespace, kind: str):
@@ -118,9 +134,10 @@ def _read(args: argparse.Namespace, kind: str):
 
         if kind == 'png':
             at = math.inf if args.frame is None else args.frame
-            recorded = read_run(args.bag, at=at, progress=progress)
+            recorded = read_run(args.bag, at=at, progress=progress, character=args.character)
         else:
-            recorded = read_run(args.bag, fps=args.fps, start=args.start, end=args.end, progress=progress)
+            recorded = read_run(args.bag, fps=args.fps, start=args.start, end=args.end, progress=progress,
+                                character=args.character)
     if recorded.damage and not args.allow_damaged:
         from iguana_ros.bag.storage import DamagedBag
         raise DamagedBag(f'{recorded.damage}; --allow-damaged renders what was recovered')
@@ -155,9 +172,9 @@ def _render(args: argparse.Namespace, recorded, size: tuple[int, int]):
 
 def _key_colors(recorded) -> list:
     """Colours a GIF palette must hold although they cover few pixels: the trail and shaded goal colours."""
-    from iguana_ros.render.renderer import AMBIENT, TRAIL_RGB
+    from iguana_ros.render.renderer import AMBIENT, OTHER_TRAIL_RGB, TRAIL_RGB
 
-    colors = [TRAIL_RGB]
+    colors = [TRAIL_RGB] + ([OTHER_TRAIL_RGB] if recorded.others else [])
     for goals in recorded.goals:
         for rgba in goals.colors:
             colors += [tuple(rgba[:3] * f) for f in (AMBIENT, 0.7, 1.0)]

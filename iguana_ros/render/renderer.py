@@ -13,7 +13,9 @@
 # limitations under the License.
 
 """
-Draws a `RecordedRun` frame by frame: sky, terrain, goal spheres, root trail and the flat-shaded iguana.
+Draws a `RecordedRun` frame by frame: sky, terrain, goal spheres, root trails and the flat-shaded iguanas.
+
+Every character of a world is drawn, the followed one's trail in TRAIL_RGB, the others' in OTHER_TRAIL_RGB.
 
 A z-buffered software rasterizer (numba kernels in `raster`) at `supersample`x the output size, box-filtered
 down (anti-aliasing). Colours are flat per triangle: the mean of its corners' marker colours times a
@@ -50,7 +52,13 @@ MESH_RGB = (0.36, 0.62, 0.30)
 """Iguana colour when its marker carries no per-vertex colours."""
 
 TRAIL_RGB = (0.95, 0.45, 0.10)
-"""Colour of the root trail."""
+"""Colour of the root trail (of the followed character in a world)."""
+
+OTHER_TRAIL_RGB = (0.80, 0.30, 0.60)
+"""Colour of the root trails of a world's other characters."""
+
+TRAIL_PX, OTHER_TRAIL_PX = 1.5, 1.2
+"""Half widths (output pixels) of the followed character's trail and of the others'."""
 
 TRAIL_LIFT = 0.01
 """The trail is drawn this far (m) above the terrain under the recorded root path."""
@@ -128,7 +136,9 @@ class Renderer:
         self.terrain_tris = terrain[0].reshape(-1, 3, 3)
         self.terrain_rgb = flat_shade(*terrain)
         self.sphere = unit_sphere(1)
-        self.trail_points = ground_track(run.track_positions, self.terrain_tris) + np.array([0.0, 0.0, TRAIL_LIFT])
+        lift = np.array([0.0, 0.0, TRAIL_LIFT])
+        self.trail_points = ground_track(run.track_positions, self.terrain_tris) + lift
+        self.other_trails = [ground_track(o.track_positions, self.terrain_tris) + lift for o in run.others]
         rows, cols = self.buffer_shape
         u = np.linspace(0.0, 1.0, rows)[:, None, None]
         sky = ((1 - u) * np.array(SKY_TOP) + u * np.array(SKY_HORIZON)).astype(np.float32)
@@ -184,14 +194,21 @@ class Renderer:
                     + goals.positions[:, None, None, :]).reshape(-1, 3, 3)
             colors = np.repeat(goals.colors, 3 * len(self.sphere), axis=0)
             self.draw_triangles(color, depth, camera, tris, flat_shade(tris.reshape(-1, 3), colors))
+        t = run.times[i]
         if self.trail:
-            path = self.trail_points[run.track_times <= run.times[i] + 1e-9]
-            self.draw_polyline(color, depth, camera, path, np.array(TRAIL_RGB), 1.5)
-        points = run.mesh_points[i]
-        self.draw_triangles(color, depth, camera, points.reshape(-1, 3, 3),
-                            flat_shade(points, run.mesh_colors[i]), outline=True)
+            self.draw_polyline(color, depth, camera, self.trail_points[run.track_times <= t + 1e-9],
+                               np.array(TRAIL_RGB), TRAIL_PX)
+            for other, trail in zip(run.others, self.other_trails):
+                self.draw_polyline(color, depth, camera, trail[other.track_times <= t + 1e-9],
+                                   np.array(OTHER_TRAIL_RGB), OTHER_TRAIL_PX)
+        meshes = [(run.mesh_points[i], run.mesh_colors[i])] + [(o.mesh_points[i], o.mesh_colors[i]) for o in run.others]
+        for points, colors in meshes:
+            if points is not None:
+                self.draw_triangles(color, depth, camera, points.reshape(-1, 3, 3), flat_shade(points, colors),
+                                    outline=True)
         image = downsample(color, self.ss)
-        return stamp_label(image, f't = {run.times[i]:.2f} s') if self.label else image
+        following = f', following {run.character}' if run.others else ''
+        return stamp_label(image, f't = {t:.2f} s{following}') if self.label else image
 
     def frames(self, cameras: list[Camera], indices: list[int] | None = None) -> Iterator[np.ndarray]:
         """Frames `indices` (default all) of the run, frame k seen from `cameras[k]`."""

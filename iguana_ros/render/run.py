@@ -31,6 +31,23 @@ class GoalSet:
 
 
 @dataclass
+class CharacterFrames:
+    """
+    Another character of a world, frame-aligned with the followed one's `RecordedRun.times`.
+
+    `mesh_points[i] (3*n_t, 3)` m and `mesh_colors[i] (3*n_t, 4)`: its latest mesh frame at or before frame i's time
+    (None before its first); `track_times (k,)`, `track_positions (k, 3)`: its root path for the trail.
+    """
+
+    name: str
+    mesh_topic: str
+    mesh_points: list
+    mesh_colors: list
+    track_times: np.ndarray
+    track_positions: np.ndarray
+
+
+@dataclass
 class RecordedRun:
     """
     Frames of a run: times (s from the first mesh frame), surface triangle soups, root poses, scene.
@@ -38,7 +55,8 @@ class RecordedRun:
     `mesh_points[i] (3*n_t, 3)` m and `mesh_colors[i] (3*n_t, 4)` are frame i's TRIANGLE_LIST corners;
     `root_positions (n, 3)` m and `root_yaws (n,)` rad (None without odometry, then the positions are mesh
     centroids); `track_times (k,)`, `track_positions (k, 3)`: the whole root path for the trail;
-    `terrain_points (3*m, 3)` / `terrain_colors (3*m, 4)`: the terrain TRIANGLE_LIST or None.
+    `terrain_points (3*m, 3)` / `terrain_colors (3*m, 4)`: the terrain TRIANGLE_LIST or None. In a world of several
+    characters these are the followed `character`'s, and `others` holds the rest (`CharacterFrames`, by name).
     """
 
     times: np.ndarray
@@ -57,6 +75,10 @@ class RecordedRun:
     """Things the reader tolerated (a damaged bag, skipped non-finite frames), one sentence each."""
     damage: str = ''
     """The bag's damage report line ('' when the bag and its metadata.yaml are sound)."""
+    character: str = ''
+    """Name of the followed character of a world ('' for a lone iguana)."""
+    others: list = field(default_factory=list)
+    """The world's other characters (`CharacterFrames`); empty for a lone iguana."""
 
     @property
     def n_frames(self) -> int:
@@ -77,10 +99,13 @@ class RecordedRun:
         """
         Points `(m, 3)` a static view must show.
 
-        Mesh corners of up to `max_frames` frames, the root path and the goal spheres.
+        Mesh corners of up to `max_frames` frames, the root path and the goal spheres (of every character).
         """
         step = max(1, self.n_frames // max_frames)
         parts = list(self.mesh_points[::step]) + [self.mesh_points[-1], self.track_positions]
+        for other in self.others:
+            parts += [p for p in other.mesh_points[::step] + other.mesh_points[-1:] if p is not None]
+            parts.append(other.track_positions.reshape(-1, 3))
         for g in self.goals:
             for sign in (-1.0, 1.0):
                 parts.append(g.positions + sign * g.radii[:, None])

@@ -130,3 +130,64 @@ def write_synthetic_bag(directory, duration=2.0, odometry=True, scene=True, mesh
             writer.write(channels['scene_markers'], _scene_bytes(GOAL)[:200], log_ns + 40)
     writer.close()
     return directory
+
+
+WORLD_RGBA = {'east': (0.3, 0.6, 0.3, 1.0), 'west': (0.25, 0.35, 0.9, 1.0)}
+"""Box colours of the two characters of the synthetic world: green east, blue west."""
+
+
+def world_pose(name, t):
+    """Root position (3,) and yaw (rad) of a world character at time t: east drives +x at y = 1, west -x at y = -1."""
+    if name == 'east':
+        return np.array([SPEED * t, 1.0, 0.0]), 0.0
+    return np.array([1.0 - SPEED * t, -1.0, 0.0]), math.pi
+
+
+def world_frame_times(name, duration=2.0):
+    """Stamps (s) of a world character's mesh frames: east every frame at RATE, west every other one."""
+    step = 1 if name == 'east' else 2
+    return [k / RATE for k in range(0, int(round(duration * RATE)) + 1, step)]
+
+
+def write_world_bag(directory, duration=2.0):
+    """
+    Write a bag of a world of two box characters, east and west, on flat ground; returns the bag directory.
+
+    Each has /NAME/mesh_marker and /NAME/iguana_state; the world /scene_markers. West's frames come at half the rate,
+    recorded alternately before and after east's of the same stamp.
+    """
+    from rclpy.serialization import serialize_message
+
+    from iguana_ros.bag.schema import message_definition
+    from iguana_ros.bag.storage import BagWriter
+    from iguana_ros.geometry import quat_from_yaw
+    from iguana_ros.ros.cdr import triangle_list_marker_cdr
+    from iguana_ros.ros.conversions import odometry_msg
+    from iguana_ros.topics import topic
+
+    writer = BagWriter(directory)
+    spec = topic('scene_markers')
+    scene = writer.add_topic('/' + spec.name, spec.type, message_definition(spec.type))
+    channels = {}
+    for name in WORLD_RGBA:
+        for key in ('mesh_marker', 'iguana_state'):
+            spec = topic(key)
+            channels[name, key] = writer.add_topic(f'/{name}/{spec.name}', spec.type, message_definition(spec.type))
+    base_ns = 1_700_000_000 * 10**9
+    writer.write(scene, _scene_bytes(GOAL), base_ns)
+    verts, tris = box_mesh()
+    for k in range(int(round(duration * RATE)) + 1):
+        t = k / RATE
+        log_ns = base_ns + int(t * 1e9) + 1000
+        names = ['east'] + (['west'] if k % 2 == 0 else [])
+        for j, name in enumerate(names if k % 4 else names[::-1]):
+            pos, yaw = world_pose(name, t)
+            c, s = math.cos(yaw), math.sin(yaw)
+            world = verts @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) + pos + [0.0, 0.0, BOX[2] / 2]
+            colors = np.tile(WORLD_RGBA[name], (len(verts), 1))
+            writer.write(channels[name, 'mesh_marker'], triangle_list_marker_cdr(world, tris, colors, stamp=t),
+                         log_ns + 10 * j)
+            msg = odometry_msg(pos, quat_from_yaw(yaw), [SPEED * c, 0.0, 0.0], [0.0, 0.0, 0.0], stamp=t)
+            writer.write(channels[name, 'iguana_state'], serialize_message(msg), log_ns + 10 * j + 5)
+    writer.close()
+    return directory
