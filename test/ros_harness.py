@@ -40,12 +40,16 @@ PLAY_PAUSED = ['--start-paused', '--wait-for-subscribers', '30']
 """`iguana bag play` arguments of a test that resumes the player itself (`resume_player`)."""
 
 
-def resume_player(node, topics: list[str], spin_once: Callable[[], None], timeout: float = 60.0) -> str:
+def resume_player(node, topics: list[str], spin_once: Callable[[], None], timeout: float = 60.0,
+                  playing: Callable[[], bool] = lambda: False) -> str:
     """
     Wait until `node`'s graph lists a publisher of every topic, then call the paused player's resume; its message.
 
     A reader has matched a writer once its node lists it: a volatile reader that matches `iguana bag play` after the
     player matched it misses the first messages, so a test that must get every message plays with PLAY_PAUSED.
+    A ready service is only matched on the request's side: its reply can be lost (seen under load: the player played
+    and the caller waited out its timeout), so once `playing()` (messages arrive) the call counts as answered, and
+    with neither an answer nor messages it is sent again every RESUME_RETRY_S (resuming a playing player is harmless).
     """
     from iguana_ros.errors import IguanaError
     from iguana_ros.ros.endpoints import resolve_service
@@ -61,14 +65,23 @@ def resume_player(node, topics: list[str], spin_once: Callable[[], None], timeou
             if time.monotonic() > deadline:
                 raise IguanaError(f'no /{name} service in {timeout} s')
             spin_once()
-        future = client.call_async(srv_type.Request())
-        while not future.done():
+        futures, sent = [], 0.0
+        while not any(f.done() for f in futures):
             if time.monotonic() > deadline:
                 raise IguanaError(f'/{name} did not answer in {timeout} s')
+            if playing():
+                return 'playing (messages arrive; the answer to resume did not come)'
+            if not futures or time.monotonic() - sent > RESUME_RETRY_S:
+                futures.append(client.call_async(srv_type.Request()))
+                sent = time.monotonic()
             spin_once()
-        return future.result().message
+        return next(f for f in futures if f.done()).result().message
     finally:
         node.destroy_client(client)
+
+
+RESUME_RETRY_S = 2.0
+"""Seconds `resume_player` waits for the answer or the first message before it calls resume again."""
 
 
 def spin_until(executor_or_node, predicate: Callable[[], bool], timeout: float = 10.0) -> bool:

@@ -46,7 +46,8 @@ def read_topics(bag: str | Path, keys: list[str] | tuple[str, ...], namespace: s
 
     The run's topics in ROS `namespace` ('' the root), or with None in whichever namespace the bag's run had
     (`iguana run --namespace`). A key whose topic is not in the bag has an empty list. Raises InputError for a
-    missing or non-MCAP bag.
+    missing or non-MCAP bag, and with None for a key recorded under several names (a world's characters: each has its
+    namespace, '/east').
     """
     key_of: dict[str, str | None] = {}
     out = RecordedTopics({key: [] for key in keys})
@@ -57,8 +58,22 @@ def read_topics(bag: str | Path, keys: list[str] | tuple[str, ...], namespace: s
         key = key_of[record.topic]
         if key is not None:
             out.messages[key].append(bytes(record.data))
+    _one_name_per_key(bag, key_of)
     out.truncated, out.problem = reader.truncated, reader.problem
     return out
+
+
+def _one_name_per_key(bag: str | Path, key_of: dict[str, str | None]) -> None:
+    """Raise InputError if a topic-table key was recorded under two names (the bag of a world of characters)."""
+    names: dict[str, list[str]] = {}
+    for name, key in key_of.items():
+        if key is not None:
+            names.setdefault(key, []).append(name)
+    for key, found in names.items():
+        if len(found) > 1:
+            spaces = ', '.join(sorted(name[:-len(topic_name(key))] or '/' for name in found))
+            raise InputError(f'bag {bag} holds {key} of several characters ({", ".join(sorted(found))}): read one '
+                             f'with its namespace ({spaces})')
 
 
 def recorded_key(name: str, keys: list[str] | tuple[str, ...], namespace: str | None = None) -> str | None:

@@ -69,8 +69,9 @@ def main() -> int:
         node.create_subscription(cls, topics[-1], lambda d, n=topics[-1]: on_message(n, d), qos, raw=True)
     print('subscribed', flush=True)
     if args.resume_player:
-        print(f'resumed the player: {resume_player(node, topics, lambda: rclpy.spin_once(node, timeout_sec=0.02))}',
-              flush=True)
+        answer = resume_player(node, topics, lambda: rclpy.spin_once(node, timeout_sec=0.02),
+                               playing=lambda: bool(records))
+        print(f'resumed the player: {answer}', flush=True)
     while not stop[0] and not (args.expect and len(records) >= args.expect):
         rclpy.spin_once(node, timeout_sec=0.05)
     while stop[0]:          # stopped: take what the readers hold already (acknowledged to the player, not yet taken)

@@ -154,7 +154,8 @@ def test_recorded_run_replays(shared_run, make_node, executor):
     play = NodeProcess([*IGUANA, 'bag', 'play', str(bag), '--rate', '5', '--topics', *names, *PLAY_PAUSED],
                        'play', bag.parent).start()
     with play:
-        resume_player(node, names, lambda: executor.spin_once(timeout_sec=0.02))
+        resume_player(node, names, lambda: executor.spin_once(timeout_sec=0.02),
+                      playing=lambda: bool(got['iguana_state']))
         assert spin_until(executor, lambda: len(got['iguana_state']) >= WALK_FRAMES + 1, 60), play.output
         assert spin_until(executor, lambda: len(got['scene_markers']) >= 1, 10), play.output
         assert play.wait(60) == 0, play.output

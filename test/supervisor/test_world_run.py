@@ -31,7 +31,8 @@ from rclpy.serialization import deserialize_message
 import yaml
 
 from iguana_ros.bag.storage import BagReader
-from iguana_ros.bag.trajectory import read_topics, root_trajectory
+from iguana_ros.bag.trajectory import read_root_trajectory, read_topics, root_trajectory
+from iguana_ros.errors import InputError
 from iguana_ros.ros.body_contacts import body_contacts_from_msg
 from iguana_ros.ros.cdr import tf_message_from_cdr
 from iguana_ros.scene import load_scene
@@ -108,6 +109,8 @@ def test_each_character_has_its_topics_frames_and_summary_under_its_name(trio):
                for _, parent, child, _, _ in tf_message_from_cdr(data)}
     assert {f'{name}/base_link' for name in NAMES} <= children and 'base_link' not in children
     assert {('world', f'{name}/odom') for name in NAMES} <= statics, statics
+    with pytest.raises(InputError, match=r'holds iguana_state of several characters .* \(/dodger, /stander, /walker\)'):
+        read_root_trajectory(bag)                                    # which iguana? never the states mixed
     assert list(summary.characters) == list(NAMES)
     assert summary.characters['walker'].gait is not None and summary.characters['walker'].gait.metrics is not None
     lines = '\n'.join(summary.lines())
