@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from iguana_ros.bag.frames import match_topic, NS
+from iguana_ros.bag.frames import characters as frames_characters, match_topic, NS
 from iguana_ros.bag.storage import accept, BagReader, summarize
 from iguana_ros.errors import IguanaError, InputError
 from iguana_ros.topics import topic
@@ -64,24 +64,12 @@ class BagView:
 
 def characters(recorded: dict[str, str]) -> dict[str, str]:
     """
-    Return {character name: topic prefix} of every recorded `.../mesh_marker` of the mesh type.
+    Return {character name: topic prefix} of every recorded `.../mesh_marker` of the mesh type (`frames.characters`).
 
     `recorded` maps each recorded topic to its type.
-
-    One such topic is a lone iguana, the character '' (whatever its namespace); of several, each is named by its prefix
-    without the namespace they all share (`/east/mesh_marker` -> 'east', `/ns/east/mesh_marker` -> 'east').
     """
     spec = topic('mesh_marker')
-    suffix = spec.name.lstrip('/')
-    prefixes = sorted(name[:-len(suffix)] for name, kind in recorded.items()
-                      if kind == spec.type and (name == '/' + suffix or name.endswith('/' + suffix)))
-    if len(prefixes) <= 1:
-        return {'': prefix for prefix in prefixes}
-    parts = [p.strip('/').split('/') if p.strip('/') else [] for p in prefixes]
-    shared = 0
-    while all(len(q) > shared + 1 for q in parts) and len({q[shared] for q in parts}) == 1:
-        shared += 1
-    return {'/'.join(q[shared:]): p for q, p in zip(parts, prefixes)}
+    return frames_characters([name for name, kind in recorded.items() if kind == spec.type])
 
 
 def _roles(path: str | Path) -> tuple[dict, dict, object]:
