@@ -334,8 +334,10 @@ class MovingObstacles:
         Return a point `(2,)` m beside the nearest standing body that blocks the way from `xy` to `target`, or None.
 
         The search's horizon of a few strides cannot see round a body standing across the way (every stride toward it
-        costs; standing still does not), so the point is a waypoint past its side, on the side the walker is already
-        on. A moving body is left to the search's costs.
+        costs; standing still does not), so the point is a waypoint past its side. Every walker passes a standing body
+        on the same hand (keeping it on its left, as traffic keeps right): walkers that met at a crossing and stopped
+        then go round one another like a roundabout instead of each stepping to its own side into the next. A moving
+        body is left to the search's costs.
         """
         if not len(self.xy):
             return None
@@ -350,9 +352,8 @@ class MovingObstacles:
         if not blocking.any():
             return None
         k = np.flatnonzero(blocking)[np.argmin(ahead[blocking])]
-        normal = np.array([-way[1], way[0]]) / length              # to the left of the way
-        left = side[k] < 0.0                                        # the body is right of the line: pass it left
-        return self.xy[k] + (1.0 if left else -1.0) * normal * (params.clearance + WAY_ROUND_MARGIN)
+        right = np.array([way[1], -way[0]]) / length               # to the right of the way
+        return self.xy[k] + right * (params.clearance + WAY_ROUND_MARGIN)
 
 
 STANDING_SPEED = 0.05

@@ -162,12 +162,17 @@ def test_a_stride_costs_for_passing_near_another_body_and_nothing_clear_of_it():
     assert MovingObstacles(np.zeros((0, 2)), np.zeros((0, 2))).cost(start, end, t0, t1, p).tolist() == [0.0, 0.0]
 
 
-def test_a_way_round_a_standing_body_passes_its_side_and_none_is_planned_round_a_moving_one():
+def test_a_way_round_a_standing_body_keeps_it_on_the_left_and_none_is_planned_round_a_moving_one():
+    """Every walker passes on the same hand (a roundabout, not a standoff), whichever side of the line it is on."""
     from iguana_ros.motion.planning import MovingObstacles, PlannerParams
     p = PlannerParams()
-    xy, target = np.array([0.0, 0.1]), np.array([2.0, 0.0])
-    past = MovingObstacles(np.array([[1.0, 0.0]]), np.zeros((1, 2))).way_round(xy, target, p)
-    assert past is not None and past[1] > p.clearance and abs(past[0] - 1.0) < 0.1   # beside it, on the walker's side
+    target = np.array([2.0, 0.0])
+    for xy in (np.array([0.0, 0.1]), np.array([0.0, -0.1])):
+        past = MovingObstacles(np.array([[1.0, 0.0]]), np.zeros((1, 2))).way_round(xy, target, p)
+        assert past is not None and past[1] < -p.clearance and abs(past[0] - 1.0) < 0.1   # beside it, on its right
+    back = MovingObstacles(np.array([[1.0, 0.0]]), np.zeros((1, 2))).way_round(np.array([2.0, 0.0]), np.zeros(2), p)
+    assert back[1] > p.clearance                                                        # walking -x: its right is +y
+    xy = np.array([0.0, 0.1])
     assert MovingObstacles(np.array([[1.0, 0.0]]), np.array([[0.3, 0.0]])).way_round(xy, target, p) is None
     assert MovingObstacles(np.array([[1.0, 2.0]]), np.zeros((1, 2))).way_round(xy, target, p) is None   # not in the way
     assert MovingObstacles(np.array([[-1.0, 0.0]]), np.zeros((1, 2))).way_round(xy, target, p) is None  # behind
