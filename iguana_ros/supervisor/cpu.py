@@ -57,13 +57,18 @@ class CpuWindow:
         Return CPU ms per frame of each process over the wall window [`start`, `end`] s that held `frames` frames.
 
         A process's CPU rate between its first and last sample inside the window, times the window's seconds per
-        frame; a process with fewer than two samples in it is left out.
+        frame. A window too short to hold two of a process's samples (a run of a few frames) takes the rate between
+        the samples just outside it; a process not sampled on both sides of it is left out.
         """
         out = {}
         if frames <= 0 or end <= start:
             return out
         for name, samples in self.samples.items():
             inside = [(t, cpu) for t, cpu in samples if start <= t <= end]
+            if len(inside) < 2 or inside[-1][0] <= inside[0][0]:
+                before = [sample for sample in samples if sample[0] <= start]
+                after = [sample for sample in samples if sample[0] >= end]
+                inside = [before[-1], after[0]] if before and after else []
             if len(inside) >= 2 and inside[-1][0] > inside[0][0]:
                 rate = (inside[-1][1] - inside[0][1]) / (inside[-1][0] - inside[0][0])
                 out[name] = 1e3 * rate * (end - start) / frames

@@ -54,6 +54,9 @@ def test_window_gives_ms_per_frame_over_the_window_chosen_afterwards():
     assert list(got) == ['me']
     assert 25.0 <= got['me'] <= 60.0                         # 0.3 s over 10 frames: 30 ms per frame
     assert window.ms_per_frame(101.0, 101.0, 10) == {} and window.ms_per_frame(101.0, 102.0, 0) == {}
+    short = window.ms_per_frame(101.4, 101.6, 2)             # no sample inside: the rate between 101 and 102
+    assert list(short) == ['me'] and 25.0 <= short['me'] <= 60.0   # 0.3 CPU s per s, 0.1 s per frame
+    assert window.ms_per_frame(102.5, 103.0, 5) == {}        # nothing sampled after it: left out
     line = cpu_line({'planner_node': 1.9, 'simulator_node': 13.4})
     assert line == 'CPU per frame while stepping: 15.3 ms (simulator_node 13.4, planner_node 1.9)'
     assert cpu_line({}) == ''
