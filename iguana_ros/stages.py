@@ -445,9 +445,9 @@ class OtherBodies:
 
     def obstacles(self, frame: int, names: Sequence[str] | None = None) -> MovingObstacles:
         """
-        Return bodies `names` (default all) at `frame` (once `ready`) as moving obstacles at their mean velocities.
+        Return bodies `names` (default all) at `frame` (once `ready`) as moving obstacles at their root velocities.
 
-        Frames older than the window are forgotten.
+        A body that went nowhere over the window stands (velocity 0); frames older than the window are forgotten.
         """
         now, since = self.by_frame.get(frame, {}), max(0, frame - self.window)
         before = self.by_frame.get(since, {})
