@@ -648,7 +648,9 @@ class SceneRun:
             figures = list(characters.values())
             simulated = max(c.simulated_s for c in figures)
             reached = all(c.reached_goal for c in figures)
-            when, final = max(c.time_to_goal for c in figures), max(c.final_goal_distance for c in figures)
+            when = max(c.time_to_goal for c in figures) if reached else math.nan      # when the last one arrived
+            final = max((c.final_goal_distance for c in figures if not math.isnan(c.final_goal_distance)),
+                        default=math.nan)                                           # the farthest from its goal
             gait = None
             contact = body_contact_figures(self.bag) if progress.exists else (0, 0.0)
         else:

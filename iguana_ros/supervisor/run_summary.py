@@ -116,8 +116,13 @@ def body_contact_figures(bag: Path) -> tuple[int, float]:
 
     from iguana_ros.bag.trajectory import read_topics
     from iguana_ros.ros.body_contacts import body_contacts_from_msg
+    from iguana_ros.errors import IguanaError
     frames, deepest = set(), 0.0
-    for data in read_topics(bag, ['body_contacts'], '').messages['body_contacts']:
+    try:
+        recorded = read_topics(bag, ['body_contacts'], '').messages['body_contacts']
+    except IguanaError:                 # an unreadable bag: its note says so; the summary still prints
+        return 0, 0.0
+    for data in recorded:
         try:
             pairs = body_contacts_from_msg(deserialize_message(data, DiagnosticArray))
         except Exception:  # noqa: BLE001 -- a damaged message (any decoder error): the figures stand without it

@@ -113,6 +113,8 @@ def test_each_character_has_its_topics_frames_and_summary_under_its_name(trio):
         read_root_trajectory(bag)                                    # which iguana? never the states mixed
     assert list(summary.characters) == list(NAMES)
     assert summary.characters['walker'].gait is not None and summary.characters['walker'].gait.metrics is not None
+    assert not summary.reached_goal and np.isnan(summary.time_to_goal)        # not every one arrived: no time
+    assert summary.final_goal_distance == max(summary.characters[n].final_goal_distance for n in ('walker', 'dodger'))
     lines = '\n'.join(summary.lines())
     assert 'body contact: ' in lines and 'dodger: goal not reached' in lines
 
