@@ -265,6 +265,11 @@ class SimulatorNode(IguanaNode):
             f'{len(self.model.springs)} springs, {fidelity} fidelity, {self.mode} mode, {duration:g} s'
             + (', paused until sim/resume or sim/step' if self.control.paused else ''))
 
+    def destroy_node(self) -> None:
+        """Stop the world's helper threads, then destroy the node."""
+        self.world.close()
+        super().destroy_node()
+
     def _make_io(self, stages: list[SimulatorStage]) -> None:
         """Make the world's publishers (clock, tf, scene markers), services, and each body's topics."""
         self.clock_pub = self.publisher('clock')
