@@ -154,13 +154,17 @@ def _check(trial: StrayTrial, output: str, bag: Path) -> None:
     Check the run against what it does alone.
 
     Exit status 0, run completed, every frame and the scene goal once in the bag, no lockstep time-out; or, for
-    'outputs' strays, possibly refused in one line naming the busy domain (with a finalised bag).
+    'outputs' strays, possibly refused in one line naming the busy domain (with a finalised bag, or no bag when
+    refused before anything started).
     """
     from iguana_ros.bag.storage import BagReader
     lines = [line for line in output.splitlines() if line.startswith('iguana run:')]
     trial.last_line = lines[-1] if lines else ''
     if trial.mode == 'outputs' and trial.exit_code == 1:
-        if len(lines) != 1 or 'is in use' not in lines[0] or 'bag finalised' not in lines[0]:
+        # refused once running (the bag finalised), or, when the strays were up before the run's domain check
+        # finished (a slow start under load), before anything started: then there is no bag at all
+        finalised = 'bag finalised' in (lines[0] if lines else '') or not bag.exists()
+        if len(lines) != 1 or 'is in use' not in lines[0] or not finalised:
             trial.problems.append(f'refused, but not in one line naming the busy domain: {lines}')
         return
     if trial.exit_code != 0:

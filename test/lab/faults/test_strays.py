@@ -43,3 +43,16 @@ def test_fifty_runs_with_strangers_at_random_moments(tmp_path):
     print({k: v for k, v in result.items() if k != 'rows'})
     failed = [row for row in result['rows'] if row['problems']]
     assert not failed, failed
+
+
+def test_a_refusal_before_the_run_started_anything_is_one_line_without_a_bag(tmp_path):
+    """Strays up before the run's domain check ended (a slow start): refused at once, nothing to finalise."""
+    from iguana_lab.faults.strays import _check, StrayTrial
+    line = 'iguana run: error: ROS_DOMAIN_ID 120 is in use: publishers of /clock (stray_1); stop them or ...'
+    trial = StrayTrial(37, 'outputs', 'best_effort', 1.79, exit_code=1)
+    _check(trial, line, tmp_path / 'bag')
+    assert trial.survived, trial.problems
+    (tmp_path / 'bag').mkdir()                                   # a bag was started: it must say it was finalised
+    late = StrayTrial(37, 'outputs', 'best_effort', 1.79, exit_code=1)
+    _check(late, line, tmp_path / 'bag')
+    assert late.problems and 'not in one line' in late.problems[0]
