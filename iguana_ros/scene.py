@@ -546,8 +546,9 @@ def parse_scene(raw, source: str = '<scene>') -> Scene:
 def check_one_character(scene: Scene, what: str) -> Scene:
     """Return `scene` if it has one iguana; SceneError naming `what` (e.g. 'iguana run --namespace') for several."""
     if scene.characters:
-        raise SceneError(f'{what}: scene {scene.name} has {len(scene.characters)} characters; run it without '
-                         '--namespace (one world of every character), or with `iguana simulate`')
+        raise SceneError(f'{what}: scene {scene.name} has {len(scene.characters)} characters; a world runs in '
+                         'the root namespace, a process per character: `iguana run` without that option, or '
+                         '`iguana simulate`')
     return scene
 
 
