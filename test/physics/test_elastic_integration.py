@@ -40,7 +40,7 @@ def _stiff_fem(model, factor):
 
 
 def test_auto_is_explicit_only_where_the_fem_is_negligible(medium):
-    """Medium iguana: explicit (h²λ ~1e-3); coarse (a mode its springs hardly hold) and a 1e4x stiffer FEM: implicit."""
+    """Medium: explicit, held (h²λ ~1e-3); coarse (a mode only its FEM holds): explicit each step; E x1e4: implicit."""
     sim = SoftBodySimulator(medium, None, 'balanced')
     assert sim.elastic_ratio < 0.2 * EXPLICIT_ELASTIC_LIMIT and not sim.elastic_implicit
     assert sim.stats['elastic_integration'] == 'explicit'
@@ -48,7 +48,9 @@ def test_auto_is_explicit_only_where_the_fem_is_negligible(medium):
     assert every >= 2 and every ** 2 * sim.elastic_ratio <= HELD_ELASTIC_LIMIT
     assert every == MAX_ELASTIC_EVERY or (every + 1) ** 2 * sim.elastic_ratio > HELD_ELASTIC_LIMIT
     coarse = SoftBodySimulator(build_model('coarse', 'normal'), None, 'balanced')
-    assert coarse.elastic_ratio > EXPLICIT_ELASTIC_LIMIT and coarse.elastic_implicit
+    assert HELD_ELASTIC_LIMIT < coarse.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT and not coarse.elastic_implicit
+    assert coarse.elastic_every == 1
+    assert SoftBodySimulator(build_model('coarse', 'normal'), None, 'fast').elastic_implicit   # h²λ = 12 at 1/200
     stiff = SoftBodySimulator(_stiff_fem(medium, 1e4), None, 'balanced')
     assert stiff.elastic_ratio == pytest.approx(1e4 * sim.elastic_ratio, rel=1e-6) and stiff.elastic_implicit
     forced = SoftBodySimulator(medium, None, 'balanced', elastic_integration='implicit')
@@ -110,6 +112,32 @@ def test_explicit_fem_walks_like_the_implicit_step(medium):
         assert moved > 0.01 and gap < 5e-4, name
 
 
+def _squashed_second(model, **overrides):
+    """Return whether 1 s from a 5 % squashed rest shape without gravity stays finite (`overrides` of `balanced`)."""
+    sim = SoftBodySimulator(model, None, 'balanced', gravity=0.0, **overrides)
+    sim.reset(model.rest_positions * [1.05, 1.0, 0.95])
+    try:
+        for _ in range(30):
+            sim.advance_frame()
+    except SimulationDiverged:
+        return False
+    return bool(np.all(np.isfinite(sim.positions)))
+
+
+def test_the_explicit_limit_keeps_a_tenfold_margin(medium):
+    """
+    At dt 1/1200 the explicit FEM is stable to h²λ ≈ 4 as the limit's rule says: 3.5 holds, 11.6 diverges.
+
+    So the bodies 'auto' makes explicit (h²λ <= EXPLICIT_ELASTIC_LIMIT = 0.4) are 10x inside it; one at the limit
+    (E x300, h²λ 0.35) is explicit and stable.
+    """
+    at_limit = SoftBodySimulator(_stiff_fem(medium, 300.0), None, 'balanced')
+    assert 0.3 < at_limit.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT and not at_limit.elastic_implicit
+    assert _squashed_second(_stiff_fem(medium, 300.0))
+    assert _squashed_second(_stiff_fem(medium, 3000.0), elastic_integration='explicit')
+    assert not _squashed_second(_stiff_fem(medium, 1e4), elastic_integration='explicit')
+
+
 def test_a_stiff_fem_forced_explicit_diverges_where_auto_stays_stable(medium):
     """The rule matters: E x1e4 explicit at dt 1/300 blows up within a frame; auto keeps it implicit and stable."""
     stiff = _stiff_fem(medium, 1e4)
@@ -142,8 +170,8 @@ def test_the_matrix_free_operator_is_the_scattered_matrix(medium):
     from iguana_ros.physics.forces import (assemble_spring_matrix, spring_forces, spring_forces_operator,
                                            spring_operator_matvec)
     sim = SoftBodySimulator(medium, None, 'balanced')
-    assert sim._ip[itg.IP_MATRIX_FREE] and not SoftBodySimulator(build_model('coarse'), None)._ip[
-        itg.IP_MATRIX_FREE]                   # coarse keeps its FEM implicit: its tets write blocks too
+    assert sim._ip[itg.IP_MATRIX_FREE] and not SoftBodySimulator(_stiff_fem(medium, 1e4), None)._ip[
+        itg.IP_MATRIX_FREE]                   # a stiff FEM stays implicit: its tets write blocks too
     assert not SoftBodySimulator(medium, None, 'balanced', preconditioner='jacobi')._ip[itg.IP_MATRIX_FREE]
     m = sim._model
     rng = np.random.default_rng(0)
