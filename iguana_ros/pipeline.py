@@ -113,8 +113,9 @@ class Pipeline:
         self.simulator.load_kernels()
 
     def close(self) -> None:
-        """Stop the lookahead's worker thread."""
+        """Stop the lookahead's worker thread and the simulator's factor thread."""
         self.lookahead.close()
+        self.simulator.close()
 
 
 def build_pipeline(scene: Scene, adaptation: bool | None = None, library: dict | None = None,

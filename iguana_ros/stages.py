@@ -827,6 +827,10 @@ class SimulatorStage:
         self.frame = 0
         self.resets = 0
 
+    def close(self) -> None:
+        """Stop the simulator's factor thread, if it has one."""
+        self.sim.close()
+
     def reset(self) -> None:
         """
         Put the body back at the scene's start pose, at rest, with no push acting (the simulator's reset service).

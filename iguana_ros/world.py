@@ -107,8 +107,10 @@ class BodyWorld:
         return kept.pairs
 
     def close(self) -> None:
-        """Stop the helper threads."""
+        """Stop the helper threads and the bodies' factor threads."""
         self.threads.close()
+        for stage in self.stages:
+            stage.close()
 
     def _groups(self, stages: list[SimulatorStage]) -> list[list[int]]:
         """

@@ -34,6 +34,10 @@ from iguana_ros.jit import FASTMATH
 from iguana_ros.physics.assembly import block_rows
 
 
+FACTOR_STATE_SIZE = 5
+"""Entries of a CholeskyFactor's state (`integrator.F_VALID` … `F_PENDING_STEP`)."""
+
+
 class CholeskyArrays(NamedTuple):
     """The arrays of a `CholeskyPattern` as the compiled kernels take them (see its fields)."""
 
@@ -55,15 +59,16 @@ class CholeskyFactor(NamedTuple):
     """
     Storage of the block Cholesky preconditioner.
 
-    The pattern, L, its inverted diagonal, work space and the factor state `(3,)` int64 (`integrator.F_VALID`, `F_STEP`,
-    `F_LAST_ITERS`).
+    The pattern, L, its inverted diagonal, work space, the factor state `(5,)` int64 (`integrator.F_VALID`, `F_STEP`,
+    `F_LAST_ITERS`, `F_PENDING`, `F_PENDING_STEP`) and the matrix snapshot for a factor thread (empty without one).
     """
 
     pattern: CholeskyArrays
     values: np.ndarray    # (n_factor_blocks, 3, 3), the blocks of L
     diag_inv: np.ndarray  # (n_nodes, 3, 3), L_jj⁻¹
     work: np.ndarray      # (n_nodes, 3)
-    state: np.ndarray     # (3,) int64
+    state: np.ndarray     # (5,) int64
+    snapshot: np.ndarray  # (n_blocks, 3, 3): A's blocks to factorise beside the step loop, or (0, 3, 3)
 
 
 @dataclass(frozen=True)
@@ -140,11 +145,17 @@ class CholeskyPattern:
         return CholeskyArrays(self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest,
                               self.a_transpose, self.u_ptr, self.u_col, self.u_from, self.u_start, self.u_dest)
 
-    def factor(self) -> CholeskyFactor:
-        """Zeroed factor storage over this pattern (no valid factor yet)."""
+    def factor(self, threaded: bool = False) -> CholeskyFactor:
+        """Zeroed factor storage over this pattern (no valid factor yet); `threaded`: with a matrix snapshot."""
         n = self.n_nodes
         return CholeskyFactor(self.arrays(), np.zeros((self.n_factor_blocks, 3, 3)), np.zeros((n, 3, 3)),
-                              np.zeros((n, 3)), np.zeros(3, dtype=np.int64))
+                              np.zeros((n, 3)), np.zeros(FACTOR_STATE_SIZE, dtype=np.int64),
+                              np.zeros((len(self.a_block) if threaded else 0, 3, 3)))
+
+    @property
+    def n_updates(self) -> int:
+        """Return the block updates of one factorisation (its cost: ~6 ns each here)."""
+        return int(self.u_start[-1])
 
 
 def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
@@ -217,7 +228,7 @@ def empty_factor(n_nodes: int) -> CholeskyFactor:
     """Return the CholeskyFactor of no factor (empty pattern and blocks) for a preconditioner that uses none."""
     e = np.zeros(0, dtype=np.int64)
     return CholeskyFactor(CholeskyArrays(*(e,) * 12), np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)),
-                          np.zeros((n_nodes, 3)), np.zeros(3, dtype=np.int64))
+                          np.zeros((n_nodes, 3)), np.zeros(FACTOR_STATE_SIZE, dtype=np.int64), np.zeros((0, 3, 3)))
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
@@ -272,7 +283,7 @@ def _update_column(values, start, u_dest, lo, hi):
             values[d, r, 2] -= a0 * b20 + a1 * b21 + a2 * b22
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
+@numba.njit(cache=True, fastmath=FASTMATH, nogil=True)   # nogil: a factor thread runs it beside the step loop
 def block_cholesky(pattern, blocks, values, diag_inv):
     """
     Factorise A (`blocks (n_blocks, 3, 3)`) into `values (n_l, 3, 3)` = L and `diag_inv (n, 3, 3)` = L_jj⁻¹.

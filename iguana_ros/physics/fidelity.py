@@ -49,6 +49,7 @@ MAX_ELASTIC_EVERY = 4
 HELD_ELASTIC_LIMIT, capped at 4."""
 
 ELASTIC_INTEGRATIONS = ('auto', 'implicit', 'explicit')
+FACTOR_THREADS = ('auto', 'on', 'off')
 SOLVERS = ('cg', 'direct')
 PRECONDITIONERS = ('jacobi', 'ssor', 'cholesky')
 RESOLUTIONS = ('coarse', 'medium', 'fine')
@@ -71,6 +72,11 @@ class Fidelity:
     assemble, 78 instead of 150 µs per step on medium), or 'auto': explicit where the FEM is negligible
     against the springs (EXPLICIT_ELASTIC_LIMIT), as on the shipped coarse, medium and fine bodies, and then evaluated
     every `elastic_every` steps and held in between (MAX_ELASTIC_EVERY).
+
+    `factor_thread`: the Cholesky preconditioner's factor due by age is computed on a second thread beside the step
+    loop and used from `factor_every` steps after its matrix ('on'; so a factor is `factor_every` to
+    2 `factor_every` − 1 steps old), in the loop ('off'), or 'auto': on where a factorisation is large
+    (`physics.factor_thread.FACTOR_THREAD_MIN_UPDATES`: the fine body). Deterministic either way.
     """
 
     dt: float = SIM_DT
@@ -84,6 +90,7 @@ class Fidelity:
     factor_every: int = 1
     refactor_iters: int = 2
     elastic_integration: str = 'auto'
+    factor_thread: str = 'auto'
 
     @property
     def effective_jacobian_every(self) -> int:
@@ -105,6 +112,7 @@ class Fidelity:
             (int(self.refactor_iters) >= 1, 'refactor_iters', 'an integer >= 1 (CG iterations)'),
             (self.elastic_integration in ELASTIC_INTEGRATIONS, 'elastic_integration',
              f'one of {ELASTIC_INTEGRATIONS}'),
+            (self.factor_thread in FACTOR_THREADS, 'factor_thread', f'one of {FACTOR_THREADS}'),
         ]
         for ok, name, expected in checks:
             if not ok:

@@ -51,8 +51,9 @@ FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG
 N_FP = 15
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
-    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE = range(10)
-N_IP = 10
+    IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE, IP_FACTOR_THREAD, \
+    IP_FACTOR_LAG = range(12)
+N_IP = 12
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS, C_INVERTED = range(7)
 N_COUNTERS = 7
@@ -62,6 +63,8 @@ STATUS_NAN = 1
 STATUS_SPEED = 2
 STATUS_PENETRATION = 3
 STATUS_SOLVER = 4
+STATUS_FACTOR_REQUEST = 5    # not a failure: a snapshot of the matrix waits to be factorised beside the step loop
+STATUS_FACTOR_SWAP = 6       # not a failure: the factor of the last snapshot is due before this step
 
 
 @numba.njit(cache=True)
@@ -253,8 +256,10 @@ def finish_step(state, fp, counters, info):
     return status
 
 
-# entries of the factor state `chol.state` (3,) int64 of the block Cholesky preconditioner (a CholeskyFactor)
-F_VALID, F_STEP, F_LAST_ITERS = range(3)
+# entries of the factor state `chol.state` (5,) int64 of the block Cholesky preconditioner (a CholeskyFactor):
+# whether the factor is valid, the step of the matrix it factorises, the CG iterations of the last solve, and (factor
+# thread) whether a snapshot is out for factorisation and the step of its matrix
+F_VALID, F_STEP, F_LAST_ITERS, F_PENDING, F_PENDING_STEP = range(5)
 
 
 @numba.njit(cache=True)
@@ -290,6 +295,29 @@ def assemble_system_matrix(model, state):
     """Write the blocks of a matrix-free step's system matrix into `state.matrix_blocks` (for a factorisation)."""
     assemble_spring_matrix(state.spring_coef, state.node_matrix, model.diag, model.spring_blocks,
                            model.node_spring_ptr, model.node_springs, state.matrix_blocks)
+
+
+@numba.njit(cache=True)
+def _snapshot_for_thread(model, state, ip, counters, chol):
+    """
+    Copy the current system matrix into `chol.snapshot` for the factor thread and mark it pending.
+
+    A matrix-free step assembles it there directly (its `matrix_blocks` are not kept current).
+    """
+    if ip[IP_MATRIX_FREE]:
+        assemble_spring_matrix(state.spring_coef, state.node_matrix, model.diag, model.spring_blocks,
+                               model.node_spring_ptr, model.node_springs, chol.snapshot)
+    else:
+        chol.snapshot[:] = state.matrix_blocks
+    chol.state[F_PENDING] = 1
+    chol.state[F_PENDING_STEP] = counters[C_STEP]
+
+
+@numba.njit(cache=True)
+def _swap_is_due(ip, counters, factor_state):
+    """Whether the factor thread's factor of the pending snapshot replaces the current one before this step."""
+    return (ip[IP_FACTOR_THREAD] != 0 and factor_state[F_PENDING] != 0
+            and counters[C_STEP] - factor_state[F_PENDING_STEP] >= ip[IP_FACTOR_LAG])
 
 
 @numba.njit(cache=True)
@@ -333,19 +361,34 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
     steps (CG absorbs the difference in a few iterations) and refactorised early after a slow solve, or
     when a solve with a stale factor fails (then the solve is repeated). A failed factorisation falls back to
     block Jacobi for that step.
+
+    With `ip[IP_FACTOR_THREAD]` a factor due by its age alone is not computed here: the step copies its matrix into
+    `chol.snapshot` and the call returns STATUS_FACTOR_REQUEST after it; the caller factorises the snapshot beside
+    the next steps and, when this returns STATUS_FACTOR_SWAP (`ip[IP_FACTOR_LAG]` steps after the snapshot, before
+    that step), puts that factor in place. Which factor each step uses depends on the step count alone, never on
+    timing.
     """
     kind = ip[IP_PRECONDITIONER]
     factor_state = chol.state
     desired_lengths = ld_to
     for step in range(n_steps):
+        if kind == 2 and _swap_is_due(ip, counters, factor_state):
+            return STATUS_FACTOR_SWAP, step
         if ramp_steps > 0:
             ramp_lengths(ld_from, ld_to, ld_work, min(1.0, (ramp_offset + step + 1) / ramp_steps))
             desired_lengths = ld_work
         status, refreshed = prepare_step(model, state, fp, ip, counters, desired_lengths, external, info)
         if status != STATUS_OK:
             return status, step
+        requested = False
         if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
-            _refactor(model, state, ip, counters, chol)
+            if (ip[IP_FACTOR_THREAD] != 0 and factor_state[F_VALID] > 0
+                    and factor_state[F_LAST_ITERS] <= ip[IP_REFACTOR_ITERS]):   # due by age: beside the loop
+                if factor_state[F_PENDING] == 0:
+                    _snapshot_for_thread(model, state, ip, counters, chol)
+                    requested = True
+            else:
+                _refactor(model, state, ip, counters, chol)
         iters, res, threshold = solve_system(model, state, fp, ip, chol)
         failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:
@@ -364,4 +407,6 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
         status = finish_step(state, fp, counters, info)
         if status != STATUS_OK:
             return status, step + 1
+        if requested:
+            return STATUS_FACTOR_REQUEST, step + 1
     return STATUS_OK, n_steps

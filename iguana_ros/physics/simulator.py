@@ -33,6 +33,7 @@ from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.physics.factor_thread import factor_lag, FACTOR_THREAD_MIN_UPDATES, FactorThread
 from iguana_ros.physics.fidelity import (EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity, HELD_ELASTIC_LIMIT,
                                          MAX_ELASTIC_EVERY)
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
@@ -248,13 +249,27 @@ class SoftBodySimulator:
 
     def _build_factor(self) -> CholeskyFactor:
         """
-        Return the CholeskyFactor of the compiled step loop.
+        Return the CholeskyFactor of the compiled step loop (and set up its factor thread, `Fidelity.factor_thread`).
 
         Pattern and factor storage when the preconditioner is 'cholesky', else empty arrays of the same types.
         """
-        if self.fidelity.preconditioner == 'cholesky':
-            return CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols).factor()
-        return empty_factor(len(self.rest_positions))
+        self._factor_thread = None
+        if self.fidelity.preconditioner != 'cholesky':
+            return empty_factor(len(self.rest_positions))
+        pattern = CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols)
+        mode = self.fidelity.factor_thread
+        threaded = self.fidelity.solver == 'cg' and (
+            mode == 'on' or (mode == 'auto' and pattern.n_updates >= FACTOR_THREAD_MIN_UPDATES))
+        self._ip[itg.IP_FACTOR_THREAD] = threaded
+        self._ip[itg.IP_FACTOR_LAG] = factor_lag(self.fidelity.factor_every)
+        if threaded:
+            self._factor_thread = FactorThread(pattern)
+        return pattern.factor(threaded)
+
+    def close(self) -> None:
+        """Stop the factor thread, if any (it also stops when the simulator is collected)."""
+        if self._factor_thread is not None:
+            self._factor_thread.close()
 
     # ---------------------------------------------------------------------------------------------- state
     def reset(self, positions=None, velocities=None) -> None:
@@ -268,6 +283,8 @@ class SoftBodySimulator:
         s.contact_stiffness[:] = 0.0                 # a node out of contact keeps zero blocks (contact_forces)
         s.contact_damping[:] = 0.0
         s.element_rotations[:] = (0.0, 0.0, 0.0, 1.0)
+        if self._factor_thread is not None:
+            self._factor_thread.cancel(self._chol)
         self._counters[:] = 0
         self._chol.state[:] = 0
         self._fallback_steps = 0
@@ -396,6 +413,14 @@ class SoftBodySimulator:
                                             ld_from, ld, self._lengths_work, ext, n_steps - done_total, self._info,
                                             self._chol, done_total, ramp)
             done_total += done
+            if status in (itg.STATUS_FACTOR_REQUEST, itg.STATUS_FACTOR_SWAP):
+                if status == itg.STATUS_FACTOR_REQUEST:
+                    self._factor_thread.start(self._chol)
+                else:
+                    self._chol = self._factor_thread.swap(self._chol, self._counters)
+                if done_total >= n_steps:
+                    return itg.STATUS_OK, done_total
+                continue
             if status != itg.STATUS_SOLVER or self._fallback is None:
                 return status, done_total
             if self._ip[itg.IP_MATRIX_FREE]:

@@ -174,7 +174,7 @@ def _solver_parts(sim, state) -> dict:
     if sim._ip[itg.IP_MATRIX_FREE]:
         itg.assemble_system_matrix(m, live)
     itg.invert_diagonal(m.diag, live.matrix_blocks, pinv)
-    no_factor = sim._chol._replace(state=np.zeros(3, dtype=np.int64))
+    no_factor = sim._chol._replace(state=np.zeros_like(sim._chol.state))
     fp, ip = _ten_iterations(sim._fp, sim._ip)
 
     def ten_cg_iterations():                         # block Jacobi on the step's matrix (or operator)
@@ -208,7 +208,8 @@ def _step_on_a_copy(sim):
     """
     Return a call that advances a copy of the simulator's state by one frame of steps, and the copy's counters.
 
-    The lengths are held; the counters (integrator.C_*) count what those steps did.
+    The lengths are held; the counters (integrator.C_*) count what those steps did. A factor thread's work is done in
+    the copy's loop (its part of a step is `cholesky_factor` per factorisation, off the loop's thread in a run).
     """
     from iguana_ros.physics import integrator as itg
 
@@ -216,11 +217,13 @@ def _step_on_a_copy(sim):
     chol = sim._chol._replace(values=sim._chol.values.copy(), diag_inv=sim._chol.diag_inv.copy(),
                               work=sim._chol.work.copy(), state=sim._chol.state.copy())
     counters, info = sim._counters.copy(), np.zeros(2)
+    ip = sim._ip.copy()
+    ip[itg.IP_FACTOR_THREAD] = 0
     lengths = np.array(sim._held_lengths if sim._held_lengths is not None else sim.desired_lengths_rest)
     work, external = np.zeros_like(lengths), np.zeros_like(state.positions)
 
     def frame():
-        itg.run_steps_cg(sim._model, state, sim._fp, sim._ip, counters, lengths, lengths, work, external,
+        itg.run_steps_cg(sim._model, state, sim._fp, ip, counters, lengths, lengths, work, external,
                          sim.steps_per_frame, info, chol, 0, 0)
     return frame, counters
 
