@@ -29,8 +29,8 @@ EXPLICIT_ELASTIC_LIMIT = 0.4
 """Largest h² λ_max(A⁻¹ K_e) at which `elastic_integration='auto'` evaluates the corotated FEM force explicitly: K_e the
 FEM stiffness, A = M(1 + hα) + (hβ + h²) K_springs the rest state's system matrix without it (its stiffest springs
 axial only, no contact: the softest A a step meets). An explicit force is stable up to h²λ ≈ 4 (symplectic Euler
-with A / h² as the mass), so 0.4 leaves a 10x margin. Measured (FEM forced explicit, no gravity, a 5 % squashed
-start, 1 s at dt 1/1200): the medium body with E x 3000 (h²λ = 3.5) stays stable and with E x 1e4 (11.6) diverges;
+with A / h² as the mass), so 0.4 leaves a ~8x margin. Measured (FEM forced explicit, no gravity, a 5 % squashed
+start, 1 s at dt 1/1200): the medium body with E x 2500 (h²λ = 2.9) stays stable and from E x 3000 (3.5) diverges;
 coarse stays stable up to E x 96 (32), and walks the bench gait on hills up to E x 50 (17). Shipped bodies: medium
 1.2e-3 (normal) / 8.6e-4 (softer), fine 7.1e-4 / 5.3e-4 at dt 1/1200 and 2.5e-3 for medium at 1/300: the springs
 (300 kN/m) carry the stiffness, the 10 kPa FEM only keeps elements from degenerating; coarse 0.34 (its thin tail's

@@ -178,16 +178,25 @@ def _rotated_stress(r, f, two_mu, lam, vol):
             r20 * p00 + r21 * p01 + r22 * p02, r20 * p01 + r21 * p11 + r22 * p12, r20 * p02 + r21 * p12 + r22 * p22)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH)
 def corotated_elastic_forces(x, tets, grads, volume, mu, lam, quats, polar_iters, forces, blocks, tet_blocks, scale):
     """
     Add corotated linear FEM forces of `tets (n_tets, 4)` at `x (n, 3)`; update `quats (n_tets, 4)`; stiffness.
 
-    Returns how many tets are inverted or flat (det F <= 0).
+    Returns how many tets are inverted or flat (det F <= 0). A Python call of the compiled `corotated_elastic_range`
+    over every tet, which the step kernels call directly: a compiled wrapper around it made a freshly compiled step
+    loop and the cached one round differently (`test_determinism.py`), as 'contract' did (`jit.FASTMATH`).
     """
+    return corotated_elastic_range(x, tets, grads, volume, mu, lam, quats, polar_iters, forces, blocks, tet_blocks,
+                                   scale, 0, tets.shape[0])
+
+
+@numba.njit(cache=True, fastmath=FASTMATH)
+def corotated_elastic_range(x, tets, grads, volume, mu, lam, quats, polar_iters, forces, blocks, tet_blocks, scale,
+                            first, stop):
+    """`corotated_elastic_forces` of the tets first … stop − 1 only; returns how many of them are inverted or flat."""
     rg = np.empty((4, 3))
     inverted = 0
-    for t in range(tets.shape[0]):
+    for t in range(first, stop):
         f = _deformation_gradient(x, tets, grads, t)
         if _det3(f) <= 0.0:
             inverted += 1

@@ -40,7 +40,7 @@ import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec_pair, invert_3x3
 from iguana_ros.physics.cholesky import block_cholesky
-from iguana_ros.physics.forces import (assemble_spring_matrix, contact_forces, corotated_elastic_forces,
+from iguana_ros.physics.forces import (assemble_spring_matrix, contact_forces, corotated_elastic_range,
                                        spring_forces, spring_forces_operator)
 from iguana_ros.physics.kernel_data import SpringOperator
 from iguana_ros.physics.solver import preconditioned_cg
@@ -52,8 +52,8 @@ N_FP = 15
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
     IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE, IP_FACTOR_THREAD, \
-    IP_FACTOR_LAG = range(12)
-N_IP = 12
+    IP_FACTOR_LAG, IP_FAST_TETS = range(13)
+N_IP = 13
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS, C_INVERTED = range(7)
 N_COUNTERS = 7
@@ -92,8 +92,9 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     if refresh and not matrix_free:
         blocks[:] = 0.0
     if ip[IP_ELASTIC_IMPLICIT]:
-        corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
-                                 state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale)
+        corotated_elastic_range(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
+                                state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale, 0,
+                                model.tets.shape[0])
     else:
         _explicit_elastic_forces(model, state, ip, counters, forces)
     rhs, warm = state.rhs, state.cg_work[3]
@@ -165,16 +166,26 @@ def _explicit_elastic_forces(model, state, ip, counters, forces):
     """
     Add the FEM force evaluated explicitly: anew every `elastic_every` steps (at the step's start), held in between.
 
-    `state.elastic_forces (n, 3)` keeps it; no stiffness blocks are assembled. While any tet is inverted or flat
-    (`counters[C_INVERTED]`, from the last evaluation) the force is evaluated every step: holding is for the small
-    strains the springs carry, an inverted element recovers through its FEM force alone.
+    `state.elastic_forces (n, 3)` keeps it; no stiffness blocks are assembled. The first `ip[IP_FAST_TETS]` tets
+    (the few a mode the springs hardly hold runs through, `physics.elastic_rates`) are evaluated every step. While
+    any tet is inverted or flat (`counters[C_INVERTED]`, from the last evaluation) every tet is evaluated every
+    step: holding is for the small strains the springs carry, an inverted element recovers through its FEM force
+    alone.
     """
-    held = state.elastic_forces
-    if counters[C_STEP] % ip[IP_ELASTIC_EVERY] == 0 or counters[C_INVERTED] > 0:
-        held[:] = 0.0
-        counters[C_INVERTED] = corotated_elastic_forces(
-            state.positions, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
-            state.element_rotations, ip[IP_POLAR_ITERS], held, state.matrix_blocks, model.tet_blocks, 0.0)
+    held, x, n_fast, n_tets = state.elastic_forces, state.positions, ip[IP_FAST_TETS], model.tets.shape[0]
+    refresh = counters[C_STEP] % ip[IP_ELASTIC_EVERY] == 0 or counters[C_INVERTED] > 0
+    inverted = 0                                     # (not refreshing: none was inverted)
+    for part in range(2):                            # the fast tets into the forces, then (maybe) the held ones
+        first, stop, out = (0, n_fast, forces) if part == 0 else (n_fast, n_tets, held)
+        if part == 1:
+            if not refresh:
+                break
+            held[:] = 0.0
+        if stop > first:                             # one call site: with two, a freshly compiled step loop and
+            inverted += corotated_elastic_range(     # the cached one rounded differently (test_determinism.py)
+                x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam, state.element_rotations,
+                ip[IP_POLAR_ITERS], out, state.matrix_blocks, model.tet_blocks, 0.0, first, stop)
+    counters[C_INVERTED] = inverted
     for i in range(forces.shape[0]):
         forces[i, 0] += held[i, 0]
         forces[i, 1] += held[i, 1]

@@ -32,12 +32,12 @@ from iguana_ros.jit import ensure_fresh_kernel_cache
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
+from iguana_ros.physics.elastic_rates import elastic_rates, elastic_stiffness_ratio, ElasticRates
 from iguana_ros.physics.errors import SimulationDiverged
 from iguana_ros.physics.factor_thread import factor_lag, FACTOR_THREAD_MIN_UPDATES, FactorThread
-from iguana_ros.physics.fidelity import (EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity, HELD_ELASTIC_LIMIT,
-                                         MAX_ELASTIC_EVERY)
+from iguana_ros.physics.fidelity import (EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity)
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
-                                       shape_gradients, spring_forces)
+                                       shape_gradients)
 from iguana_ros.physics.kernel_data import empty_state, kernel_constant, kernel_input, KernelModel
 from iguana_ros.physics.solver import DirectSolver, PRECONDITIONER_CODES
 from iguana_ros.terrain.heightfield import block_maxima
@@ -88,37 +88,6 @@ def _ascending_nodes(tets: np.ndarray, grads: np.ndarray) -> tuple:
     order = np.argsort(tets, axis=1, kind='stable')
     return (np.ascontiguousarray(np.take_along_axis(tets, order, axis=1)),
             np.ascontiguousarray(np.take_along_axis(grads, order[:, :, None], axis=1)))
-
-
-def elastic_stiffness_ratio(model, pattern: BlockPattern, rest_positions: np.ndarray, rest_lengths: np.ndarray,
-                            dt: float, alpha: float, beta: float) -> float:
-    """
-    h² λ_max(A⁻¹ K_e) at rest: how stiff the FEM is against the rest of the implicit step (`EXPLICIT_ELASTIC_LIMIT`).
-
-    K_e is the corotated FEM's stiffness at the rest shape, A = M(1 + hα) + (hβ + h²) K_s with the springs at their
-    rest lengths (axial stiffness only) and no contact; `model` a KernelModel over `pattern`. inf if the generalized
-    eigenvalue cannot be found (then the FEM stays implicit).
-    """
-    from scipy.sparse.linalg import ArpackError, eigsh
-
-    h = dt
-    x = np.array(rest_positions, dtype=float)
-    forces = np.zeros_like(x)
-    springs = np.zeros((pattern.n_blocks, 3, 3))
-    elastic = np.zeros_like(springs)
-    spring_forces(x, model.springs, model.spring_stiffness, rest_lengths, forces, springs, model.spring_blocks,
-                  h * beta + h * h)
-    springs[model.diag] += np.eye(3) * (model.mass * (1.0 + h * alpha))[:, None, None]
-    rotations = np.zeros((len(model.tets), 4))
-    rotations[:, 3] = 1.0
-    corotated_elastic_forces(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam, rotations, 1,
-                             forces, elastic, model.tet_blocks, 1.0)
-    try:
-        lam = eigsh(pattern.to_scipy(elastic), k=1, M=pattern.to_scipy(springs), which='LA',
-                    v0=np.ones(3 * len(x)), return_eigenvectors=False)[0]
-    except (ArpackError, RuntimeError):
-        return float('inf')
-    return float(h * h * max(lam, 0.0))
 
 
 class SoftBodySimulator:
@@ -229,12 +198,27 @@ class SoftBodySimulator:
         self.elastic_implicit = (fid.elastic_integration == 'implicit' if self.elastic_ratio is None
                                  else not self.elastic_ratio <= EXPLICIT_ELASTIC_LIMIT)
         ip[itg.IP_ELASTIC_IMPLICIT] = self.elastic_implicit
-        self.elastic_every = 1 if self.elastic_implicit or self.elastic_ratio is None else int(np.clip(
-            np.floor(np.sqrt(HELD_ELASTIC_LIMIT / max(self.elastic_ratio, 1e-300)) + 1e-9), 1, MAX_ELASTIC_EVERY))
+        rates = (ElasticRates(1, np.zeros(len(self._model.tets), bool), np.inf)
+                 if self.elastic_implicit or self.elastic_ratio is None else
+                 elastic_rates(self._model, self.pattern, self.rest_positions, self.desired_lengths_rest, fid.dt,
+                               alpha, beta, self.elastic_ratio))
+        self._fast_tets_first(rates.fast)
+        self.elastic_every = rates.every
         ip[itg.IP_ELASTIC_EVERY] = self.elastic_every
+        ip[itg.IP_FAST_TETS] = self.elastic_fast_tets
         ip[itg.IP_MATRIX_FREE] = (not self.elastic_implicit and fid.solver == 'cg' and fid.preconditioner == 'cholesky'
                                   and self.pattern.n_blocks == len(self.rest_positions) + len(self._model.springs))
         self._fp, self._ip = fp, ip
+
+    def _fast_tets_first(self, fast: np.ndarray) -> None:
+        """Reorder the kernel model's tets so the fast ones (`fast (n_tets,)` bool) come first; count them."""
+        self.elastic_fast_tets = int(fast.sum())
+        if self.elastic_fast_tets == 0:
+            return                                   # the mesh's order: the same sums as without a split
+        order = np.concatenate([np.flatnonzero(fast), np.flatnonzero(~fast)])
+        m = self._model
+        self._model = m._replace(**{name: kernel_constant(getattr(m, name)[order], getattr(m, name).dtype)
+                                    for name in ('tets', 'shape_gradients', 'volume', 'mu', 'lam', 'tet_blocks')})
 
     def _build_state(self) -> None:
         """Preallocated state and work arrays (`self._state`, a KernelState)."""
@@ -357,7 +341,8 @@ class SoftBodySimulator:
                 'jacobian_refreshes': int(c[itg.C_REFRESHES]), 'nodes_in_contact': int(c[itg.C_CONTACTS]),
                 'direct_fallback_steps': self._fallback_steps,
                 'elastic_integration': 'implicit' if self.elastic_implicit else 'explicit',
-                'elastic_every': self.elastic_every,
+                'elastic_every': self.elastic_every, 'elastic_fast_tets': self.elastic_fast_tets,
+                'factor_thread': bool(self._ip[itg.IP_FACTOR_THREAD]),
                 'cholesky_failures': int(c[itg.C_FACTOR_FAILS]), 'factorisations': int(c[itg.C_FACTORS])}
 
     # -------------------------------------------------------------------------------------------- stepping

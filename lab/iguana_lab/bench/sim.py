@@ -92,6 +92,8 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
         'dt': fid.dt, 'solver': fid.solver, 'preconditioner': fid.preconditioner, 'cg_tol': fid.cg_tol,
         'jacobian_every': fid.effective_jacobian_every, 'factor_every': fid.factor_every,
         'polar_iters': fid.polar_iters, 'elastic_integration': sim.stats['elastic_integration'],
+        'elastic_every': sim.elastic_every, 'elastic_fast_tets': sim.elastic_fast_tets,
+        'factor_thread': sim.stats['factor_thread'],
         'elastic_stiffness_ratio': sim.elastic_ratio, 'simulated_s': sim.time, 'steps': steps,
         'realtime_factor': sim.time / timing['sim_wall_s'],
         'realtime_factor_cpu': sim.time / max(cpu_s - timing['gait_wall_s'], 1e-12),
@@ -103,7 +105,8 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
         'com_travel_m': float(np.linalg.norm(sim.center_of_mass()[:2] - (sim.model.node_mass @ start[:, :2])
                                              / sim.model.node_mass.sum())),
         'compile_s': compile_s, 'model_build_s': build_s, 'peak_rss_mb': peak_rss_mb(),
-        'cpu_model': cpu_model(), 'cpus_available': len(os.sched_getaffinity(0)), 'threads': 1,
+        'cpu_model': cpu_model(), 'cpus_available': len(os.sched_getaffinity(0)),
+        'threads': 2 if sim.stats['factor_thread'] else 1,
     }
     if profile:
         result['profile_us'] = profile_step(sim)

@@ -59,6 +59,8 @@ def register(subparsers) -> None:
     sim.add_argument('--factor-every', type=int, default=None,
                      help='steps a Cholesky preconditioner factor is reused (1 = refactorise every step)')
     sim.add_argument('--polar-iters', type=int, default=None, help='rotation-extraction iterations per step')
+    sim.add_argument('--factor-thread', choices=('auto', 'on', 'off'), default=None,
+                     help='factorise the Cholesky preconditioner on a second thread (auto: large bodies)')
     sim.add_argument('--profile', action='store_true', help='also time each part of a step')
     sim.add_argument('--json', action='store_true', help='print one JSON object')
     sim.set_defaults(func=run_sim)
@@ -112,6 +114,14 @@ def run_pipeline_bench(args) -> int:
     return 0
 
 
+def _held(result: dict) -> str:
+    """Return how an explicit FEM is held, for the summary line (empty when it is implicit)."""
+    if result['elastic_integration'] != 'explicit':
+        return ''
+    fast = f", {result['elastic_fast_tets']} tets every step" if result['elastic_fast_tets'] else ''
+    return f", held {result['elastic_every']} steps{fast}"
+
+
 def run_sim(args) -> int:
     """`iguana bench sim`."""
     from iguana_lab.bench.sim import bench_sim
@@ -119,14 +129,16 @@ def run_sim(args) -> int:
     result = bench_sim(args.mesh, seconds=args.seconds, preset=args.preset, profile=args.profile, dt=args.dt,
                        solver=args.solver, preconditioner=args.preconditioner, cg_tol=args.cg_tol,
                        jacobian_every=args.jacobian_every, factor_every=args.factor_every,
-                       polar_iters=args.polar_iters)
+                       polar_iters=args.polar_iters, factor_thread=args.factor_thread)
     if args.json:
         print(json.dumps(result, indent=1))
         return 0
     print(f"{result['model']}: {result['nodes']} nodes, {result['tets']} tets, {result['springs']} springs; "
           f"preset {result['preset']} (dt {result['dt']:.6g} s, {result['solver']}, cg_tol {result['cg_tol']:g}, "
           f"jacobian every {result['jacobian_every']}, {result['preconditioner']} preconditioner refactorised every "
-          f"{result['factor_every']} steps or sooner: {result['factorisations_per_step']:.2f} per step)")
+          f"{result['factor_every']} steps or sooner: {result['factorisations_per_step']:.2f} per step"
+          f"{', on a second thread' if result['factor_thread'] else ''}; FEM {result['elastic_integration']}"
+          f'{_held(result)})')
     print(f"realtime factor {result['realtime_factor']:.2f} (wall), {result['realtime_factor_cpu']:.2f} (CPU time); "
           f"{result['ms_per_step']:.3f} ms/step; {result['cg_iterations_per_step']:.1f} CG iterations/step")
     print(f"compile/cache load {result['compile_s']:.2f} s; model build {result['model_build_s']:.2f} s; "
