@@ -30,10 +30,6 @@ import numpy as np
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.cholesky import block_cholesky, CholeskyFactor, CholeskyPattern
 
-FACTOR_THREAD_MIN_UPDATES = 100_000
-"""Block updates of one factorisation from which 'auto' factorises beside the step loop: ~0.6 ms at ~6 ns each, where
-a worker's hand-over (~50 µs) costs under a tenth of what it saves (fine: 431k; medium 17k and coarse 7k stay on the
-step loop's thread)."""
 
 FACTOR_LAG_FRACTION = 0.5
 """Steps from a snapshot to its factor's use, as a fraction of `factor_every` (see `factor_lag`)."""

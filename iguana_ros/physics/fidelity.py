@@ -49,7 +49,7 @@ MAX_ELASTIC_EVERY = 4
 HELD_ELASTIC_LIMIT, capped at 4."""
 
 ELASTIC_INTEGRATIONS = ('auto', 'implicit', 'explicit')
-FACTOR_THREADS = ('auto', 'on', 'off')
+FACTOR_THREADS = ('off', 'on')
 SOLVERS = ('cg', 'direct')
 PRECONDITIONERS = ('jacobi', 'ssor', 'cholesky')
 RESOLUTIONS = ('coarse', 'medium', 'fine')
@@ -73,10 +73,9 @@ class Fidelity:
     against the springs (EXPLICIT_ELASTIC_LIMIT), as on the shipped coarse, medium and fine bodies, and then evaluated
     every `elastic_every` steps and held in between (MAX_ELASTIC_EVERY).
 
-    `factor_thread`: the Cholesky preconditioner's factor due by age is computed on a second thread beside the step
-    loop and used from `factor_every` steps after its matrix ('on'; so a factor is `factor_every` to
-    2 `factor_every` − 1 steps old), in the loop ('off'), or 'auto': on where a factorisation is large
-    (`physics.factor_thread.FACTOR_THREAD_MIN_UPDATES`: the fine body). Deterministic either way.
+    `factor_thread`: 'on' computes the Cholesky preconditioner's factor due by age on a second thread beside the
+    step loop and uses it from `factor_lag` steps after its matrix (`physics.factor_thread`); 'off' (default) in the
+    loop. Deterministic either way; it pays only where a core is free (docs/RESULTS.md, "Speed at scale").
     """
 
     dt: float = SIM_DT
@@ -90,7 +89,7 @@ class Fidelity:
     factor_every: int = 1
     refactor_iters: int = 2
     elastic_integration: str = 'auto'
-    factor_thread: str = 'auto'
+    factor_thread: str = 'off'
 
     @property
     def effective_jacobian_every(self) -> int:

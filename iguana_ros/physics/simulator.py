@@ -34,7 +34,7 @@ from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.elastic_rates import elastic_rates, elastic_stiffness_ratio, ElasticRates
 from iguana_ros.physics.errors import SimulationDiverged
-from iguana_ros.physics.factor_thread import factor_lag, FACTOR_THREAD_MIN_UPDATES, FactorThread
+from iguana_ros.physics.factor_thread import factor_lag, FactorThread
 from iguana_ros.physics.fidelity import (EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity)
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
                                        shape_gradients)
@@ -241,9 +241,7 @@ class SoftBodySimulator:
         if self.fidelity.preconditioner != 'cholesky':
             return empty_factor(len(self.rest_positions))
         pattern = CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols)
-        mode = self.fidelity.factor_thread
-        threaded = self.fidelity.solver == 'cg' and (
-            mode == 'on' or (mode == 'auto' and pattern.n_updates >= FACTOR_THREAD_MIN_UPDATES))
+        threaded = self.fidelity.solver == 'cg' and self.fidelity.factor_thread == 'on'
         self._ip[itg.IP_FACTOR_THREAD] = threaded
         self._ip[itg.IP_FACTOR_LAG] = factor_lag(self.fidelity.factor_every)
         if threaded:

@@ -24,7 +24,7 @@ from iguana_ros.body.model import build_model
 from iguana_ros.errors import InputError
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.cholesky import block_cholesky
-from iguana_ros.physics.factor_thread import factor_lag, FACTOR_THREAD_MIN_UPDATES, FactorThread
+from iguana_ros.physics.factor_thread import factor_lag, FactorThread
 from iguana_ros.physics.fidelity import get_fidelity
 from iguana_ros.physics.simulator import SoftBodySimulator
 from iguana_ros.terrain.heightfield import HeightField
@@ -116,18 +116,16 @@ def test_a_reset_with_a_factorisation_under_way_starts_afresh(medium):
     fresh.close()
 
 
-def test_auto_factorises_beside_the_loop_only_where_a_factorisation_is_large(medium):
-    """'auto': the fine body (431k block updates) on a thread, medium and coarse (under 20k) in the loop."""
+def test_the_thread_is_opt_in_and_only_for_the_cg_solver(medium):
+    """Off by default (no worker, no snapshot storage); 'on' has both; the direct solver has no factor to thread."""
     sim = SoftBodySimulator(medium, None, 'balanced')
     assert not sim._ip[itg.IP_FACTOR_THREAD] and sim._factor_thread is None
-    assert not SoftBodySimulator(build_model('coarse'), None, 'balanced')._ip[itg.IP_FACTOR_THREAD]
-    fine = SoftBodySimulator(build_model('fine'), None, 'balanced')
-    assert fine._ip[itg.IP_FACTOR_THREAD] and fine._factor_thread is not None
-    assert fine._chol.snapshot.shape == (fine.pattern.n_blocks, 3, 3)
-    assert sim._chol.snapshot.shape == (0, 3, 3)
+    assert sim._chol.snapshot.shape == (0, 3, 3) and not sim.stats['factor_thread']
+    on = SoftBodySimulator(medium, None, 'balanced', factor_thread='on')
+    assert on._ip[itg.IP_FACTOR_THREAD] and on._factor_thread is not None and on.stats['factor_thread']
+    assert on._chol.snapshot.shape == (on.pattern.n_blocks, 3, 3)
     assert not SoftBodySimulator(medium, None, 'balanced', solver='direct', factor_thread='on')._ip[
         itg.IP_FACTOR_THREAD]
-    assert FACTOR_THREAD_MIN_UPDATES > 20_000
 
 
 def test_a_bad_factor_thread_is_one_clear_error():

@@ -59,8 +59,8 @@ def register(subparsers) -> None:
     sim.add_argument('--factor-every', type=int, default=None,
                      help='steps a Cholesky preconditioner factor is reused (1 = refactorise every step)')
     sim.add_argument('--polar-iters', type=int, default=None, help='rotation-extraction iterations per step')
-    sim.add_argument('--factor-thread', choices=('auto', 'on', 'off'), default=None,
-                     help='factorise the Cholesky preconditioner on a second thread (auto: large bodies)')
+    sim.add_argument('--factor-thread', choices=('off', 'on'), default=None,
+                     help='factorise the Cholesky preconditioner on a second thread (default off)')
     sim.add_argument('--profile', action='store_true', help='also time each part of a step')
     sim.add_argument('--json', action='store_true', help='print one JSON object')
     sim.set_defaults(func=run_sim)
