@@ -37,7 +37,7 @@ HOT_NODE_FRACTION = 0.5
 SPLIT_TOLERANCE = 1e-3
 """Relative accuracy of the split's eigenvalues (its thresholds are orders of magnitude apart from the limits)."""
 MAX_SPLIT_ROUNDS = 20
-"""Most rounds of moving tets to the fast set for one k (each one generalized eigensolve)."""
+"""Most rounds of moving tets to the fast set (each one generalized eigensolve of the held tets)."""
 
 
 @dataclass(frozen=True)
