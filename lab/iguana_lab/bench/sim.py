@@ -119,9 +119,9 @@ def profile_step(sim, repeats: int = 100) -> dict:
 
     The parts as this simulator runs them (the FEM force with or without its stiffness blocks, the springs'
     blocks, or in a matrix-free step their force with the products K v and K Δv), a whole step, then `per_step_*`:
-    each part times how often a step runs it (the FEM every `elastic_every` steps, CG iterations, factorisations and
-    their matrix assembly per step), `per_step_other` the rest of the whole step (diagonal terms, right-hand side,
-    update and checks). The parts are timed in turns, so a drift of the machine's speed moves them alike.
+    each part times how often a step runs it (the FEM every `elastic_every` steps but its fast tets every step, CG
+    iterations, factorisations and their matrix assembly per step), `per_step_other` the rest of the whole step
+    (diagonal terms, right-hand side, update and checks). The parts are timed in turns, so a drift of the machine's speed moves them alike.
     """
     from iguana_ros.physics import integrator as itg
     from iguana_ros.physics.assembly import block_matvec_pair
@@ -258,8 +258,9 @@ def _per_step(sim, parts: dict, counters: np.ndarray) -> dict:
     steps = max(int(counters[itg.C_STEP] - sim._counters[itg.C_STEP]), 1)
     iterations = (counters[itg.C_CG_ITERS] - sim._counters[itg.C_CG_ITERS]) / steps
     factorisations = (counters[itg.C_FACTORS] - sim._counters[itg.C_FACTORS]) / steps
+    n_tets, n_fast = len(sim._model.tets), ip[itg.IP_FAST_TETS]      # the fast tets every step, the rest held
     elastic = (parts['elastic_forces_and_stiffness'] if ip[itg.IP_ELASTIC_IMPLICIT]
-               else parts['elastic_forces'] / ip[itg.IP_ELASTIC_EVERY])
+               else parts['elastic_forces'] * (n_fast + (n_tets - n_fast) / ip[itg.IP_ELASTIC_EVERY]) / n_tets)
     per_step = {'per_step_elastic': elastic,
                 'per_step_springs': parts.get('spring_forces_and_products', parts['spring_forces_and_stiffness']),
                 'per_step_contact': parts['contact_forces'] if sim.terrain is not None else 0.0,

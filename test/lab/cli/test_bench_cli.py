@@ -58,6 +58,8 @@ def test_bench_sim_profile_splits_a_step_into_its_parts():
     per_step = {name: us for name, us in parts.items() if name.startswith('per_step_')}
     assert {'per_step_elastic', 'per_step_springs', 'per_step_cg', 'per_step_cholesky_factor',
             'per_step_other'} <= set(per_step)
-    assert all(us > 0 for name, us in parts.items() if name != 'per_step_other')
+    assert result['elastic_fast_tets'] > 0 and parts['per_step_matvec_pair'] == 0.0   # coarse: split, matrix-free
+    assert parts['per_step_elastic'] < 0.6 * parts['elastic_forces']                # 164 of 411 tets per step
+    assert all(us > 0 for name, us in parts.items() if name not in ('per_step_other', 'per_step_matvec_pair'))
     named = sum(us for name, us in per_step.items() if name != 'per_step_other')
     assert 0.5 * parts['step'] < named < 1.5 * parts['step']       # a part left out or timed wrongly shows here
