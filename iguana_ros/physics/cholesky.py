@@ -152,10 +152,6 @@ class CholeskyPattern:
                               np.zeros((n, 3)), np.zeros(FACTOR_STATE_SIZE, dtype=np.int64),
                               np.zeros((len(self.a_block) if threaded else 0, 3, 3)))
 
-    @property
-    def n_updates(self) -> int:
-        """Return the block updates of one factorisation (its cost: ~6 ns each here)."""
-        return int(self.u_start[-1])
 
 
 def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
