@@ -61,6 +61,9 @@ CLOSE_S = 1.0
 FOLLOW_STEP_M = 0.01
 """The cameras follow the root once it has moved this far, m."""
 
+AIM_TOLERANCE_M = 0.001
+"""How near CAMERA_OFFSET a browser's reported camera-to-look-at offset shows that it took the page's aim, m."""
+
 CONTACT_RGB = (240, 140, 40)
 PUSH_RGB = (210, 0, 0)
 SIM_BUTTONS = (('pause', 'pause'), ('resume', 'resume'), ('step 1 frame', 'step'), ('reset to the start', 'reset'))
@@ -247,6 +250,8 @@ class ViewerPage:
         """The characters listed (those with a surface), sorted."""
         self.bodies: list[Body] = []
         """The characters' bodies as last drawn."""
+        self.aimed: set[int] = set()
+        """The browsers (client ids) whose camera has shown the page's aim: from then on its pose is theirs."""
         self._selector = None
         self.server.gui.add_markdown(f'**{title}**')
         self._panel = self.server.gui.add_markdown('')
@@ -262,6 +267,7 @@ class ViewerPage:
         self.server.scene.on_click()(_guarded(self._on_click, 'a click'))
         self.server.scene.on_click(modifier='shift')(_guarded(self._on_heading_click, 'a shift-click'))
         self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(lambda client: self.aimed.discard(client.client_id))
 
     def _input(self, handle, rule: InputRule):
         """Return GUI input `handle`, its values from now on checked against `rule` before viser takes them."""
@@ -438,10 +444,23 @@ class ViewerPage:
         self._status.content = text
 
     def _on_connect(self, client) -> None:
-        """Point a new browser's camera at the (selected) iguana."""
-        frame = self.world.frame(self.selected, self.playback.time if self.playback else None)
-        if frame.root is not None:
-            self._aim(client.camera, frame.root)
+        """
+        Hear a new browser's camera reports (`_camera_report`); the next draw points its camera at the iguana.
+
+        Not aimed here: this runs on viser's thread pool, and an aim written into the camera's state while the
+        browser's first report is handed to `_camera_report` would read as the browser having taken it.
+        """
+        client.camera.on_update(self._camera_report)
+
+    async def _camera_report(self, camera) -> None:
+        """
+        Take note once a browser's camera shows the page's aim (CAMERA_OFFSET from what it looks at): `_follow_root`.
+
+        A coroutine: viser runs it on its event loop as the report arrives, before the next report replaces it.
+        """
+        offset = np.asarray(camera.position, float) - np.asarray(camera.look_at, float)
+        if np.allclose(offset, CAMERA_OFFSET, atol=AIM_TOLERANCE_M):
+            self.aimed.add(camera.client.client_id)
 
     @staticmethod
     def _aim(camera, root: np.ndarray) -> None:
@@ -520,21 +539,27 @@ class ViewerPage:
         """
         Aim new browsers at the root.
 
-        With 'follow the iguana', move every camera so it looks at the root from the angle and distance that browser has
-        (setting a viser camera's position moves its look-at along).
+        A browser is aimed at every draw until its camera has reported the aim (`aimed`; the aim is sent only when the
+        camera's last report differs from it). Until then what it reports may be the pose it had before it took the aim:
+        its default one, 5 m away, sent while the page loads and arriving after the aim was sent; followed, that pose
+        would stay, the iguana small in a corner.
+
+        Once the root has moved FOLLOW_STEP_M, with 'follow the iguana', every aimed camera is moved so it looks at the
+        root from the angle and distance that browser has (setting a viser camera's position moves its look-at along).
         """
         drawn = self.drawn
-        if drawn.followed is not None and np.linalg.norm(root - drawn.followed) < FOLLOW_STEP_M:
-            return
-        self._aim(self.server.initial_camera, root)
-        for client in self.server.get_clients().values():
+        moved = drawn.followed is None or np.linalg.norm(root - drawn.followed) >= FOLLOW_STEP_M
+        if moved:
+            self._aim(self.server.initial_camera, root)
+        for client_id, client in self.server.get_clients().items():
             camera = client.camera
-            if drawn.followed is None:
+            if client_id not in self.aimed:
                 self._aim(camera, root)
-            elif self._follow.value:
+            elif moved and self._follow.value:
                 shift = root - np.asarray(camera.look_at, float)
                 camera.position = tuple(np.asarray(camera.position, float) + shift)
-        drawn.followed = root.copy()
+        if moved:
+            drawn.followed = root.copy()
 
     def _replace(self, name: str, handle) -> None:
         """Keep `handle` as the scene node `name` (None: remove the old one)."""

@@ -253,10 +253,24 @@ def test_the_viewer_is_a_child_of_the_run_and_stops_with_it(browser, live_run, c
         assert wait_until(lambda: 'Connecting' in page_text(browser), 30.0), page_text(browser)
 
 
+AFTER_PUSH_S = 1.0
+"""Simulated seconds the run goes on after the push before its bag is taken (the bag-mode test pauses 0.5 s after)."""
+
+
 @pytest.fixture(scope='module')
-def recorded_bag(live_run, clicked_goal, pushed):
-    """Return the run's bag, once the run has stopped (after the goal clicks and the push were sent)."""
+def recorded_bag(browser, live_run, clicked_goal, pushed):
+    """
+    Return the run's bag, once the run has stopped (after the goal clicks and the push were sent).
+
+    A run still going (this module's tests run alone: no test between the push and the bag stopped it) is stopped
+    AFTER_PUSH_S of simulated time after the page said the push was sent, so the bag holds the moment after the push.
+    """
     if live_run.process.running:
+        sent_at = re.search(r'simulated time (-?[\d.]+)', pushed or '')
+        if sent_at:
+            _open_live_page(browser, live_run)
+            wait_until(lambda: (figure(browser, 'simulated time') or 0.0) >= float(sent_at.group(1)) + AFTER_PUSH_S,
+                       60.0)
         live_run.process.stop(timeout=60.0)
     assert (live_run.bag / 'metadata.yaml').exists(), live_run.process.tail()
     return live_run
