@@ -153,7 +153,6 @@ class CholeskyPattern:
                               np.zeros((len(self.a_block) if threaded else 0, 3, 3)))
 
 
-
 def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
     """Both triangles `(row_ptr (n + 1,), cols)` of the symmetric pattern whose upper triangle is given."""
     from scipy.sparse import csr_matrix

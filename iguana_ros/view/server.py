@@ -386,9 +386,9 @@ class ViewerPage:
         """Make character `name` the selected one (its goals, pushes, path, figures; the cameras follow it)."""
         if name not in self.cast:
             return
-        self.selected = name
         if self._selector is not None and self._selector.value != character_label(name):
-            self._selector.value = character_label(name)
+            self._selector.value = character_label(name)      # first: whoever sees `selected` sees the dropdown
+        self.selected = name
         self._set_status(f'{character_label(name)} selected: a click on the terrain sends its goal on '
                          f'{goal_topic(name)}.' if self.live is not None else f'{character_label(name)} selected.')
 

@@ -121,7 +121,8 @@ def profile_step(sim, repeats: int = 100) -> dict:
     blocks, or in a matrix-free step their force with the products K v and K Δv), a whole step, then `per_step_*`:
     each part times how often a step runs it (the FEM every `elastic_every` steps but its fast tets every step, CG
     iterations, factorisations and their matrix assembly per step), `per_step_other` the rest of the whole step
-    (diagonal terms, right-hand side, update and checks). The parts are timed in turns, so a drift of the machine's speed moves them alike.
+    (diagonal terms, right-hand side, update and checks). The parts are timed in turns, so a drift of the machine's
+    speed moves them alike.
     """
     from iguana_ros.physics import integrator as itg
     from iguana_ros.physics.assembly import block_matvec_pair
