@@ -34,8 +34,25 @@ from iguana_ros.jit import FASTMATH
 from iguana_ros.physics.assembly import block_rows
 
 
-FACTOR_STATE_SIZE = 5
-"""Entries of a CholeskyFactor's state (`integrator.F_VALID` … `F_PENDING_STEP`)."""
+FACTOR_STATE_SIZE = 6
+"""Entries of a CholeskyFactor's state (`integrator.F_VALID` … `F_EXTRA_ITERS`)."""
+
+
+class KernelCosts(NamedTuple):
+    """Modelled cost (ns) of the factorisation's and a CG iteration's parts, per unit of work (`refactor_budget`)."""
+
+    per_update: float           # a factorisation: per 3×3 block update
+    per_factor_block: float     # … per block of L (copying A, scaling by the pivot)
+    per_assembled_block: float  # … per block of A assembled for it (a matrix-free step)
+    per_solve_block: float      # a CG iteration: per block of L (forward and backward solves)
+    per_operator_term: float    # … per spring of a matrix-free operator, or stored block of A
+    per_node: float             # … per node (vector updates)
+
+
+KERNEL_COSTS = KernelCosts(per_update=6.1, per_factor_block=10.0, per_assembled_block=12.0, per_solve_block=5.0,
+                           per_operator_term=5.5, per_node=10.0)
+"""Fitted to `iguana bench sim --profile` on the AMD EPYC (coarse, medium, fine, finer: 6.2-9.0 ns per update, 10-15
+per assembled block, 5.0-7.1 per solved block, 5.1-7.9 per spring); `refactor_budget` uses only their ratios."""
 
 
 class CholeskyArrays(NamedTuple):
@@ -59,8 +76,9 @@ class CholeskyFactor(NamedTuple):
     """
     Storage of the block Cholesky preconditioner.
 
-    The pattern, L, its inverted diagonal, work space, the factor state `(5,)` int64 (`integrator.F_VALID`, `F_STEP`,
-    `F_LAST_ITERS`, `F_PENDING`, `F_PENDING_STEP`) and the matrix snapshot for a factor thread (empty without one).
+    The pattern, L, its inverted diagonal, work space, the factor state `(6,)` int64 (`integrator.F_VALID`, `F_STEP`,
+    `F_LAST_ITERS`, `F_PENDING`, `F_PENDING_STEP`, `F_EXTRA_ITERS`) and the matrix snapshot for a factor thread (empty
+    without one).
     """
 
     pattern: CholeskyArrays
@@ -111,7 +129,7 @@ class CholeskyPattern:
             iperm = np.empty(n, dtype=np.int64)
             iperm[perm] = np.arange(n)
             struct = _symbolic(n, full_ptr, full_cols, perm, iperm)
-            candidates.append((_update_count(struct), perm, iperm, struct))
+            candidates.append((_update_count([len(s) for s in struct]), perm, iperm, struct))
         _, perm, iperm, struct = min(candidates, key=lambda c: c[0])
         l_ptr = np.zeros(n + 1, dtype=np.int64)
         l_ptr[1:] = np.cumsum([len(s) for s in struct])
@@ -139,6 +157,25 @@ class CholeskyPattern:
     def n_factor_blocks(self) -> int:
         """Return number of 3×3 blocks of L (diagonal included)."""
         return len(self.l_rows)
+
+    @property
+    def n_updates(self) -> int:
+        """Return the block updates `Σ_j k_j (k_j − 1) / 2` of one factorisation (k_j: blocks of column j)."""
+        return _update_count(np.diff(self.l_ptr))
+
+    def refactor_budget(self, n_assembled_blocks: int, n_operator_terms: int) -> float:
+        """
+        Return the CG iterations that cost as much as one factorisation (KERNEL_COSTS).
+
+        `n_assembled_blocks`: blocks of A assembled for a factorisation only (a matrix-free step), else 0;
+        `n_operator_terms`: springs of a matrix-free operator, or stored blocks of A.
+        """
+        c = KERNEL_COSTS
+        factor = (c.per_update * self.n_updates + c.per_factor_block * self.n_factor_blocks
+                  + c.per_assembled_block * n_assembled_blocks)
+        iteration = (c.per_solve_block * self.n_factor_blocks + c.per_operator_term * n_operator_terms
+                     + c.per_node * self.n_nodes)
+        return factor / iteration
 
     def arrays(self) -> CholeskyArrays:
         """Return the arrays as the compiled kernels take them."""
@@ -201,9 +238,10 @@ def _orderings(row_ptr: np.ndarray, cols: np.ndarray) -> list:
     return orders
 
 
-def _update_count(struct: list) -> int:
-    """Block updates `Σ_j k_j (k_j − 1) / 2` of a factorisation with column structures `struct`."""
-    return int(sum(len(s) * (len(s) - 1) // 2 for s in struct))
+def _update_count(lengths: np.ndarray) -> int:
+    """Block updates `Σ_j k_j (k_j − 1) / 2` of a factorisation whose columns hold `lengths (n,)` = k_j blocks."""
+    lengths = np.asarray(lengths, dtype=np.int64)
+    return int((lengths * (lengths - 1) // 2).sum())
 
 
 def _symbolic(n: int, row_ptr: np.ndarray, cols: np.ndarray, perm: np.ndarray, iperm: np.ndarray) -> list:

@@ -79,6 +79,7 @@ class FactorThread:
         state[itg.F_VALID] = 1
         state[itg.F_STEP] = pending_step
         state[itg.F_LAST_ITERS] = 0
+        state[itg.F_EXTRA_ITERS] = 0
         return chol._replace(values=values, diag_inv=diag_inv)
 
     def cancel(self, chol: CholeskyFactor) -> None:

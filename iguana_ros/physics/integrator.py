@@ -47,8 +47,8 @@ from iguana_ros.physics.solver import preconditioned_cg
 
 # indices of the float parameter vector `fp`
 FP_DT, FP_ALPHA, FP_BETA, FP_GX, FP_GY, FP_GZ, FP_KN, FP_CN, FP_KT, FP_CT, FP_CG_TOL, FP_CG_ATOL, \
-    FP_MAX_SPEED, FP_MAX_DEPTH, FP_CG_FAIL = range(15)
-N_FP = 15
+    FP_MAX_SPEED, FP_MAX_DEPTH, FP_CG_FAIL, FP_REFACTOR_BUDGET = range(16)
+N_FP = 16
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
     IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE, IP_FACTOR_THREAD, \
@@ -91,12 +91,7 @@ def prepare_step(model, state, fp, ip, counters, desired_lengths, external, info
     matrix_free = ip[IP_MATRIX_FREE] != 0            # the springs' stiffness applied on the fly, blocks on demand
     if refresh and not matrix_free:
         blocks[:] = 0.0
-    if ip[IP_ELASTIC_IMPLICIT]:
-        corotated_elastic_range(x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam,
-                                state.element_rotations, ip[IP_POLAR_ITERS], forces, blocks, model.tet_blocks, scale, 0,
-                                model.tets.shape[0])
-    else:
-        _explicit_elastic_forces(model, state, ip, counters, forces)
+    _elastic_forces(model, state, ip, counters, forces, scale)
     rhs, warm = state.rhs, state.cg_work[3]
     if matrix_free:                                  # rhs ← h f_s − K v, warm ← K Δv (the springs; the rest below)
         spring_forces_operator(x, v, state.delta_v, model.springs, model.spring_stiffness, desired_lengths,
@@ -162,19 +157,22 @@ def _matrix_free_rhs(mass, state, diag_k, diag_c, h, alpha, has_ground):
 
 
 @numba.njit(cache=True)
-def _explicit_elastic_forces(model, state, ip, counters, forces):
+def _elastic_forces(model, state, ip, counters, forces, scale):
     """
-    Add the FEM force evaluated explicitly: anew every `elastic_every` steps (at the step's start), held in between.
+    Add the corotated FEM force: implicit, or explicit with its held part (`Fidelity.elastic_integration`).
 
-    `state.elastic_forces (n, 3)` keeps it; no stiffness blocks are assembled. The first `ip[IP_FAST_TETS]` tets
-    (the few a mode the springs hardly hold runs through, `physics.elastic_rates`) are evaluated every step. While
-    any tet is inverted or flat (`counters[C_INVERTED]`, from the last evaluation) every tet is evaluated every
-    step: holding is for the small strains the springs carry, an inverted element recovers through its FEM force
-    alone.
+    Implicit: every tet, with its stiffness blocks times `scale` added to `state.matrix_blocks` (none when `scale` is
+    0). Explicit: evaluated anew every `elastic_every` steps (at the step's start) and held in between in
+    `state.elastic_forces (n, 3)`, without blocks; the first `ip[IP_FAST_TETS]` tets (the few a mode the springs
+    hardly hold runs through, `physics.elastic_rates`) are evaluated every step. While any tet is inverted or flat
+    (`counters[C_INVERTED]`, from the last evaluation) every tet is evaluated every step: holding is for the small
+    strains the springs carry, an inverted element recovers through its FEM force alone.
     """
-    held, x, n_fast, n_tets = state.elastic_forces, state.positions, ip[IP_FAST_TETS], model.tets.shape[0]
-    refresh = counters[C_STEP] % ip[IP_ELASTIC_EVERY] == 0 or counters[C_INVERTED] > 0
-    inverted = 0                                     # (not refreshing: none was inverted)
+    held, x, n_tets = state.elastic_forces, state.positions, model.tets.shape[0]
+    implicit = ip[IP_ELASTIC_IMPLICIT] != 0
+    n_fast = n_tets if implicit else ip[IP_FAST_TETS]
+    refresh = not implicit and (counters[C_STEP] % ip[IP_ELASTIC_EVERY] == 0 or counters[C_INVERTED] > 0)
+    inverted = 0                                     # (explicit, not refreshing: none was inverted)
     for part in range(2):                            # the fast tets into the forces, then (maybe) the held ones
         first, stop, out = (0, n_fast, forces) if part == 0 else (n_fast, n_tets, held)
         if part == 1:
@@ -184,7 +182,10 @@ def _explicit_elastic_forces(model, state, ip, counters, forces):
         if stop > first:                             # one call site: with two, a freshly compiled step loop and
             inverted += corotated_elastic_range(     # the cached one rounded differently (test_determinism.py)
                 x, model.tets, model.shape_gradients, model.volume, model.mu, model.lam, state.element_rotations,
-                ip[IP_POLAR_ITERS], out, state.matrix_blocks, model.tet_blocks, 0.0, first, stop)
+                ip[IP_POLAR_ITERS], out, state.matrix_blocks, model.tet_blocks, scale if implicit else 0.0, first,
+                stop)
+    if implicit:
+        return
     counters[C_INVERTED] = inverted
     for i in range(forces.shape[0]):
         forces[i, 0] += held[i, 0]
@@ -267,21 +268,25 @@ def finish_step(state, fp, counters, info):
     return status
 
 
-# entries of the factor state `chol.state` (5,) int64 of the block Cholesky preconditioner (a CholeskyFactor):
-# whether the factor is valid, the step of the matrix it factorises, the CG iterations of the last solve, and (factor
-# thread) whether a snapshot is out for factorisation and the step of its matrix
-F_VALID, F_STEP, F_LAST_ITERS, F_PENDING, F_PENDING_STEP = range(5)
+# entries of the factor state `chol.state` (6,) int64 of the block Cholesky preconditioner (a CholeskyFactor):
+# whether the factor is valid, the step of the matrix it factorises, the CG iterations of the last solve, (factor
+# thread) whether a snapshot is out for factorisation and the step of its matrix, and the CG iterations beyond one per
+# solve since the factorisation
+F_VALID, F_STEP, F_LAST_ITERS, F_PENDING, F_PENDING_STEP, F_EXTRA_ITERS = range(6)
 
 
 @numba.njit(cache=True)
-def _factor_is_due(ip, counters, factor_state):
+def _factor_is_due(fp, ip, counters, factor_state):
     """
     Whether the Cholesky preconditioner must be refactorised before this step's solve.
 
-    There is none, it is `factor_every` steps old, or the last solve needed more than `refactor_iters` CG iterations.
+    There is none, it is `factor_every` steps old, the last solve needed more than `refactor_iters` CG iterations,
+    or (the 'amortised' rule) the iterations its solves needed beyond one each add up to `FP_REFACTOR_BUDGET`, the
+    iterations a factorisation costs (infinite under the 'age' rule).
     """
     return (factor_state[F_VALID] <= 0 or counters[C_STEP] - factor_state[F_STEP] >= ip[IP_FACTOR_EVERY]
-            or factor_state[F_LAST_ITERS] > ip[IP_REFACTOR_ITERS])
+            or factor_state[F_LAST_ITERS] > ip[IP_REFACTOR_ITERS]
+            or factor_state[F_EXTRA_ITERS] >= fp[FP_REFACTOR_BUDGET])
 
 
 @numba.njit(cache=True)
@@ -296,6 +301,7 @@ def _refactor(model, state, ip, counters, chol):
     factor_state = chol.state
     factor_state[F_VALID] = block_cholesky(chol.pattern, state.matrix_blocks, chol.values, chol.diag_inv)
     factor_state[F_STEP] = counters[C_STEP]
+    factor_state[F_EXTRA_ITERS] = 0
     counters[C_FACTORS] += 1
     if not factor_state[F_VALID]:
         counters[C_FACTOR_FAILS] += 1
@@ -369,9 +375,10 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
 
     `chol` is the CholeskyFactor of the block Cholesky preconditioner (`model` a KernelModel, `state` a
     KernelState). The system matrix is current every step; its factor is reused for up to `factor_every`
-    steps (CG absorbs the difference in a few iterations) and refactorised early after a slow solve, or
-    when a solve with a stale factor fails (then the solve is repeated). A failed factorisation falls back to
-    block Jacobi for that step.
+    steps (CG absorbs the difference in a few iterations) and refactorised early after a slow solve, once the
+    iterations beyond one per solve have cost as much as a factorisation (`FP_REFACTOR_BUDGET`), or when a solve
+    with a stale factor fails (then the solve is repeated). A failed factorisation falls back to block Jacobi for
+    that step.
 
     With `ip[IP_FACTOR_THREAD]` a factor due by its age alone is not computed here: the step copies its matrix into
     `chol.snapshot` and the call returns STATUS_FACTOR_REQUEST after it; the caller factorises the snapshot beside
@@ -392,7 +399,7 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
         if status != STATUS_OK:
             return status, step
         requested = False
-        if kind == 2 and refreshed and _factor_is_due(ip, counters, factor_state):
+        if kind == 2 and refreshed and _factor_is_due(fp, ip, counters, factor_state):
             if (ip[IP_FACTOR_THREAD] != 0 and factor_state[F_VALID] > 0
                     and factor_state[F_LAST_ITERS] <= ip[IP_REFACTOR_ITERS]):   # due by age: beside the loop
                 if factor_state[F_PENDING] == 0:
@@ -411,6 +418,7 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
             failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         counters[C_CG_ITERS] += abs(iters)
         factor_state[F_LAST_ITERS] = abs(iters)
+        factor_state[F_EXTRA_ITERS] += max(abs(iters) - 1, 0)
         if failed:
             info[0] = iters
             info[1] = res / threshold if threshold > 0 else np.inf

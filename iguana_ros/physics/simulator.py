@@ -238,6 +238,8 @@ class SoftBodySimulator:
         Pattern and factor storage when the preconditioner is 'cholesky', else empty arrays of the same types.
         """
         self._factor_thread = None
+        self.refactor_budget = None
+        self._fp[itg.FP_REFACTOR_BUDGET] = np.inf
         if self.fidelity.preconditioner != 'cholesky':
             return empty_factor(len(self.rest_positions))
         pattern = CholeskyPattern.build(self.pattern.row_ptr, self.pattern.cols)
@@ -246,7 +248,17 @@ class SoftBodySimulator:
         self._ip[itg.IP_FACTOR_LAG] = factor_lag(self.fidelity.factor_every)
         if threaded:
             self._factor_thread = FactorThread(pattern)
+        self.refactor_budget = self._refactor_budget(pattern)
+        self._fp[itg.FP_REFACTOR_BUDGET] = np.inf if self.refactor_budget is None else self.refactor_budget
         return pattern.factor(threaded)
+
+    def _refactor_budget(self, pattern: CholeskyPattern) -> float | None:
+        """Return the CG iterations beyond one per solve after which the 'amortised' rule refactorises (else None)."""
+        if self.fidelity.refactor_rule != 'amortised':
+            return None
+        matrix_free = bool(self._ip[itg.IP_MATRIX_FREE])
+        return pattern.refactor_budget(self.pattern.n_blocks if matrix_free else 0,
+                                       len(self._model.springs) if matrix_free else self.pattern.n_blocks)
 
     def close(self) -> None:
         """Stop the factor thread, if any (it also stops when the simulator is collected)."""
@@ -341,6 +353,7 @@ class SoftBodySimulator:
                 'elastic_integration': 'implicit' if self.elastic_implicit else 'explicit',
                 'elastic_every': self.elastic_every, 'elastic_fast_tets': self.elastic_fast_tets,
                 'factor_thread': bool(self._ip[itg.IP_FACTOR_THREAD]),
+                'refactor_budget': self.refactor_budget,
                 'cholesky_failures': int(c[itg.C_FACTOR_FAILS]), 'factorisations': int(c[itg.C_FACTORS])}
 
     # -------------------------------------------------------------------------------------------- stepping

@@ -113,3 +113,39 @@ def test_cholesky_cg_run_equals_direct_lu(bar):
     assert runs['jacobi'].stats['cg_iterations_per_step'] > 3
     diff = np.abs(runs['cholesky'].positions - runs['direct'].positions).max()
     assert diff < 1e-9
+
+
+def test_amortised_rule_refactorises_once_the_extra_iterations_cost_a_factorisation(bar):
+    """
+    Step by step under the 'amortised' rule alone, a factorisation comes exactly at the budget.
+
+    That is, when the CG iterations beyond one per solve since the last factorisation have reached it, never before.
+    """
+    from iguana_ros.physics import integrator as itg
+
+    terrain = HeightField.hills(amplitude=0.02, wavelength=0.3, seed=1, extent=1.0)
+    sim = SoftBodySimulator(bar, terrain, 'balanced', factor_every=1000, refactor_iters=1000,
+                            refactor_rule='amortised')
+    assert 1.0 < sim.refactor_budget < 50.0 and sim.stats['refactor_budget'] == sim.refactor_budget
+    sim.reset(np.asarray(bar.rest_positions) + [0.0, 0.0, 0.05])
+    bent = np.asarray(bar.spring_rest_lengths) * 0.97
+    by_budget = 0
+    for step in range(400):
+        extra, factorisations = int(sim._chol.state[itg.F_EXTRA_ITERS]), sim.stats['factorisations']
+        sim.advance_frame(bent, n_steps=1)
+        refactorised = sim.stats['factorisations'] > factorisations
+        if step > 0:
+            assert refactorised == (extra >= sim.refactor_budget), (step, extra)
+            by_budget += refactorised
+        if refactorised:
+            assert sim._chol.state[itg.F_EXTRA_ITERS] == sim._chol.state[itg.F_LAST_ITERS] - 1
+    assert by_budget >= 3 and sim.stats['cholesky_failures'] == 0
+
+
+def test_age_rule_has_no_budget_and_a_bigger_body_a_larger_one(bar):
+    """'age' leaves the budget out; a factorisation costs more CG iterations on a body with more fill per node."""
+    assert SoftBodySimulator(bar, None, 'balanced', refactor_rule='age').refactor_budget is None
+    thick = box_mesh(size=(0.3, 0.12, 0.08), cells=(10, 2, 2), total_mass=0.5, youngs_modulus=1e4,
+                     spring_stiffness=1e5)
+    budgets = [SoftBodySimulator(body, None, 'balanced').refactor_budget for body in (bar, thick)]
+    assert 1.0 < budgets[0] < budgets[1]

@@ -57,7 +57,10 @@ def register(subparsers) -> None:
     sim.add_argument('--cg-tol', type=float, default=None)
     sim.add_argument('--jacobian-every', type=int, default=None, help='steps between system-matrix rebuilds')
     sim.add_argument('--factor-every', type=int, default=None,
-                     help='steps a Cholesky preconditioner factor is reused (1 = refactorise every step)')
+                     help='steps a Cholesky preconditioner factor is reused at most (1 = refactorise every step)')
+    sim.add_argument('--refactor-rule', choices=('age', 'amortised'), default=None,
+                     help="'amortised': also refactorise once the extra CG iterations cost as much as a "
+                          "factorisation (default: the preset's)")
     sim.add_argument('--polar-iters', type=int, default=None, help='rotation-extraction iterations per step')
     sim.add_argument('--factor-thread', choices=('off', 'on'), default=None,
                      help='factorise the Cholesky preconditioner on a second thread (default off)')
@@ -122,6 +125,12 @@ def _held(result: dict) -> str:
     return f", held {result['elastic_every']} steps{fast}"
 
 
+def _amortised(result: dict) -> str:
+    """Return the summary's words on the 'amortised' refactorisation rule ('' under the 'age' rule)."""
+    budget = result['refactor_budget']
+    return '' if budget is None else f' (once the CG iterations beyond one per solve reach {budget:.1f})'
+
+
 def run_sim(args) -> int:
     """`iguana bench sim`."""
     from iguana_lab.bench.sim import bench_sim
@@ -129,14 +138,16 @@ def run_sim(args) -> int:
     result = bench_sim(args.mesh, seconds=args.seconds, preset=args.preset, profile=args.profile, dt=args.dt,
                        solver=args.solver, preconditioner=args.preconditioner, cg_tol=args.cg_tol,
                        jacobian_every=args.jacobian_every, factor_every=args.factor_every,
-                       polar_iters=args.polar_iters, factor_thread=args.factor_thread)
+                       polar_iters=args.polar_iters, factor_thread=args.factor_thread,
+                       refactor_rule=args.refactor_rule)
     if args.json:
         print(json.dumps(result, indent=1))
         return 0
     print(f"{result['model']}: {result['nodes']} nodes, {result['tets']} tets, {result['springs']} springs; "
           f"preset {result['preset']} (dt {result['dt']:.6g} s, {result['solver']}, cg_tol {result['cg_tol']:g}, "
           f"jacobian every {result['jacobian_every']}, {result['preconditioner']} preconditioner refactorised every "
-          f"{result['factor_every']} steps or sooner: {result['factorisations_per_step']:.2f} per step"
+          f"{result['factor_every']} steps or sooner{_amortised(result)}: "
+          f"{result['factorisations_per_step']:.2f} per step"
           f"{', on a second thread' if result['factor_thread'] else ''}; FEM {result['elastic_integration']}"
           f'{_held(result)})')
     print(f"realtime factor {result['realtime_factor']:.2f} (wall), {result['realtime_factor_cpu']:.2f} (CPU time); "
