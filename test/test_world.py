@@ -168,7 +168,9 @@ def test_an_iguana_walking_into_another_moves_it_and_neither_gets_into_the_other
     assert 0.0 < max(deepest) <= 0.005, max(deepest)
     sitter, lone = bumped.characters['sitter'], alone.characters['sitter']
     moved = np.linalg.norm(sitter.node_positions[-1] - lone.node_positions[-1], axis=1)
-    assert moved.max() >= 0.003, moved.max()                           # pushed: 5.7 mm at its most moved node
+    # pushed: its most moved node 2.5-6.1 mm from where it rests alone, depending on the solver's factor schedule
+    # (the contact's outcome is that sensitive); the solver alone moves the lone sitter by at most 0.02 mm
+    assert moved.max() >= 0.001, moved.max()
     assert bumped.characters['walker'].root_positions[-1, 0] < 0.6      # and it stopped the walker short of it
     pair = {(p.a, p.b) for frame in bumped.contacts for p in frame.pairs}
     assert pair == {(0, 1), (1, 0)}                                     # each body's nodes met the other's volume
