@@ -380,11 +380,11 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
     with a stale factor fails (then the solve is repeated). A failed factorisation falls back to block Jacobi for
     that step.
 
-    With `ip[IP_FACTOR_THREAD]` a factor due by its age alone is not computed here: the step copies its matrix into
-    `chol.snapshot` and the call returns STATUS_FACTOR_REQUEST after it; the caller factorises the snapshot beside
-    the next steps and, when this returns STATUS_FACTOR_SWAP (`ip[IP_FACTOR_LAG]` steps after the snapshot, before
-    that step), puts that factor in place. Which factor each step uses depends on the step count alone, never on
-    timing.
+    With `ip[IP_FACTOR_THREAD]` a factor due by its age or the budget alone is not computed here: the step copies
+    its matrix into `chol.snapshot` and the call returns STATUS_FACTOR_REQUEST after it; the caller factorises the
+    snapshot beside the next steps and, when this returns STATUS_FACTOR_SWAP (`ip[IP_FACTOR_LAG]` steps after the
+    snapshot, before that step), puts that factor in place. Which factor each step uses depends on the step and CG
+    iteration counts alone, never on timing.
     """
     kind = ip[IP_PRECONDITIONER]
     factor_state = chol.state
@@ -401,7 +401,7 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
         requested = False
         if kind == 2 and refreshed and _factor_is_due(fp, ip, counters, factor_state):
             if (ip[IP_FACTOR_THREAD] != 0 and factor_state[F_VALID] > 0
-                    and factor_state[F_LAST_ITERS] <= ip[IP_REFACTOR_ITERS]):   # due by age: beside the loop
+                    and factor_state[F_LAST_ITERS] <= ip[IP_REFACTOR_ITERS]):   # age or budget: on the thread
                 if factor_state[F_PENDING] == 0:
                     _snapshot_for_thread(model, state, ip, counters, chol)
                     requested = True
