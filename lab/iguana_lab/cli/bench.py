@@ -29,6 +29,7 @@ import json
 from iguana_lab.cli import bench_adaptation, bench_faults, bench_locomotion, bench_pushes, bench_statics
 from iguana_ros.cli.argtypes import count, positive
 from iguana_ros.errors import InputError
+from iguana_ros.physics.fidelity import FACTOR_THREADS, PRECONDITIONERS, REFACTOR_RULES, SOLVERS
 
 
 def _time_step(text: str) -> float:
@@ -52,17 +53,17 @@ def register(subparsers) -> None:
     sim.add_argument('--dt', type=_time_step, default=None, help='time step, e.g. 1/1200 (default: the preset)')
     sim.add_argument('--seconds', type=float, default=5.0, help='simulated seconds (default 5)')
     sim.add_argument('--preset', choices=('fast', 'balanced', 'accurate'), default='balanced')
-    sim.add_argument('--solver', choices=('cg', 'direct'), default=None)
-    sim.add_argument('--preconditioner', choices=('jacobi', 'ssor', 'cholesky'), default=None)
+    sim.add_argument('--solver', choices=SOLVERS, default=None)
+    sim.add_argument('--preconditioner', choices=PRECONDITIONERS, default=None)
     sim.add_argument('--cg-tol', type=float, default=None)
     sim.add_argument('--jacobian-every', type=int, default=None, help='steps between system-matrix rebuilds')
     sim.add_argument('--factor-every', type=int, default=None,
                      help='steps a Cholesky preconditioner factor is reused at most (1 = refactorise every step)')
-    sim.add_argument('--refactor-rule', choices=('age', 'amortised'), default=None,
+    sim.add_argument('--refactor-rule', choices=REFACTOR_RULES, default=None,
                      help="'amortised': also refactorise once the extra CG iterations cost as much as a "
                           "factorisation (default: the preset's)")
     sim.add_argument('--polar-iters', type=int, default=None, help='rotation-extraction iterations per step')
-    sim.add_argument('--factor-thread', choices=('off', 'on'), default=None,
+    sim.add_argument('--factor-thread', choices=FACTOR_THREADS, default=None,
                      help='factorise the Cholesky preconditioner on a second thread (default off)')
     sim.add_argument('--profile', action='store_true', help='also time each part of a step')
     sim.add_argument('--json', action='store_true', help='print one JSON object')
