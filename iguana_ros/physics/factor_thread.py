@@ -16,10 +16,11 @@
 The Cholesky preconditioner's factorisation on a second thread, beside the step loop (a large body's largest cost).
 
 The step loop (`integrator.run_steps_cg` with `IP_FACTOR_THREAD`) copies the matrix of a step whose factor is due by
-age into `CholeskyFactor.snapshot` and returns; `FactorThread.start` factorises it into spare storage on a worker
-thread (`block_cholesky` releases the GIL) while the loop goes on with the current factor; `factor_every` steps
-after the snapshot the loop returns again and `FactorThread.swap` waits for the worker and puts the new factor in
-place. The schedule is the step count's alone, so a run is bit for bit the same however the threads are timed.
+age or the amortised budget into `CholeskyFactor.snapshot` and returns; `FactorThread.start` factorises it into spare
+storage on a worker thread (`block_cholesky` releases the GIL) while the loop goes on with the current factor;
+`factor_lag` steps after the snapshot the loop returns again and `FactorThread.swap` waits for the worker and puts the
+new factor in place. The schedule is the step and iteration counts' alone, so a run is bit for bit the same however
+the threads are timed.
 """
 from __future__ import annotations
 

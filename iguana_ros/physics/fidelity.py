@@ -81,9 +81,10 @@ class Fidelity:
     body whose factorisation is dear against an iteration (fine) keeps it longer, and a fast-changing matrix renews
     it sooner.
 
-    `factor_thread`: 'on' computes the Cholesky preconditioner's factor due by age on a second thread beside the
-    step loop and uses it from `factor_lag` steps after its matrix (`physics.factor_thread`); 'off' (default) in the
-    loop. Deterministic either way; it pays only where a core is free (docs/RESULTS.md, "Speed at scale").
+    `factor_thread`: 'on' computes the Cholesky preconditioner's factor due by age or by the 'amortised' budget on a
+    second thread beside the step loop and uses it from `factor_lag` steps after its matrix (`physics.factor_thread`);
+    'off' (default) in the loop. Deterministic either way; it pays only where a core is free (docs/RESULTS.md, "Speed
+    at scale").
     """
 
     dt: float = SIM_DT
