@@ -32,6 +32,7 @@ import numpy as np
 
 from iguana_ros.jit import FASTMATH
 from iguana_ros.physics.assembly import block_rows
+from iguana_ros.physics.block_simd import column_products, row_products, scale_column, update_column
 
 
 FACTOR_STATE_SIZE = 6
@@ -49,10 +50,11 @@ class KernelCosts(NamedTuple):
     per_node: float             # … per node (vector updates)
 
 
-KERNEL_COSTS = KernelCosts(per_update=6.1, per_factor_block=10.0, per_assembled_block=12.0, per_solve_block=5.0,
+KERNEL_COSTS = KernelCosts(per_update=2.7, per_factor_block=6.0, per_assembled_block=12.0, per_solve_block=4.0,
                            per_operator_term=5.5, per_node=10.0)
-"""Fitted to `iguana bench sim --profile` on the AMD EPYC (coarse, medium, fine, finer: 6.2-9.0 ns per update, 10-15
-per assembled block, 5.0-7.1 per solved block, 5.1-7.9 per spring); `refactor_budget` uses only their ratios."""
+"""Fitted to `iguana bench sim --profile` on the AMD EPYC with the SIMD block kernels (`block_simd`; coarse, medium,
+fine, finer: a factorisation 35 / 88 / 1196 / 5845 us, modelled 24 / 68 / 1334 / 5755; 10-15 ns per assembled
+block, 3.7-6.4 per solved block, 5.1-7.7 per spring); `refactor_budget` uses only their ratios."""
 
 
 class CholeskyArrays(NamedTuple):
@@ -70,6 +72,9 @@ class CholeskyArrays(NamedTuple):
     u_from: np.ndarray
     u_start: np.ndarray
     u_dest: np.ndarray
+    r_ptr: np.ndarray
+    r_pos: np.ndarray
+    r_col: np.ndarray
 
 
 class CholeskyFactor(NamedTuple):
@@ -98,7 +103,8 @@ class CholeskyPattern:
     A blocks feeding column j: stored blocks `a_block[a_ptr[j]:a_ptr[j + 1]]` of A's upper triangle, copied
     (transposed where `a_transpose`) into L position `a_dest`. Updates of column j: for u in
     `u_ptr[j]:u_ptr[j + 1]`, column `u_col[u]` from its position `u_from[u]` (= L_jk) to its end lands at
-    positions `u_dest[u_start[u]:…]` of column j.
+    positions `u_dest[u_start[u]:…]` of column j. Row i of L below the diagonal (for the forward solve): blocks at
+    positions `r_pos[r_ptr[i]:r_ptr[i + 1]]`, in columns `r_col[…]` (ascending).
     """
 
     n_nodes: int
@@ -114,6 +120,9 @@ class CholeskyPattern:
     u_from: np.ndarray    # (n_u,) int64
     u_start: np.ndarray   # (n_u + 1,) int64
     u_dest: np.ndarray    # (Σ update lengths,) int64
+    r_ptr: np.ndarray     # (n_nodes + 1,) int64
+    r_pos: np.ndarray     # (n_l − n_nodes,) int64
+    r_col: np.ndarray     # (n_l − n_nodes,) int64
 
     @classmethod
     def build(cls, row_ptr: np.ndarray, cols: np.ndarray) -> 'CholeskyPattern':
@@ -151,7 +160,7 @@ class CholeskyPattern:
         as_int = lambda a: np.asarray(a, dtype=np.int64)          # noqa: E731
         return cls(n_nodes=n, perm=perm, l_ptr=l_ptr, l_rows=l_rows, a_ptr=a_ptr, a_block=a_block, a_dest=a_dest,
                    a_transpose=a_transpose, u_ptr=as_int(u_ptr), u_col=as_int(u_col), u_from=as_int(u_from),
-                   u_start=as_int(u_start), u_dest=as_int(u_dest))
+                   u_start=as_int(u_start), u_dest=as_int(u_dest), **_row_structure(l_ptr, l_rows))
 
     @property
     def n_factor_blocks(self) -> int:
@@ -179,8 +188,7 @@ class CholeskyPattern:
 
     def arrays(self) -> CholeskyArrays:
         """Return the arrays as the compiled kernels take them."""
-        return CholeskyArrays(self.perm, self.l_ptr, self.l_rows, self.a_ptr, self.a_block, self.a_dest,
-                              self.a_transpose, self.u_ptr, self.u_col, self.u_from, self.u_start, self.u_dest)
+        return CholeskyArrays(*(getattr(self, name) for name in CholeskyArrays._fields))
 
     def factor(self, threaded: bool = False) -> CholeskyFactor:
         """Zeroed factor storage over this pattern (no valid factor yet); `threaded`: with a matrix snapshot."""
@@ -188,6 +196,17 @@ class CholeskyPattern:
         return CholeskyFactor(self.arrays(), np.zeros((self.n_factor_blocks, 3, 3)), np.zeros((n, 3, 3)),
                               np.zeros((n, 3)), np.zeros(FACTOR_STATE_SIZE, dtype=np.int64),
                               np.zeros((len(self.a_block) if threaded else 0, 3, 3)))
+
+
+def _row_structure(l_ptr: np.ndarray, l_rows: np.ndarray) -> dict:
+    """Return `r_ptr`, `r_pos`, `r_col`: the positions and columns of L's blocks below the diagonal, row by row."""
+    n = len(l_ptr) - 1
+    column = np.repeat(np.arange(n, dtype=np.int64), np.diff(l_ptr))
+    below = np.flatnonzero(l_rows != column)
+    order = below[np.lexsort((column[below], l_rows[below]))]
+    r_ptr = np.zeros(n + 1, dtype=np.int64)
+    r_ptr[1:] = np.cumsum(np.bincount(l_rows[below], minlength=n))
+    return {'r_ptr': r_ptr, 'r_pos': order.astype(np.int64), 'r_col': column[order]}
 
 
 def _symmetric_pattern(row_ptr: np.ndarray, cols: np.ndarray) -> tuple:
@@ -260,8 +279,9 @@ def _symbolic(n: int, row_ptr: np.ndarray, cols: np.ndarray, perm: np.ndarray, i
 def empty_factor(n_nodes: int) -> CholeskyFactor:
     """Return the CholeskyFactor of no factor (empty pattern and blocks) for a preconditioner that uses none."""
     e = np.zeros(0, dtype=np.int64)
-    return CholeskyFactor(CholeskyArrays(*(e,) * 12), np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)),
-                          np.zeros((n_nodes, 3)), np.zeros(FACTOR_STATE_SIZE, dtype=np.int64), np.zeros((0, 3, 3)))
+    no_pattern = CholeskyArrays(*(e,) * len(CholeskyArrays._fields))
+    return CholeskyFactor(no_pattern, np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)),
+                          np.zeros(FACTOR_STATE_SIZE, dtype=np.int64), np.zeros((0, 3, 3)))
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
@@ -300,22 +320,6 @@ def _factor_pivot(values, p, diag_inv, j):
     return True
 
 
-@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
-def _update_column(values, start, u_dest, lo, hi):
-    """values[u_dest[lo + q]] −= values[start + q] values[start]ᵀ for q < hi − lo (one column k into column j)."""
-    b00, b01, b02 = values[start, 0, 0], values[start, 0, 1], values[start, 0, 2]
-    b10, b11, b12 = values[start, 1, 0], values[start, 1, 1], values[start, 1, 2]
-    b20, b21, b22 = values[start, 2, 0], values[start, 2, 1], values[start, 2, 2]
-    for q in range(hi - lo):
-        p = start + q
-        d = u_dest[lo + q]
-        for r in range(3):
-            a0, a1, a2 = values[p, r, 0], values[p, r, 1], values[p, r, 2]
-            values[d, r, 0] -= a0 * b00 + a1 * b01 + a2 * b02
-            values[d, r, 1] -= a0 * b10 + a1 * b11 + a2 * b12
-            values[d, r, 2] -= a0 * b20 + a1 * b21 + a2 * b22
-
-
 @numba.njit(cache=True, fastmath=FASTMATH, nogil=True)   # nogil: a factor thread runs it beside the step loop
 def block_cholesky(pattern, blocks, values, diag_inv):
     """
@@ -341,48 +345,27 @@ def block_cholesky(pattern, blocks, values, diag_inv):
                     for c in range(3):
                         values[p, r, c] = blocks[k, r, c]
         for u in range(u_ptr[j], u_ptr[j + 1]):      # S(i, j) −= L(i, k) L(j, k)ᵀ
-            _update_column(values, u_from[u], u_dest, u_start[u], u_start[u + 1])
+            update_column(values, u_from[u], u_dest, u_start[u], u_start[u + 1])
         if not _factor_pivot(values, lo, diag_inv, j):
             return False
-        i00, i10, i11 = diag_inv[j, 0, 0], diag_inv[j, 1, 0], diag_inv[j, 1, 1]
-        i20, i21, i22 = diag_inv[j, 2, 0], diag_inv[j, 2, 1], diag_inv[j, 2, 2]
-        for p in range(lo + 1, hi):                  # L(i, j) = S(i, j) L_jj⁻ᵀ (L_jj⁻¹ lower triangular)
-            for r in range(3):
-                s0, s1, s2 = values[p, r, 0], values[p, r, 1], values[p, r, 2]
-                values[p, r, 0] = s0 * i00
-                values[p, r, 1] = s0 * i10 + s1 * i11
-                values[p, r, 2] = s0 * i20 + s1 * i21 + s2 * i22
+        scale_column(values, lo + 1, hi, diag_inv, j)   # L(i, j) = S(i, j) L_jj⁻ᵀ (L_jj⁻¹ lower triangular)
     return True
 
 
 @numba.njit(cache=True)
 def cholesky_solve(pattern, values, diag_inv, r, z, y):
     """`z` = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space."""
-    perm, l_ptr, l_rows = pattern.perm, pattern.l_ptr, pattern.l_rows
+    perm, l_ptr, l_rows, r_ptr = pattern.perm, pattern.l_ptr, pattern.l_rows, pattern.r_ptr
     n = perm.shape[0]
-    for j in range(n):
-        y[j, 0] = r[perm[j], 0]
-        y[j, 1] = r[perm[j], 1]
-        y[j, 2] = r[perm[j], 2]
-    for j in range(n):                               # L y' = y (blocks indexed in place: views are slow)
-        s0, s1, s2 = y[j, 0], y[j, 1], y[j, 2]
-        y0 = diag_inv[j, 0, 0] * s0
-        y1 = diag_inv[j, 1, 0] * s0 + diag_inv[j, 1, 1] * s1
-        y2 = diag_inv[j, 2, 0] * s0 + diag_inv[j, 2, 1] * s1 + diag_inv[j, 2, 2] * s2
-        y[j, 0], y[j, 1], y[j, 2] = y0, y1, y2
-        for p in range(l_ptr[j] + 1, l_ptr[j + 1]):
-            i = l_rows[p]
-            y[i, 0] -= values[p, 0, 0] * y0 + values[p, 0, 1] * y1 + values[p, 0, 2] * y2
-            y[i, 1] -= values[p, 1, 0] * y0 + values[p, 1, 1] * y1 + values[p, 1, 2] * y2
-            y[i, 2] -= values[p, 2, 0] * y0 + values[p, 2, 1] * y1 + values[p, 2, 2] * y2
-    for j in range(n - 1, -1, -1):                   # Lᵀ z' = y'
-        s0, s1, s2 = y[j, 0], y[j, 1], y[j, 2]
-        for p in range(l_ptr[j] + 1, l_ptr[j + 1]):
-            i = l_rows[p]
-            w0, w1, w2 = y[i, 0], y[i, 1], y[i, 2]
-            s0 -= values[p, 0, 0] * w0 + values[p, 1, 0] * w1 + values[p, 2, 0] * w2
-            s1 -= values[p, 0, 1] * w0 + values[p, 1, 1] * w1 + values[p, 2, 1] * w2
-            s2 -= values[p, 0, 2] * w0 + values[p, 1, 2] * w1 + values[p, 2, 2] * w2
+    for i in range(n):                               # L y = P r, row by row
+        t0, t1, t2 = row_products(values, pattern.r_pos, pattern.r_col, y, r_ptr[i], r_ptr[i + 1])
+        s0, s1, s2 = r[perm[i], 0] - t0, r[perm[i], 1] - t1, r[perm[i], 2] - t2
+        y[i, 0] = diag_inv[i, 0, 0] * s0
+        y[i, 1] = diag_inv[i, 1, 0] * s0 + diag_inv[i, 1, 1] * s1
+        y[i, 2] = diag_inv[i, 2, 0] * s0 + diag_inv[i, 2, 1] * s1 + diag_inv[i, 2, 2] * s2
+    for j in range(n - 1, -1, -1):                   # Lᵀ z' = y, column by column
+        t0, t1, t2 = column_products(values, l_rows, y, l_ptr[j] + 1, l_ptr[j + 1])
+        s0, s1, s2 = y[j, 0] - t0, y[j, 1] - t1, y[j, 2] - t2
         y[j, 2] = diag_inv[j, 2, 2] * s2             # L_jj⁻ᵀ is upper triangular
         y[j, 1] = diag_inv[j, 1, 1] * s1 + diag_inv[j, 2, 1] * s2
         y[j, 0] = diag_inv[j, 0, 0] * s0 + diag_inv[j, 1, 0] * s1 + diag_inv[j, 2, 0] * s2

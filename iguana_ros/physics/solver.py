@@ -99,7 +99,7 @@ def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
 def _no_factor(n):
     """Return a `chol` argument for the preconditioners that use no factor."""
     e = np.zeros(0, dtype=np.int64)
-    return CholeskyFactor(CholeskyArrays(e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)),
+    return CholeskyFactor(CholeskyArrays(e, e, e, e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)),
                           np.zeros((0, 3, 3)), np.zeros((n, 3)), e, np.zeros((0, 3, 3)))
 
 
