@@ -331,7 +331,7 @@ def spring_forces_operator(x, v, dv, springs, stiffness, desired_lengths, coef, 
     forces f_s and stiffness product, the system's right-hand side part) and `kdv` = K dv `(n, 3)` (K = Σ_s K_s on
     (i, i), (j, j), −K_s on (i, j)). Three passes: gather each spring's end differences of (x, v, dv), packed per
     node in `node_work (n, 9)`, into `work (9, n_springs)`; the arithmetic (which the compiler vectorises); scatter
-    to the ends in spring order.
+    to the ends in spring order, each run of springs at one first node i summed in registers before it is added.
     """
     _gather_spring_differences(x, v, dv, springs, node_work, work)
     if scale != 0.0:
@@ -340,22 +340,33 @@ def spring_forces_operator(x, v, dv, springs, stiffness, desired_lengths, coef, 
         _held_spring_terms(stiffness, desired_lengths, coef, work)
     rhs[:] = 0.0
     kdv[:] = 0.0
+    i_run = -1                                       # springs sharing their first node i in a row (the model's
+    r0 = r1 = r2 = e0 = e1 = e2 = 0.0                # springs are sorted so) sum its share in registers
     for s in range(springs.shape[0]):
         i = springs[s, 0]
         j = springs[s, 1]
-        _scatter_pair(rhs, i, j, h * work[0, s] + work[3, s], h * work[1, s] + work[4, s], h * work[2, s] + work[5, s])
-        _scatter_pair(kdv, j, i, work[6, s], work[7, s], work[8, s])
+        if i != i_run:
+            if i_run >= 0:
+                _add_to(rhs, i_run, r0, r1, r2)
+                _add_to(kdv, i_run, -e0, -e1, -e2)
+            i_run = i
+            r0 = r1 = r2 = e0 = e1 = e2 = 0.0
+        t0, t1, t2 = h * work[0, s] + work[3, s], h * work[1, s] + work[4, s], h * work[2, s] + work[5, s]
+        r0, r1, r2 = r0 + t0, r1 + t1, r2 + t2
+        _add_to(rhs, j, -t0, -t1, -t2)
+        e0, e1, e2 = e0 + work[6, s], e1 + work[7, s], e2 + work[8, s]
+        _add_to(kdv, j, work[6, s], work[7, s], work[8, s])
+    if i_run >= 0:
+        _add_to(rhs, i_run, r0, r1, r2)
+        _add_to(kdv, i_run, -e0, -e1, -e2)
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
-def _scatter_pair(out, i, j, t0, t1, t2):
-    """out_i += t, out_j −= t."""
+def _add_to(out, i, t0, t1, t2):
+    """out_i += t."""
     out[i, 0] += t0
     out[i, 1] += t1
     out[i, 2] += t2
-    out[j, 0] -= t0
-    out[j, 1] -= t1
-    out[j, 2] -= t2
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
@@ -418,19 +429,6 @@ def _spring_products(work, s, u0, u1, u2, c, g):
         work[base + 2, s] = p * u2 + g * w2
 
 
-@numba.njit(cache=True, inline='always', fastmath=FASTMATH)
-def _spring_product(springs, coef, s, x, out):
-    """out_i += K_s (x_i − x_j), out_j −= the same, for spring `s` with `coef[:, s]` = (u, c, g): K_s = c u uᵀ + g I."""
-    i = springs[s, 0]
-    j = springs[s, 1]
-    u0, u1, u2, c, g = coef[0, s], coef[1, s], coef[2, s], coef[3, s], coef[4, s]
-    w0 = x[i, 0] - x[j, 0]
-    w1 = x[i, 1] - x[j, 1]
-    w2 = x[i, 2] - x[j, 2]
-    p = c * (u0 * w0 + u1 * w1 + u2 * w2)
-    _scatter_pair(out, i, j, p * u0 + g * w0, p * u1 + g * w1, p * u2 + g * w2)
-
-
 @numba.njit(cache=True, fastmath=FASTMATH)
 def spring_operator_matvec(springs, coef, node_matrix, x, out):
     """`out` = A x `(n, 3)` for A = blockdiag(`node_matrix (n, 3, 3)`) + the springs' K (`coef (5, n_springs)`)."""
@@ -439,8 +437,25 @@ def spring_operator_matvec(springs, coef, node_matrix, x, out):
         out[i, 0] = node_matrix[i, 0, 0] * x0 + node_matrix[i, 0, 1] * x1 + node_matrix[i, 0, 2] * x2
         out[i, 1] = node_matrix[i, 1, 0] * x0 + node_matrix[i, 1, 1] * x1 + node_matrix[i, 1, 2] * x2
         out[i, 2] = node_matrix[i, 2, 0] * x0 + node_matrix[i, 2, 1] * x1 + node_matrix[i, 2, 2] * x2
+    i_run = -1                                       # as in spring_forces_operator: a run of springs at node i
+    a0 = a1 = a2 = x0 = x1 = x2 = 0.0
     for s in range(springs.shape[0]):
-        _spring_product(springs, coef, s, x, out)
+        i = springs[s, 0]
+        j = springs[s, 1]
+        if i != i_run:
+            if i_run >= 0:
+                _add_to(out, i_run, a0, a1, a2)
+            i_run = i
+            a0 = a1 = a2 = 0.0
+            x0, x1, x2 = x[i, 0], x[i, 1], x[i, 2]
+        u0, u1, u2, c, g = coef[0, s], coef[1, s], coef[2, s], coef[3, s], coef[4, s]
+        w0, w1, w2 = x0 - x[j, 0], x1 - x[j, 1], x2 - x[j, 2]
+        p = c * (u0 * w0 + u1 * w1 + u2 * w2)
+        t0, t1, t2 = p * u0 + g * w0, p * u1 + g * w1, p * u2 + g * w2
+        a0, a1, a2 = a0 + t0, a1 + t1, a2 + t2
+        _add_to(out, j, -t0, -t1, -t2)
+    if i_run >= 0:
+        _add_to(out, i_run, a0, a1, a2)
 
 
 @numba.njit(cache=True, fastmath=FASTMATH)
