@@ -128,6 +128,7 @@ setup(
         'scipy>=1.10',
         'pyyaml>=6',
         'numba>=0.59',
+        'llvmlite>=0.42',    # numba's own; physics/block_simd.py writes its SIMD kernels in LLVM IR with it
         'mcap>=1.1',
         'zstandard>=0.21',
         'lz4>=3',
