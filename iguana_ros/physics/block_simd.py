@@ -18,7 +18,7 @@ SIMD kernels of the 3×3-block Cholesky factor (`iguana_ros.physics.cholesky`), 
 A 3×3 block is 9 contiguous float64 (row-major): one 8-lane vector plus a scalar lane. numba's compiler does not
 vectorise the blocks' scalar code (measured: the factor's block update ~6 ns, a solve's block ~2.5 ns, the scalar
 rate); these intrinsics state the vector operations, which LLVM lowers to the host's SIMD (AVX-512 here, split
-into narrower registers elsewhere): on the fine body the factorisation runs 1.9x and the triangular solves 1.3x
+into narrower registers elsewhere): on the fine body the factorisation runs 2.2x and the triangular solves 1.3x
 faster. The multiply-adds are explicit `llvm.fma` calls, so a kernel rounds the same whether freshly compiled or
 loaded from numba's cache (fused multiply-adds chosen by the compiler did not, `iguana_ros.jit.FASTMATH`).
 
