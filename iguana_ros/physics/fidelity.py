@@ -76,10 +76,10 @@ class Fidelity:
 
     `refactor_rule`: 'age' refactorises the Cholesky preconditioner every `factor_every` steps or after a solve of more
     than `refactor_iters` CG iterations; 'amortised' also as soon as the iterations its solves needed beyond one each
-    have cost as much as a factorisation (`CholeskyPattern.refactor_budget`: ~4.5 iterations on coarse and medium,
-    ~14 on fine), with `factor_every` as the longest reuse: the factor is renewed as often as its cost is repaid, so a
-    body whose factorisation is dear against an iteration (fine) keeps it longer, and a fast-changing matrix renews
-    it sooner.
+    have cost as much as a factorisation (`CholeskyPattern.refactor_budget`: ~3 iterations on coarse and medium,
+    ~8 on fine with the SIMD block kernels), with `factor_every` as the longest reuse: the factor is renewed as often
+    as its cost is repaid, so a body whose factorisation is dear against an iteration (fine) keeps it longer, and a
+    fast-changing matrix renews it sooner.
 
     `factor_thread`: 'on' computes the Cholesky preconditioner's factor due by age or by the 'amortised' budget on a
     second thread beside the step loop and uses it from `factor_lag` steps after its matrix (`physics.factor_thread`);
@@ -152,7 +152,9 @@ PRESETS = {
     # the CG tolerance's, unchanged (docs/RESULTS.md, trade-off table). Then (issue 34) refactor_rule 'amortised',
     # factor_every 16 as the longest reuse: a factorisation once the extra CG iterations have cost as much (budget ~4.5
     # iterations on coarse and medium, ~14 on fine): fine 7 % faster (a factorisation every 12 instead of 7.8 steps),
-    # coarse and medium as before (their budget keeps them near every 7-8 steps).
+    # coarse and medium as before (their budget keeps them near every 7-8 steps). With the SIMD block kernels
+    # (block_simd) a factorisation is cheaper against an iteration: budgets ~3 (coarse, medium) and ~8 (fine), a
+    # factorisation every ~6-8 (coarse, medium) and ~11 (fine) steps.
     'fast': Fidelity(dt=1.0 / 200.0, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=100, jacobian_every=1,
                      polar_iters=1, factor_every=2),
     'balanced': Fidelity(dt=SIM_DT, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=200, jacobian_every=1,
