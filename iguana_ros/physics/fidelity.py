@@ -42,11 +42,13 @@ HELD_ELASTIC_LIMIT = 0.04
 """Largest (k h)² λ_max(A⁻¹ K_e) of an explicit FEM force held for k steps (`elastic_every`, 'auto'): a force
 sampled every k h is stable up to (k h)² λ ≈ 4 as one step of k h is, so 0.04 keeps a 100x margin. Measured: held 4
 steps on medium (dt 1/1200 and 1/300) and fine, trajectories within 0.5 mm of the implicit step over 0.5 s
-(`test_elastic_integration`)."""
+(`test_elastic_integration`); held 6 (medium) and 8 (fine, its 15 fastest tets every step) at dt 1/1200, the gait's
+error against dt 1/4800 unchanged (medium 58.6 / 9.9 -> 58.3 / 9.5 mm node RMS / COM, fine 20.7 / 16.9 -> 20.6 /
+16.8; docs/RESULTS.md, "Speed at scale, fifth session")."""
 
-MAX_ELASTIC_EVERY = 4
+MAX_ELASTIC_EVERY = 8
 """Most steps an explicit FEM force is held between evaluations: the largest k with (k h)² λ_max(A⁻¹ K_e) <=
-HELD_ELASTIC_LIMIT, capped at 4."""
+HELD_ELASTIC_LIMIT, capped at 8 (at 4 the fine body spent ~70 us a step on its FEM, 12 % of its step; at 8, ~35)."""
 
 ELASTIC_INTEGRATIONS = ('auto', 'implicit', 'explicit')
 FACTOR_THREADS = ('off', 'on')

@@ -32,6 +32,26 @@ def coarse():
     return build_model('coarse', 'normal')
 
 
+def _held_ratio(sim) -> float:
+    """Return h² λ_max of the held tets (all but the first `elastic_fast_tets`) of `sim`'s body at rest."""
+    m, h = sim._model, sim.fidelity.dt
+    a = rest_system_matrix(m, sim.pattern, sim.rest_positions, sim.desired_lengths_rest, h, RAYLEIGH_ALPHA,
+                           RAYLEIGH_BETA)
+    return largest_ratio(elastic_stiffness_matrix(m, sim.pattern, sim.rest_positions,
+                                                  np.arange(sim.elastic_fast_tets, len(m.tets))), a, h)[0]
+
+
+@pytest.mark.parametrize('resolution', ['medium', 'fine'])
+def test_medium_and_fine_hold_their_tets_longer_for_a_few_fast_ones(resolution):
+    """Medium and fine: a few tets every step let the others be held longer than all could be, within the bound."""
+    sim = SoftBodySimulator(build_model(resolution, 'normal'), None, 'balanced')
+    n_tets, n_fast, every = len(sim.model.tets), sim.elastic_fast_tets, sim.elastic_every
+    unsplit = int(np.floor(np.sqrt(HELD_ELASTIC_LIMIT / sim.elastic_ratio)))
+    assert 0 < n_fast < 0.05 * n_tets and unsplit < every <= MAX_ELASTIC_EVERY
+    assert every * every * _held_ratio(sim) <= HELD_ELASTIC_LIMIT * 1.001
+    assert n_fast + (n_tets - n_fast) / every < n_tets / unsplit
+
+
 def test_the_held_tets_keep_the_held_bound_and_the_stiff_mode_is_fast(coarse):
     """Coarse: a few tets every step, the rest held k steps with (k h)² λ of the held ones within the limit."""
     sim = SoftBodySimulator(coarse, None, 'balanced')
@@ -51,10 +71,10 @@ def test_the_held_tets_keep_the_held_bound_and_the_stiff_mode_is_fast(coarse):
     assert np.any(m.tets[:n_fast] == stiffest_node) and not np.any(m.tets[n_fast:] == stiffest_node)
 
 
-@pytest.mark.parametrize('resolution', ['medium', 'fine'])
-def test_bodies_whose_every_tet_takes_the_longest_hold_are_not_split(resolution):
-    """Medium and fine: all tets held MAX_ELASTIC_EVERY steps, none fast (the tets in the mesh's order)."""
-    sim = SoftBodySimulator(build_model(resolution), None, 'balanced')
+def test_a_body_whose_every_tet_takes_the_longest_hold_is_not_split():
+    """Medium at dt 1/4800 (every tet within the bound at MAX_ELASTIC_EVERY): none fast, the mesh order kept."""
+    sim = SoftBodySimulator(build_model('medium'), None, 'balanced', dt=1.0 / 4800.0)
+    assert MAX_ELASTIC_EVERY ** 2 * sim.elastic_ratio <= HELD_ELASTIC_LIMIT
     assert sim.elastic_every == MAX_ELASTIC_EVERY and sim.elastic_fast_tets == 0 == sim._ip[itg.IP_FAST_TETS]
 
 
