@@ -115,7 +115,8 @@ def elastic_rates(model, pattern: BlockPattern, rest_positions: np.ndarray, rest
     `ratio` is every tet's h² λ_max (`elastic_stiffness_ratio`). Unless all tets can be held MAX_ELASTIC_EVERY
     steps, rounds move the tets around the stiffest held mode's nodes to the fast set; each round's held ratio
     allows the largest k with (k h)² λ_max <= HELD_ELASTIC_LIMIT, and the round and k with the fewest tet evaluations
-    per step win (all held, none fast, when no round does better).
+    per step win (all held, none fast, when no round does better). The rounds stop once the fast tets alone (and the
+    rest held the longest) would cost as much as the best split so far: the fast set only grows.
     """
     best = _unsplit(len(model.tets), ratio)
     if best.every == MAX_ELASTIC_EVERY or not np.isfinite(ratio):
@@ -131,9 +132,15 @@ def elastic_rates(model, pattern: BlockPattern, rest_positions: np.ndarray, rest
         if mode is None or split.every == MAX_ELASTIC_EVERY:
             break                                    # nothing left to split, or the held tets take the longest hold
         fast = fast | _hot_tets(tets, mode)
-        if fast.all():
-            break
+        if fast.all() or _fewest_evaluations(fast) >= best.evaluations_per_step:
+            break                                    # every later round has more fast tets: none can do better
     return best
+
+
+def _fewest_evaluations(fast: np.ndarray) -> float:
+    """Return the fewest tet evaluations per step any split with (at least) the tets `fast (n_tets,)` can need."""
+    n_fast = int(fast.sum())
+    return n_fast + (len(fast) - n_fast) / MAX_ELASTIC_EVERY
 
 
 def _hot_tets(tets: np.ndarray, mode: np.ndarray) -> np.ndarray:

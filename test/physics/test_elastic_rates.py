@@ -71,6 +71,24 @@ def test_the_held_tets_keep_the_held_bound_and_the_stiff_mode_is_fast(coarse):
     assert np.any(m.tets[:n_fast] == stiffest_node) and not np.any(m.tets[n_fast:] == stiffest_node)
 
 
+def test_stopping_the_rounds_early_keeps_the_split(monkeypatch):
+    """Medium: the rounds stop once the fast tets alone cost the best split; every round run gives the same split."""
+    from iguana_ros.physics import elastic_rates as rates
+
+    sim = SoftBodySimulator(build_model('medium'), None, 'balanced')
+    args = (sim._model, sim.pattern, sim.rest_positions, sim.desired_lengths_rest, sim.fidelity.dt, RAYLEIGH_ALPHA,
+            RAYLEIGH_BETA, sim.elastic_ratio)
+    rounds = []
+    solve = rates.largest_ratio
+    monkeypatch.setattr(rates, 'largest_ratio', lambda *a, **k: rounds.append(1) or solve(*a, **k))
+    early = rates.elastic_rates(*args)
+    n_early = len(rounds)
+    monkeypatch.setattr(rates, '_fewest_evaluations', lambda fast: 0.0)
+    every_round = rates.elastic_rates(*args)
+    assert n_early < len(rounds) - n_early                   # fewer eigensolves ...
+    assert early.every == every_round.every and np.array_equal(early.fast, every_round.fast)   # ... the same split
+
+
 def test_a_body_whose_every_tet_takes_the_longest_hold_is_not_split():
     """Medium at dt 1/4800 (every tet within the bound at MAX_ELASTIC_EVERY): none fast, the mesh order kept."""
     sim = SoftBodySimulator(build_model('medium'), None, 'balanced', dt=1.0 / 4800.0)
