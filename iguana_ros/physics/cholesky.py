@@ -35,8 +35,12 @@ from iguana_ros.physics.assembly import block_rows
 from iguana_ros.physics.block_simd import column_products, row_products, scale_column, update_column
 
 
-FACTOR_STATE_SIZE = 6
-"""Entries of a CholeskyFactor's state (`integrator.F_VALID` … `F_EXTRA_ITERS`)."""
+FACTOR_STATE_SIZE = 7
+"""Entries of a CholeskyFactor's state (`integrator.F_VALID` … `F_EXTRA_ITERS`, `F_ROTATED`)."""
+
+F_ROTATED = 6
+"""Index in a CholeskyFactor's state: 1 while its `rotations` turn the factor with the body (`cholesky_solve`), 0 while
+it is applied as it is."""
 
 
 class KernelCosts(NamedTuple):
@@ -81,17 +85,22 @@ class CholeskyFactor(NamedTuple):
     """
     Storage of the block Cholesky preconditioner.
 
-    The pattern, L, its inverted diagonal, work space, the factor state `(6,)` int64 (`integrator.F_VALID`, `F_STEP`,
-    `F_LAST_ITERS`, `F_PENDING`, `F_PENDING_STEP`, `F_EXTRA_ITERS`) and the matrix snapshot for a factor thread (empty
-    without one).
+    The pattern, L, its inverted diagonal, work space, the factor state `(7,)` int64 (`integrator.F_VALID`, `F_STEP`,
+    `F_LAST_ITERS`, `F_PENDING`, `F_PENDING_STEP`, `F_EXTRA_ITERS`, `F_ROTATED`), the matrix snapshot for a factor
+    thread (empty without one), and the corotated preconditioner's node positions of the factorised matrix, the
+    rotations of the body's node clusters since then, and the positions of the snapshot (`physics.factor_rotation`).
     """
 
     pattern: CholeskyArrays
     values: np.ndarray    # (n_factor_blocks, 3, 3), the blocks of L
     diag_inv: np.ndarray  # (n_nodes, 3, 3), L_jj⁻¹
     work: np.ndarray      # (n_nodes, 3)
-    state: np.ndarray     # (5,) int64
+    state: np.ndarray     # (7,) int64
     snapshot: np.ndarray  # (n_blocks, 3, 3): A's blocks to factorise beside the step loop, or (0, 3, 3)
+    anchor: np.ndarray           # (n_nodes, 3) m, node positions of the factorised matrix
+    cluster_quats: np.ndarray    # (n_clusters, 4) xyzw, each node cluster's rotation since then (warm start)
+    rotations: np.ndarray        # (n_nodes, 3, 3), each node's cluster's rotation
+    snapshot_anchor: np.ndarray  # (n_nodes, 3) m, node positions of the snapshot, or (0, 3)
 
 
 @dataclass(frozen=True)
@@ -190,12 +199,23 @@ class CholeskyPattern:
         """Return the arrays as the compiled kernels take them."""
         return CholeskyArrays(*(getattr(self, name) for name in CholeskyArrays._fields))
 
-    def factor(self, threaded: bool = False) -> CholeskyFactor:
-        """Zeroed factor storage over this pattern (no valid factor yet); `threaded`: with a matrix snapshot."""
+    def factor(self, threaded: bool = False, n_clusters: int = 0) -> CholeskyFactor:
+        """
+        Zeroed factor storage over this pattern (no valid factor yet).
+
+        `threaded`: with a matrix snapshot; `n_clusters`: node clusters of the corotated preconditioner (0: none).
+        """
         n = self.n_nodes
         return CholeskyFactor(self.arrays(), np.zeros((self.n_factor_blocks, 3, 3)), np.zeros((n, 3, 3)),
                               np.zeros((n, 3)), np.zeros(FACTOR_STATE_SIZE, dtype=np.int64),
-                              np.zeros((len(self.a_block) if threaded else 0, 3, 3)))
+                              np.zeros((len(self.a_block) if threaded else 0, 3, 3)),
+                              *_rotation_storage(n, n_clusters, threaded))
+
+
+def _rotation_storage(n_nodes: int, n_clusters: int, threaded: bool) -> tuple:
+    """Return zeroed `anchor`, `cluster_quats`, `rotations` and `snapshot_anchor` of a CholeskyFactor."""
+    return (np.zeros((n_nodes, 3)), np.zeros((n_clusters, 4)), np.zeros((n_nodes, 3, 3)),
+            np.zeros((n_nodes if threaded else 0, 3)))
 
 
 def _row_structure(l_ptr: np.ndarray, l_rows: np.ndarray) -> dict:
@@ -281,7 +301,8 @@ def empty_factor(n_nodes: int) -> CholeskyFactor:
     e = np.zeros(0, dtype=np.int64)
     no_pattern = CholeskyArrays(*(e,) * len(CholeskyArrays._fields))
     return CholeskyFactor(no_pattern, np.zeros((0, 3, 3)), np.zeros((n_nodes, 3, 3)), np.zeros((n_nodes, 3)),
-                          np.zeros(FACTOR_STATE_SIZE, dtype=np.int64), np.zeros((0, 3, 3)))
+                          np.zeros(FACTOR_STATE_SIZE, dtype=np.int64), np.zeros((0, 3, 3)),
+                          *_rotation_storage(0, 0, False))
 
 
 @numba.njit(cache=True, inline='always', fastmath=FASTMATH)
@@ -353,13 +374,25 @@ def block_cholesky(pattern, blocks, values, diag_inv):
 
 
 @numba.njit(cache=True)
-def cholesky_solve(pattern, values, diag_inv, r, z, y):
-    """`z` = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space."""
+def cholesky_solve(pattern, values, diag_inv, r, z, y, rotations=None):
+    """
+    `z` = A⁻¹ r `(n, 3)` with the factor of `block_cholesky`; `y (n, 3)` is work space.
+
+    With node `rotations (n, 3, 3)` R: `z` = R A⁻¹ Rᵀ r, the inverse of the factorised matrix turned with the body
+    (`physics.factor_rotation`); a node's rotation is applied where its entry is read and where it is written, off
+    the solves' row-to-row dependency.
+    """
     perm, l_ptr, l_rows, r_ptr = pattern.perm, pattern.l_ptr, pattern.l_rows, pattern.r_ptr
     n = perm.shape[0]
-    for i in range(n):                               # L y = P r, row by row
+    for i in range(n):                               # L y = P Rᵀ r, row by row
         t0, t1, t2 = row_products(values, pattern.r_pos, pattern.r_col, y, r_ptr[i], r_ptr[i + 1])
-        s0, s1, s2 = r[perm[i], 0] - t0, r[perm[i], 1] - t1, r[perm[i], 2] - t2
+        p = perm[i]
+        b0, b1, b2 = r[p, 0], r[p, 1], r[p, 2]
+        if rotations is not None:
+            b0, b1, b2 = (rotations[p, 0, 0] * b0 + rotations[p, 1, 0] * b1 + rotations[p, 2, 0] * b2,
+                          rotations[p, 0, 1] * b0 + rotations[p, 1, 1] * b1 + rotations[p, 2, 1] * b2,
+                          rotations[p, 0, 2] * b0 + rotations[p, 1, 2] * b1 + rotations[p, 2, 2] * b2)
+        s0, s1, s2 = b0 - t0, b1 - t1, b2 - t2
         y[i, 0] = diag_inv[i, 0, 0] * s0
         y[i, 1] = diag_inv[i, 1, 0] * s0 + diag_inv[i, 1, 1] * s1
         y[i, 2] = diag_inv[i, 2, 0] * s0 + diag_inv[i, 2, 1] * s1 + diag_inv[i, 2, 2] * s2
@@ -369,7 +402,10 @@ def cholesky_solve(pattern, values, diag_inv, r, z, y):
         y[j, 2] = diag_inv[j, 2, 2] * s2             # L_jj⁻ᵀ is upper triangular
         y[j, 1] = diag_inv[j, 1, 1] * s1 + diag_inv[j, 2, 1] * s2
         y[j, 0] = diag_inv[j, 0, 0] * s0 + diag_inv[j, 1, 0] * s1 + diag_inv[j, 2, 0] * s2
-    for j in range(n):
-        z[perm[j], 0] = y[j, 0]
-        z[perm[j], 1] = y[j, 1]
-        z[perm[j], 2] = y[j, 2]
+    for j in range(n):                               # z = R Pᵀ z'
+        p = perm[j]
+        if rotations is None:
+            z[p, 0], z[p, 1], z[p, 2] = y[j, 0], y[j, 1], y[j, 2]
+        else:
+            for a in range(3):
+                z[p, a] = rotations[p, a, 0] * y[j, 0] + rotations[p, a, 1] * y[j, 1] + rotations[p, a, 2] * y[j, 2]

@@ -30,6 +30,7 @@ import numpy as np
 
 from iguana_ros.physics import integrator as itg
 from iguana_ros.physics.cholesky import block_cholesky, CholeskyFactor, CholeskyPattern
+from iguana_ros.physics.factor_rotation import anchor_factor
 
 
 FACTOR_LAG_FRACTION = 0.5
@@ -81,6 +82,8 @@ class FactorThread:
         state[itg.F_STEP] = pending_step
         state[itg.F_LAST_ITERS] = 0
         state[itg.F_EXTRA_ITERS] = 0
+        if chol.cluster_quats.shape[0]:
+            anchor_factor(chol.snapshot_anchor, chol)       # the new factor's rotations start from its snapshot
         return chol._replace(values=values, diag_inv=diag_inv)
 
     def cancel(self, chol: CholeskyFactor) -> None:

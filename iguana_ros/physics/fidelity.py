@@ -83,6 +83,11 @@ class Fidelity:
     as its cost is repaid, so a body whose factorisation is dear against an iteration (fine) keeps it longer, and a
     fast-changing matrix renews it sooner.
 
+    `factor_rotation_every`: with the Cholesky preconditioner, every this many steps of a factor's age the rotations
+    of the body's node clusters since its matrix are updated and the factor is applied turned by them (the corotated
+    preconditioner, `physics.factor_rotation`): a reused factor then misses the body's deformation since its matrix
+    but not its rotation, so CG needs fewer iterations and the factor lasts longer. 0: the factor as it is.
+
     `factor_thread`: 'on' computes the Cholesky preconditioner's factor due by age or by the 'amortised' budget on a
     second thread beside the step loop and uses it from `factor_lag` steps after its matrix (`physics.factor_thread`);
     'off' (default) in the loop. Deterministic either way; it pays only where a core is free (docs/RESULTS.md, "Speed
@@ -102,6 +107,7 @@ class Fidelity:
     elastic_integration: str = 'auto'
     factor_thread: str = 'off'
     refactor_rule: str = 'age'
+    factor_rotation_every: int = 0
 
     @property
     def effective_jacobian_every(self) -> int:
@@ -125,6 +131,8 @@ class Fidelity:
              f'one of {ELASTIC_INTEGRATIONS}'),
             (self.factor_thread in FACTOR_THREADS, 'factor_thread', f'one of {FACTOR_THREADS}'),
             (self.refactor_rule in REFACTOR_RULES, 'refactor_rule', f'one of {REFACTOR_RULES}'),
+            (int(self.factor_rotation_every) >= 0, 'factor_rotation_every',
+             "an integer >= 0 (steps between updates of the factor's rotations; 0 = off)"),
         ]
         for ok, name, expected in checks:
             if not ok:
@@ -156,11 +164,15 @@ PRESETS = {
     # iterations on coarse and medium, ~14 on fine): fine 7 % faster (a factorisation every 12 instead of 7.8 steps),
     # coarse and medium as before (their budget keeps them near every 7-8 steps). With the SIMD block kernels
     # (block_simd) a factorisation is cheaper against an iteration: budgets ~3 (coarse, medium) and ~8 (fine), a
-    # factorisation every ~6-8 (coarse, medium) and ~11 (fine) steps.
+    # factorisation every ~6-8 (coarse, medium) and ~11 (fine) steps. factor_rotation_every 4 (issue 34, sixth
+    # session): the reused factor turned with the body's node clusters (physics.factor_rotation), updated every 4 steps
+    # of its age: fine 1.65 -> 1.39 CG iterations and 0.088 -> 0.068 factorisations per step, 574 -> 528 us/step (in
+    # one process, alternating on one state); medium and coarse unchanged within 1 % (their factor is cheap).
     'fast': Fidelity(dt=1.0 / 200.0, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=100, jacobian_every=1,
                      polar_iters=1, factor_every=2),
     'balanced': Fidelity(dt=SIM_DT, preconditioner='cholesky', cg_tol=1e-2, cg_max_iter=200, jacobian_every=1,
-                         polar_iters=1, factor_every=16, refactor_iters=3, refactor_rule='amortised'),
+                         polar_iters=1, factor_every=16, refactor_iters=3, refactor_rule='amortised',
+                         factor_rotation_every=4),
     'accurate': Fidelity(dt=1.0 / 2400.0, preconditioner='cholesky', cg_tol=1e-4, cg_max_iter=500,
                          jacobian_every=1, polar_iters=20, factor_every=1, elastic_integration='implicit'),
 }

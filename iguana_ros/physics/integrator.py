@@ -39,7 +39,8 @@ import numba
 import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec_pair, invert_3x3
-from iguana_ros.physics.cholesky import block_cholesky
+from iguana_ros.physics.cholesky import block_cholesky, F_ROTATED
+from iguana_ros.physics.factor_rotation import anchor_factor, CLUSTER_ROTATION_ITERS, cluster_rotations
 from iguana_ros.physics.forces import (assemble_spring_matrix, contact_forces, corotated_elastic_range,
                                        spring_forces, spring_forces_operator)
 from iguana_ros.physics.kernel_data import SpringOperator
@@ -52,8 +53,8 @@ N_FP = 16
 # indices of the integer parameter vector `ip`
 IP_CG_MAX_ITER, IP_JACOBIAN_EVERY, IP_POLAR_ITERS, IP_HAS_GROUND, IP_PRECONDITIONER, IP_FACTOR_EVERY, \
     IP_REFACTOR_ITERS, IP_ELASTIC_IMPLICIT, IP_ELASTIC_EVERY, IP_MATRIX_FREE, IP_FACTOR_THREAD, \
-    IP_FACTOR_LAG, IP_FAST_TETS = range(13)
-N_IP = 13
+    IP_FACTOR_LAG, IP_FAST_TETS, IP_FACTOR_ROTATION_EVERY = range(14)
+N_IP = 14
 # indices of the counter vector `counters`
 C_STEP, C_CG_ITERS, C_REFRESHES, C_CONTACTS, C_FACTOR_FAILS, C_FACTORS, C_INVERTED = range(7)
 N_COUNTERS = 7
@@ -271,7 +272,7 @@ def finish_step(state, fp, counters, info):
 # entries of the factor state `chol.state` (6,) int64 of the block Cholesky preconditioner (a CholeskyFactor):
 # whether the factor is valid, the step of the matrix it factorises, the CG iterations of the last solve, (factor
 # thread) whether a snapshot is out for factorisation and the step of its matrix, and the CG iterations beyond one per
-# solve since the factorisation
+# solve since the factorisation, and (cholesky.F_ROTATED) whether its node rotations turn it
 F_VALID, F_STEP, F_LAST_ITERS, F_PENDING, F_PENDING_STEP, F_EXTRA_ITERS = range(6)
 
 
@@ -305,6 +306,25 @@ def _refactor(model, state, ip, counters, chol):
     counters[C_FACTORS] += 1
     if not factor_state[F_VALID]:
         counters[C_FACTOR_FAILS] += 1
+    factor_state[F_ROTATED] = 0
+    if ip[IP_FACTOR_ROTATION_EVERY] > 0:
+        anchor_factor(state.positions, chol)
+
+
+@numba.njit(cache=True)
+def _rotate_factor(model, state, ip, counters, chol):
+    """
+    Update the corotated preconditioner's rotations every `IP_FACTOR_ROTATION_EVERY` steps of the factor's age.
+
+    The factor is then applied turned by its node clusters' rotations since its matrix (`physics.factor_rotation`).
+    """
+    every = ip[IP_FACTOR_ROTATION_EVERY]
+    age = counters[C_STEP] - chol.state[F_STEP]
+    if every <= 0 or chol.state[F_VALID] <= 0 or age <= 0 or age % every != 0:
+        return
+    cluster_rotations(state.positions, chol.anchor, model.cluster_ptr, model.cluster_nodes, chol.cluster_quats,
+                      chol.rotations, CLUSTER_ROTATION_ITERS)
+    chol.state[F_ROTATED] = 1
 
 
 @numba.njit(cache=True)
@@ -326,6 +346,8 @@ def _snapshot_for_thread(model, state, ip, counters, chol):
                                model.node_spring_ptr, model.node_springs, chol.snapshot)
     else:
         chol.snapshot[:] = state.matrix_blocks
+    if ip[IP_FACTOR_ROTATION_EVERY] > 0:
+        chol.snapshot_anchor[:] = state.positions
     chol.state[F_PENDING] = 1
     chol.state[F_PENDING_STEP] = counters[C_STEP]
 
@@ -407,6 +429,8 @@ def run_steps_cg(model, state, fp, ip, counters, ld_from, ld_to, ld_work, extern
                     requested = True
             else:
                 _refactor(model, state, ip, counters, chol)
+        if kind == 2:
+            _rotate_factor(model, state, ip, counters, chol)
         iters, res, threshold = solve_system(model, state, fp, ip, chol)
         failed = iters < 0 or not np.isfinite(res) or res > fp[FP_CG_FAIL] * threshold
         if failed and kind == 2 and factor_state[F_STEP] != counters[C_STEP]:

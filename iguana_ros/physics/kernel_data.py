@@ -70,6 +70,8 @@ class KernelModel(NamedTuple):
     node_springs: np.ndarray      # (2 n_springs,) int64, ... ascending (forces.assemble_spring_matrix)
     contact_mass: np.ndarray      # (n,) kg, node mass for the contact damping (light nodes get the mean)
     contact_offset: np.ndarray    # (n,) m, contact offset below each node (sole pads)
+    cluster_ptr: np.ndarray       # (n_clusters + 1,) int64, CSR rows of the node clusters of one rotation ...
+    cluster_nodes: np.ndarray     # (n,) int64, ... (physics.factor_rotation, the corotated preconditioner)
 
 
 class KernelState(NamedTuple):

@@ -34,6 +34,7 @@ from iguana_ros.physics.assembly import BlockPattern
 from iguana_ros.physics.cholesky import CholeskyFactor, CholeskyPattern, empty_factor
 from iguana_ros.physics.elastic_rates import elastic_rates, elastic_stiffness_ratio, ElasticRates
 from iguana_ros.physics.errors import SimulationDiverged
+from iguana_ros.physics.factor_rotation import node_clusters
 from iguana_ros.physics.factor_thread import factor_lag, FactorThread
 from iguana_ros.physics.fidelity import (EXPLICIT_ELASTIC_LIMIT, Fidelity, get_fidelity)
 from iguana_ros.physics.forces import (contact_forces, CONTACT_NONE, corotated_elastic_forces, lame_parameters,
@@ -163,9 +164,18 @@ class SoftBodySimulator:
             'tet_blocks': self.pattern.tet_blocks, 'spring_blocks': self.pattern.spring_blocks,
             **_springs_by_node(n, springs),
             'contact_mass': np.maximum(mass, mass.mean()),      # light (sliver) nodes get the mean
-            'contact_offset': self.contact_offset}
+            'contact_offset': self.contact_offset, **self._clusters(rest, springs)}
         self._model = KernelModel(**{name: kernel_constant(value, np.asarray(value).dtype)
                                      for name, value in fields.items()})
+
+    def _clusters(self, rest: np.ndarray, springs: np.ndarray) -> dict:
+        """Return the node clusters of the corotated preconditioner (`cluster_ptr`, `cluster_nodes`; none if unused)."""
+        fid = self.fidelity
+        if fid.factor_rotation_every > 0 and fid.preconditioner == 'cholesky' and fid.solver == 'cg':
+            ptr, nodes = node_clusters(rest, springs)
+        else:
+            ptr, nodes = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        return {'cluster_ptr': ptr, 'cluster_nodes': nodes}
 
     def _build_params(self, gravity, alpha, beta, kn, zeta, kt, max_speed, max_depth) -> None:
         """Float/int parameter vectors of the compiled kernels."""
@@ -193,6 +203,7 @@ class SoftBodySimulator:
         ip[itg.IP_PRECONDITIONER] = PRECONDITIONER_CODES[fid.preconditioner]
         ip[itg.IP_FACTOR_EVERY] = fid.factor_every
         ip[itg.IP_REFACTOR_ITERS] = fid.refactor_iters
+        ip[itg.IP_FACTOR_ROTATION_EVERY] = fid.factor_rotation_every if len(self._model.cluster_nodes) else 0
         self.elastic_ratio = None if fid.elastic_integration != 'auto' else elastic_stiffness_ratio(
             self._model, self.pattern, self.rest_positions, self.desired_lengths_rest, fid.dt, alpha, beta)
         self.elastic_implicit = (fid.elastic_integration == 'implicit' if self.elastic_ratio is None
@@ -250,7 +261,7 @@ class SoftBodySimulator:
             self._factor_thread = FactorThread(pattern)
         self.refactor_budget = self._refactor_budget(pattern)
         self._fp[itg.FP_REFACTOR_BUDGET] = np.inf if self.refactor_budget is None else self.refactor_budget
-        return pattern.factor(threaded)
+        return pattern.factor(threaded, len(self._model.cluster_ptr) - 1)
 
     def _refactor_budget(self, pattern: CholeskyPattern) -> float | None:
         """Return the CG iterations beyond one per solve after which the 'amortised' rule refactorises (else None)."""
@@ -353,6 +364,7 @@ class SoftBodySimulator:
                 'elastic_integration': 'implicit' if self.elastic_implicit else 'explicit',
                 'elastic_every': self.elastic_every, 'elastic_fast_tets': self.elastic_fast_tets,
                 'factor_thread': bool(self._ip[itg.IP_FACTOR_THREAD]),
+                'factor_rotation_every': int(self._ip[itg.IP_FACTOR_ROTATION_EVERY]),
                 'refactor_budget': self.refactor_budget,
                 'cholesky_failures': int(c[itg.C_FACTOR_FAILS]), 'factorisations': int(c[itg.C_FACTORS])}
 

@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from iguana_ros.physics.assembly import block_matvec, BlockPattern
-from iguana_ros.physics.cholesky import cholesky_solve, CholeskyArrays, CholeskyFactor
+from iguana_ros.physics.cholesky import cholesky_solve, CholeskyArrays, CholeskyFactor, F_ROTATED
 from iguana_ros.physics.forces import spring_operator_matvec
 from iguana_ros.physics.kernel_data import SpringOperator
 
@@ -86,9 +86,16 @@ def _ssor(row_ptr, cols, blocks, pinv, r, z):
 
 @numba.njit(cache=True)
 def _apply_preconditioner(row_ptr, cols, blocks, pinv, chol, r, z, kind):
-    """`z` = P⁻¹ r: block Jacobi (kind 0), symmetric block Gauss–Seidel (1) or the block Cholesky factor (2)."""
+    """
+    `z` = P⁻¹ r: block Jacobi (kind 0), symmetric block Gauss–Seidel (1) or the block Cholesky factor (2).
+
+    The factor is turned by its node rotations while its state says so (`cholesky.F_ROTATED`).
+    """
     if kind == 2:
-        cholesky_solve(chol.pattern, chol.values, chol.diag_inv, r, z, chol.work)
+        if chol.state[F_ROTATED]:
+            cholesky_solve(chol.pattern, chol.values, chol.diag_inv, r, z, chol.work, chol.rotations)
+        else:
+            cholesky_solve(chol.pattern, chol.values, chol.diag_inv, r, z, chol.work)
     elif kind == 1:
         _ssor(row_ptr, cols, blocks, pinv, r, z)
     else:
@@ -100,7 +107,8 @@ def _no_factor(n):
     """Return a `chol` argument for the preconditioners that use no factor."""
     e = np.zeros(0, dtype=np.int64)
     return CholeskyFactor(CholeskyArrays(e, e, e, e, e, e, e, e, e, e, e, e, e, e, e), np.zeros((0, 3, 3)),
-                          np.zeros((0, 3, 3)), np.zeros((n, 3)), e, np.zeros((0, 3, 3)))
+                          np.zeros((0, 3, 3)), np.zeros((n, 3)), e, np.zeros((0, 3, 3)), np.zeros((0, 3)),
+                          np.zeros((0, 4)), np.zeros((0, 3, 3)), np.zeros((0, 3)))
 
 
 @numba.njit(cache=True)

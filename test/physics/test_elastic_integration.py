@@ -92,14 +92,16 @@ def test_explicit_fem_walks_like_the_implicit_step(medium):
     """
     Explicit FEM, every step and held as 'auto' holds it, stays within 0.5 mm of the implicit step.
 
-    0.5 s of the bench gait on hills; the dt 1/1200 error is ~17 mm.
+    0.5 s of the bench gait on hills; the dt 1/1200 error is ~17 mm. CG to 1e-3, so that the schemes' own difference
+    (~0.03 mm) is compared, not the solver's: at `balanced`'s 1e-2 each run lands 0.1–0.8 mm from its tight solve,
+    by how well its preconditioner fits (with the turned factor, explicit 0.14 and implicit 0.79 mm).
     """
     from iguana_ros.physics import integrator as itg
     terrain = HeightField.hills(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
     gait = gait_for(medium)
     runs = {}
     for name, scheme in (('implicit', 'implicit'), ('explicit', 'explicit'), ('held', 'auto')):
-        sim = SoftBodySimulator(medium, terrain, 'balanced', elastic_integration=scheme)
+        sim = SoftBodySimulator(medium, terrain, 'balanced', elastic_integration=scheme, cg_tol=1e-3)
         assert name != 'held' or sim._ip[itg.IP_ELASTIC_EVERY] >= 2
         start = sim.rest_positions + [0.0, 0.0, 0.05]
         sim.reset(start)

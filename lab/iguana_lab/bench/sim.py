@@ -94,7 +94,7 @@ def bench_sim(resolution: str = 'medium', seconds: float = 5.0, preset='balanced
         'polar_iters': fid.polar_iters, 'elastic_integration': sim.stats['elastic_integration'],
         'elastic_every': sim.elastic_every, 'elastic_fast_tets': sim.elastic_fast_tets,
         'factor_thread': sim.stats['factor_thread'], 'refactor_rule': fid.refactor_rule,
-        'refactor_budget': sim.stats['refactor_budget'],
+        'refactor_budget': sim.stats['refactor_budget'], 'factor_rotation_every': sim.stats['factor_rotation_every'],
         'elastic_stiffness_ratio': sim.elastic_ratio, 'simulated_s': sim.time, 'steps': steps,
         'realtime_factor': sim.time / timing['sim_wall_s'],
         'realtime_factor_cpu': sim.time / max(cpu_s - timing['gait_wall_s'], 1e-12),
@@ -283,6 +283,7 @@ TRADEOFF_SETTINGS = (
     + [('jacobian_every', f'jacobian_every={k}', {'jacobian_every': k}) for k in (1, 2, 4)]
     + [('factor_every', f'factor_every={k}', {'factor_every': k, 'refactor_rule': 'age'}) for k in (1, 2, 4, 8, 16)]
     + [('factor_every', 'factor_every=16, amortised', {'factor_every': 16, 'refactor_rule': 'amortised'})]
+    + [('factor_every', 'factor not turned', {'factor_rotation_every': 0})]
     + [('polar_iters', f'polar_iters={k}', {'polar_iters': k}) for k in (1, 2, 8)]
     + [('elastic', f'elastic={how}', {'elastic_integration': how}) for how in ('implicit', 'explicit')]
     + [('preset', name, {'preset': name}) for name in ('fast', 'balanced', 'accurate')]

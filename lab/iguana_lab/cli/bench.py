@@ -63,6 +63,9 @@ def register(subparsers) -> None:
                      help="'amortised': also refactorise once the extra CG iterations cost as much as a "
                           "factorisation (default: the preset's)")
     sim.add_argument('--polar-iters', type=int, default=None, help='rotation-extraction iterations per step')
+    sim.add_argument('--factor-rotation-every', type=int, default=None,
+                     help='steps between updates of the rotations that turn a reused Cholesky factor with the body '
+                          "(0 = off; default: the preset's)")
     sim.add_argument('--factor-thread', choices=FACTOR_THREADS, default=None,
                      help='factorise the Cholesky preconditioner on a second thread (default off)')
     sim.add_argument('--profile', action='store_true', help='also time each part of a step')
@@ -128,8 +131,9 @@ def _held(result: dict) -> str:
 
 def _amortised(result: dict) -> str:
     """Return the summary's words on the 'amortised' refactorisation rule ('' under the 'age' rule)."""
-    budget = result['refactor_budget']
-    return '' if budget is None else f' (once the CG iterations beyond one per solve reach {budget:.1f})'
+    budget, every = result['refactor_budget'], result['factor_rotation_every']
+    turned = f', turned with the body every {every} steps' if every else ''
+    return turned + ('' if budget is None else f' (once the CG iterations beyond one per solve reach {budget:.1f})')
 
 
 def run_sim(args) -> int:
@@ -140,7 +144,7 @@ def run_sim(args) -> int:
                        solver=args.solver, preconditioner=args.preconditioner, cg_tol=args.cg_tol,
                        jacobian_every=args.jacobian_every, factor_every=args.factor_every,
                        polar_iters=args.polar_iters, factor_thread=args.factor_thread,
-                       refactor_rule=args.refactor_rule)
+                       refactor_rule=args.refactor_rule, factor_rotation_every=args.factor_rotation_every)
     if args.json:
         print(json.dumps(result, indent=1))
         return 0
