@@ -19,7 +19,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial.transform import Rotation
 
-from iguana_lab.bench.workload import gait_for
+from iguana_lab.bench.workload import walk_on_hills
 from iguana_ros.body.model import build_model
 from iguana_ros.errors import InputError
 from iguana_ros.physics.cholesky import block_cholesky, cholesky_solve, CholeskyPattern, F_ROTATED
@@ -96,21 +96,10 @@ def test_the_turned_solve_applies_r_a_inverse_r_transposed():
     np.testing.assert_array_equal(z, plain)
 
 
-def _walk(model, frames: int, **overrides) -> SoftBodySimulator:
-    """Return a simulator of `model` after `frames` frames of the bench gait on hills (overrides of 'balanced')."""
-    terrain = HeightField.hills(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
-    sim = SoftBodySimulator(model, terrain, 'balanced', **overrides)
-    sim.reset(sim.rest_positions + [0.0, 0.0, 0.03])
-    gait = gait_for(model)
-    for _ in range(frames):
-        sim.advance_frame(gait.desired_lengths(sim.time))
-    return sim
-
-
 def test_a_turned_factor_needs_fewer_iterations_and_factorisations_for_the_same_motion(medium):
     """The gait with and without turning the factor: the same motion to the CG tolerance, less solver work."""
     assert get_fidelity('balanced').factor_rotation_every > 0
-    turned, plain = _walk(medium, 15), _walk(medium, 15, factor_rotation_every=0)
+    turned, plain = walk_on_hills(medium, 15), walk_on_hills(medium, 15, factor_rotation_every=0)
     assert turned.stats['factor_rotation_every'] == 4 and plain.stats['factor_rotation_every'] == 0
     assert np.abs(turned.positions - plain.positions).max() < 2e-3
     work = [s.stats['cg_iterations'] + s.refactor_budget * s.stats['factorisations'] for s in (turned, plain)]
@@ -129,7 +118,7 @@ def test_a_turned_factor_from_the_factor_thread_starts_from_its_snapshot(medium,
                          and np.all(new.cluster_quats == [0.0, 0.0, 0.0, 1.0]))
         return new
     monkeypatch.setattr(FactorThread, 'swap', checked)
-    sim = _walk(medium, 10, factor_thread='on')
+    sim = walk_on_hills(medium, 10, factor_thread='on')
     sim.close()
     assert len(swaps) >= 3 and all(swaps)
 

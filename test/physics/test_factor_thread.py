@@ -19,7 +19,7 @@ import time
 import numpy as np
 import pytest
 
-from iguana_lab.bench.workload import gait_for
+from iguana_lab.bench.workload import gait_for, walk_on_hills
 from iguana_ros.body.model import build_model
 from iguana_ros.errors import InputError
 from iguana_ros.physics import integrator as itg
@@ -27,7 +27,6 @@ from iguana_ros.physics.cholesky import block_cholesky
 from iguana_ros.physics.factor_thread import factor_lag, FactorThread
 from iguana_ros.physics.fidelity import get_fidelity
 from iguana_ros.physics.simulator import SoftBodySimulator
-from iguana_ros.terrain.heightfield import HeightField
 
 FRAMES = 12
 
@@ -39,13 +38,7 @@ def medium():
 
 def _walk(model, frames: int = FRAMES, **overrides) -> SoftBodySimulator:
     """Return a simulator of `model` after `frames` frames of the bench gait on hills (overrides of 'balanced')."""
-    terrain = HeightField.hills(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
-    sim = SoftBodySimulator(model, terrain, 'balanced', **overrides)
-    sim.reset(sim.rest_positions + [0.0, 0.0, 0.03])
-    gait = gait_for(model)
-    for _ in range(frames):
-        sim.advance_frame(gait.desired_lengths(sim.time))
-    return sim
+    return walk_on_hills(model, frames, **overrides)
 
 
 def _factor_threads() -> list:

@@ -83,6 +83,20 @@ def gait_for(model, **kwargs) -> LateralBendGait:
                            np.asarray(model.spring_rest_lengths), **kwargs)
 
 
+def walk_on_hills(model, frames: int, preset: str = 'balanced', **overrides):
+    """Return a `SoftBodySimulator` of `model` after `frames` frames of its gait on 3 cm hills, started 3 cm up."""
+    from iguana_ros.physics.simulator import SoftBodySimulator
+    from iguana_ros.terrain.heightfield import HeightField
+
+    terrain = HeightField.hills(amplitude=0.03, wavelength=0.6, seed=0, extent=3.0)
+    sim = SoftBodySimulator(model, terrain, preset, **overrides)
+    sim.reset(sim.rest_positions + [0.0, 0.0, 0.03])
+    gait = gait_for(model)
+    for _ in range(frames):
+        sim.advance_frame(gait.desired_lengths(sim.time))
+    return sim
+
+
 def run_gait(sim, gait: LateralBendGait, seconds: float) -> dict:
     """Drive `sim` with `gait` for `seconds` (whole frames); returns wall times of simulation and gait."""
     return run_gaits([sim], gait, seconds)
