@@ -269,7 +269,7 @@ def finish_step(state, fp, counters, info):
     return status
 
 
-# entries of the factor state `chol.state` (6,) int64 of the block Cholesky preconditioner (a CholeskyFactor):
+# entries of the factor state `chol.state` (7,) int64 of the block Cholesky preconditioner (a CholeskyFactor):
 # whether the factor is valid, the step of the matrix it factorises, the CG iterations of the last solve, (factor
 # thread) whether a snapshot is out for factorisation and the step of its matrix, and the CG iterations beyond one per
 # solve since the factorisation, and (cholesky.F_ROTATED) whether its node rotations turn it

@@ -195,7 +195,19 @@ def _solver_parts(sim, state) -> dict:
         values, diag_inv, work = chol.values.copy(), chol.diag_inv.copy(), chol.work.copy()
         parts['cholesky_factor'] = lambda: block_cholesky(chol.pattern, live.matrix_blocks, values, diag_inv)
         parts['cholesky_solve'] = lambda: cholesky_solve(chol.pattern, values, diag_inv, live.rhs, solution, work)
+        if sim._ip[itg.IP_FACTOR_ROTATION_EVERY]:
+            parts['factor_rotation'] = _factor_rotation_part(sim)
     return parts
+
+
+def _factor_rotation_part(sim):
+    """Return a call that updates (copies of) the corotated preconditioner's rotations for the current positions."""
+    from iguana_ros.physics.factor_rotation import CLUSTER_ROTATION_ITERS, cluster_rotations
+
+    m, chol = sim._model, sim._chol
+    quats, rotations = chol.cluster_quats.copy(), chol.rotations.copy()
+    return lambda: cluster_rotations(sim._state.positions, chol.anchor, m.cluster_ptr, m.cluster_nodes, quats,
+                                     rotations, CLUSTER_ROTATION_ITERS)
 
 
 def _ten_iterations(fp: np.ndarray, ip: np.ndarray) -> tuple:
@@ -219,8 +231,8 @@ def _step_on_a_copy(sim):
     from iguana_ros.physics import integrator as itg
 
     state = sim._state._replace(**{name: a.copy() for name, a in sim._state._asdict().items()})
-    chol = sim._chol._replace(values=sim._chol.values.copy(), diag_inv=sim._chol.diag_inv.copy(),
-                              work=sim._chol.work.copy(), state=sim._chol.state.copy())
+    chol = sim._chol._replace(**{name: getattr(sim._chol, name).copy() for name in (
+        'values', 'diag_inv', 'work', 'state', 'anchor', 'cluster_quats', 'rotations', 'snapshot_anchor')})
     counters, info = sim._counters.copy(), np.zeros(2)
     ip = sim._ip.copy()
     ip[itg.IP_FACTOR_THREAD] = 0
@@ -269,7 +281,9 @@ def _per_step(sim, parts: dict, counters: np.ndarray) -> dict:
                 'per_step_matvec_pair': 0.0 if ip[itg.IP_MATRIX_FREE] else parts['matvec_pair'],
                 'per_step_cg': parts['cg_iteration'] * iterations,
                 'per_step_cholesky_factor': (parts.get('cholesky_factor', 0.0) + parts.get('assemble_matrix', 0.0))
-                * factorisations}
+                * factorisations,
+                'per_step_factor_rotation': parts.get('factor_rotation', 0.0) / max(ip[itg.IP_FACTOR_ROTATION_EVERY],
+                                                                                    1)}
     per_step['per_step_other'] = parts['step'] - sum(per_step.values())
     return per_step
 

@@ -57,7 +57,8 @@ def test_bench_sim_profile_splits_a_step_into_its_parts():
     parts = result['profile_us']
     per_step = {name: us for name, us in parts.items() if name.startswith('per_step_')}
     assert {'per_step_elastic', 'per_step_springs', 'per_step_cg', 'per_step_cholesky_factor',
-            'per_step_other'} <= set(per_step)
+            'per_step_factor_rotation', 'per_step_other'} <= set(per_step)
+    assert result['factor_rotation_every'] == 4 and 0 < parts['per_step_factor_rotation'] < parts['factor_rotation']
     assert result['elastic_fast_tets'] > 0 and parts['per_step_matvec_pair'] == 0.0   # coarse: split, matrix-free
     assert parts['per_step_elastic'] < 0.6 * parts['elastic_forces']                # 164 of 411 tets per step
     assert all(us > 0 for name, us in parts.items() if name not in ('per_step_other', 'per_step_matvec_pair'))
