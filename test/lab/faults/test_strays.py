@@ -42,7 +42,9 @@ def test_fifty_runs_with_strangers_at_random_moments(tmp_path):
     result = stray_suite(50, 0, tmp_path)
     print({k: v for k, v in result.items() if k != 'rows'})
     failed = [row for row in result['rows'] if row['problems']]
-    assert not failed, failed
+    lines = [f"trial {row['index']} ({row['mode']}, {row['qos']}, at {row['moment_s']} s): {'; '.join(row['problems'])}"
+             for row in failed]              # in full: pytest cuts a dict short
+    assert not failed, '\n'.join(lines)
 
 
 def test_a_refusal_before_the_run_started_anything_is_one_line_without_a_bag(tmp_path):
