@@ -70,13 +70,11 @@ def node_clusters(rest_positions: np.ndarray, springs: np.ndarray, size: int = C
 
 
 def _neighbours_by_distance(rest: np.ndarray, springs: np.ndarray) -> list:
-    """Return each node's spring neighbours, nearest first (ties by index)."""
-    neighbours = [[] for _ in range(len(rest))]
-    for i, j in springs:
-        neighbours[i].append(j)
-        neighbours[j].append(i)
-    return [sorted(set(nb), key=lambda j, i=i: (float(np.sum((rest[j] - rest[i]) ** 2)), j))
-            for i, nb in enumerate(neighbours)]
+    """Return each node's spring neighbours `(k,)` arrays, nearest first (ties by index)."""
+    pairs = np.unique(np.concatenate([springs, springs[:, ::-1]]), axis=0)      # (i, j) both ways, once each
+    d2 = np.sum((rest[pairs[:, 1]] - rest[pairs[:, 0]]) ** 2, axis=1)
+    pairs = pairs[np.lexsort((pairs[:, 1], d2, pairs[:, 0]))]
+    return np.split(pairs[:, 1], np.searchsorted(pairs[:, 0], np.arange(1, len(rest))))
 
 
 def _grow(seed: int, cluster: int, size: int, neighbours: list, label: np.ndarray) -> None:
